@@ -1,0 +1,1 @@
+"""texbake: bake 3D procedural textures into 2D maps and textured meshes."""
