@@ -1,1 +1,18 @@
-"""texbake: bake 3D procedural textures into 2D maps and textured meshes."""
+"""texbake: bake 3D procedural (solid) textures into 2D maps and textured meshes.
+
+    import bake
+    result = bake.bake_mesh("bunny.ply", "checker", size=1024)
+    result.save("out/bunny")
+"""
+
+from .errors import AtlasError, BakeError, MeshError, OutputError, ParameterError, TextureError
+
+__all__ = ["bake_mesh", "BakeResult", "BakeError", "MeshError", "ParameterError", "AtlasError", "TextureError", "OutputError"]
+
+
+def __getattr__(name):  # the pipeline pulls in the heavy libraries: import it on first use
+    if name in ("bake_mesh", "BakeResult"):
+        from . import pipeline
+
+        return getattr(pipeline, name)
+    raise AttributeError(f"module 'bake' has no attribute {name!r}")

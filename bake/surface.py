@@ -1,0 +1,86 @@
+"""Surface samples: the point, normal and texel footprint under each texel sample.
+
+A texel sample (face, barycentric coordinates) becomes a surface point in object space
+(float64), a unit normal, and the footprint of one texel on the surface: ``dpdx`` and
+``dpdy``, the change of the surface point when the sample moves one texel right or one
+texel down. They are the columns of the per-face UV-to-surface Jacobian divided by the
+image size. A face whose UV triangle is degenerate gets a zero (finite) footprint.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+# Footprints are clamped to this many object-space units per texel (finite, never NaN).
+_MAX_FOOTPRINT = 1e30
+
+
+@dataclass
+class SurfaceSamples:
+    """Surface samples; ``n`` rows each."""
+
+    points: np.ndarray  # (n, 3) float64, object space
+    normals: np.ndarray  # (n, 3) float64, unit length (zero for a degenerate face)
+    dpdx: np.ndarray  # (n, 3) float64, one texel to the right
+    dpdy: np.ndarray  # (n, 3) float64, one texel down
+
+
+def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Area-weighted ``(n, 3)`` unit vertex normals, shared by coincident vertices.
+
+    Vertices split at UV seams still get one normal per position, so normals (and the
+    transfer rays cast along them) do not break at seams.
+    """
+    _, key = np.unique(vertices, axis=0, return_inverse=True)
+    key = key.ravel()
+    tri = vertices[faces]
+    area_normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    acc = np.zeros((key.max() + 1, 3))
+    for corner in range(3):
+        np.add.at(acc, key[faces[:, corner]], area_normal)
+    length = np.linalg.norm(acc, axis=1, keepdims=True)
+    acc = np.divide(acc, length, out=np.zeros_like(acc), where=length > 0)
+    return acc[key]
+
+
+class SurfaceMap:
+    """Maps texel samples of an atlas to surface samples.
+
+    ``vertices``: ``(n, 3)`` float64 object-space positions; ``faces``: ``(m, 3)`` int
+    indices into ``vertices``; ``uv_faces``: ``(m, 3)`` indices into ``uv`` (``(k, 2)``)
+    for the same faces; ``width``, ``height``: image size in texels.
+    """
+
+    def __init__(self, vertices, faces, uv, uv_faces, width: int, height: int):
+        vertices = np.asarray(vertices, dtype=np.float64)
+        faces = np.asarray(faces, dtype=np.int64)
+        tri = vertices[faces]  # (m, 3, 3)
+        self._p0 = tri[:, 0]
+        self._e1 = tri[:, 1] - tri[:, 0]
+        self._e2 = tri[:, 2] - tri[:, 0]
+
+        t = np.asarray(uv, dtype=np.float64)[uv_faces]
+        d1 = t[:, 1] - t[:, 0]
+        d2 = t[:, 2] - t[:, 0]
+        det = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
+        ok = np.abs(det) > 0
+        inv_det = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)[:, None]
+        # dP/du and dP/dv from [e1 e2] = [dP/du dP/dv] [d1 d2]
+        dpdu = (self._e1 * d2[:, 1:2] - self._e2 * d1[:, 1:2]) * inv_det
+        dpdv = (self._e2 * d1[:, 0:1] - self._e1 * d2[:, 0:1]) * inv_det
+        # One texel right is du = 1/width; one texel down is dv = -1/height.
+        self._dpdx = np.clip(dpdu / width, -_MAX_FOOTPRINT, _MAX_FOOTPRINT)
+        self._dpdy = np.clip(-dpdv / height, -_MAX_FOOTPRINT, _MAX_FOOTPRINT)
+        self._vn = vertex_normals(vertices, faces)[faces]  # (m, 3, 3)
+
+    def samples(self, face: np.ndarray, bary: np.ndarray) -> SurfaceSamples:
+        """Surface samples for ``(n,)`` faces and ``(n, 3)`` barycentric coordinates."""
+        b = bary
+        points = self._p0[face] + b[:, 1:2] * self._e1[face] + b[:, 2:3] * self._e2[face]
+        vn = self._vn[face]
+        normals = np.einsum("ni,nij->nj", b, vn)
+        length = np.linalg.norm(normals, axis=1, keepdims=True)
+        normals = np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
+        return SurfaceSamples(points, normals, self._dpdx[face], self._dpdy[face])

@@ -1,0 +1,133 @@
+"""Texel lookup: which atlas face lies under each texel sample, and where in it.
+
+The UV triangles are laid flat at z = 0 in an Embree scene and one vertical ray is cast
+per sample. Embree answers only the face; the barycentric coordinates are then solved
+in float64 from the sample's UV position, so that their precision does not depend on
+Embree's float32 arithmetic.
+
+Image convention: texel ``(row, col)`` of an image of ``width x height`` texels has its
+centre at ``u = (col + 0.5) / width``, ``v = 1 - (row + 0.5) / height`` (row 0 at the top,
+``v`` up as in OpenGL and trimesh).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import ParameterError
+
+
+def sample_offsets(samples: int, seed: int = 0) -> np.ndarray:
+    """Stratified sample positions inside one texel.
+
+    Returns ``(samples, 2)`` float64 offsets in ``[0, 1)`` from the texel's corner
+    (x right, y down). One sample is the texel centre; a square count ``k * k`` is a
+    jittered ``k x k`` grid; any other count is a jittered n-rooks (Latin hypercube) set.
+    The same ``seed`` gives the same offsets for every texel (and every run).
+    """
+    if samples < 1:
+        raise ParameterError("samples", f"must be at least 1, got {samples}")
+    if samples == 1:
+        return np.array([[0.5, 0.5]])
+    rng = np.random.default_rng(seed)
+    k = int(round(np.sqrt(samples)))
+    if k * k == samples:
+        gy, gx = np.mgrid[0:k, 0:k]
+        cells = np.stack([gx.ravel(), gy.ravel()], axis=1).astype(np.float64)
+        return (cells + rng.random((samples, 2))) / k
+    rows = np.stack([rng.permutation(samples), rng.permutation(samples)], axis=1)
+    return (rows + rng.random((samples, 2))) / samples
+
+
+@dataclass
+class Tile:
+    """A block of whole image rows: ``rows`` is the half-open range ``[start, stop)``."""
+
+    start: int
+    stop: int
+
+
+def tiles(height: int, width: int, samples: int, budget: int = 1 << 20) -> list[Tile]:
+    """Split an image into row blocks of about ``budget`` samples each (bounded memory)."""
+    rows = max(1, budget // max(1, width * samples))
+    return [Tile(r, min(height, r + rows)) for r in range(0, height, rows)]
+
+
+def tile_sample_uv(tile: Tile, width: int, height: int, offsets: np.ndarray) -> np.ndarray:
+    """UV positions of every sample of the texels in ``tile``.
+
+    Returns ``(rows * width * s, 2)`` float64, texel-major: the ``s`` samples of a texel
+    are contiguous, texels run row by row.
+    """
+    rows = np.arange(tile.start, tile.stop, dtype=np.float64)
+    cols = np.arange(width, dtype=np.float64)
+    x = cols[None, :, None] + offsets[None, None, :, 0]
+    y = rows[:, None, None] + offsets[None, None, :, 1]
+    x, y = np.broadcast_arrays(x, y)
+    return np.stack([x.ravel() / width, 1.0 - y.ravel() / height], axis=1)
+
+
+class UVLookup:
+    """Finds the atlas face under UV points with Embree.
+
+    ``uv``: ``(k, 2)`` float UV of atlas vertices; ``faces``: ``(m, 3)`` int indices into
+    ``uv``. Faces with zero UV area never match.
+    """
+
+    def __init__(self, uv: np.ndarray, faces: np.ndarray):
+        from embreex import mesh_construction, rtcore_scene  # pip install embreex
+
+        uv = np.asarray(uv, dtype=np.float64)
+        faces = np.asarray(faces, dtype=np.int64)
+        flat = np.zeros((len(uv), 3), dtype=np.float32)
+        flat[:, :2] = uv
+        self._scene = rtcore_scene.EmbreeScene()
+        mesh_construction.TriangleMesh(self._scene, flat, faces.astype(np.int32))
+
+        # Per-face inverse of the UV edge matrix, for float64 barycentrics.
+        t = uv[faces]  # (m, 3, 2)
+        e1 = t[:, 1] - t[:, 0]
+        e2 = t[:, 2] - t[:, 0]
+        det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+        ok = det != 0
+        inv_det = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+        self._origin = t[:, 0]
+        # rows of inverse [[e1x e2x],[e1y e2y]]^-1
+        self._inv = np.stack(
+            [
+                np.stack([e2[:, 1], -e2[:, 0]], axis=1) * inv_det[:, None],
+                np.stack([-e1[:, 1], e1[:, 0]], axis=1) * inv_det[:, None],
+            ],
+            axis=1,
+        )  # (m, 2, 2)
+        self.degenerate = ~ok
+
+    def faces_at(self, uv: np.ndarray) -> np.ndarray:
+        """``(n,)`` int64 face under each ``(n, 2)`` UV point, -1 where no face is."""
+        n = len(uv)
+        origins = np.empty((n, 3), dtype=np.float32)
+        origins[:, :2] = uv
+        origins[:, 2] = 1.0
+        directions = np.zeros((n, 3), dtype=np.float32)
+        directions[:, 2] = -1.0
+        face = self._scene.run(origins, directions).astype(np.int64)
+        if face.size:
+            face[(face >= 0) & self.degenerate[np.maximum(face, 0)]] = -1
+        return face
+
+    def barycentric(self, uv: np.ndarray, face: np.ndarray) -> np.ndarray:
+        """``(n, 3)`` float64 barycentric coordinates of UV points in their faces.
+
+        Clamped into the triangle (Embree may report a face for a point a rounding
+        error outside it).
+        """
+        d = uv - self._origin[face]
+        inv = self._inv[face]
+        b1 = inv[:, 0, 0] * d[:, 0] + inv[:, 0, 1] * d[:, 1]
+        b2 = inv[:, 1, 0] * d[:, 0] + inv[:, 1, 1] * d[:, 1]
+        b = np.stack([1.0 - b1 - b2, b1, b2], axis=1)
+        np.clip(b, 0.0, 1.0, out=b)
+        b /= b.sum(axis=1, keepdims=True)
+        return b
