@@ -1,0 +1,191 @@
+"""The ``texbake`` command line: ``bake`` one mesh, ``batch`` many.
+
+User errors (bad file, bad parameter) print one line and exit with code 2.
+"""
+
+from __future__ import annotations
+
+import glob
+import json
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from multiprocessing import get_context
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from .errors import BakeError
+
+app = typer.Typer(add_completion=False, no_args_is_help=True, help="Bake procedural solid textures into maps and textured meshes.")
+
+
+def _fail(message: str, code: int = 2):
+    typer.echo(f"texbake: error: {message}", err=True)
+    raise typer.Exit(code)
+
+
+def _bake_one(mesh: str, out: str, settings: dict) -> dict:
+    """Bake and save one mesh; returns the report (runs in batch worker processes too)."""
+    from .pipeline import bake_mesh
+
+    save = {k: settings.pop(k) for k in ("fmt", "bits", "obj") if k in settings}
+    result = bake_mesh(mesh, settings.pop("texture"), **settings)
+    result.save(out, **save)
+    return result.report
+
+
+def _settings(texture, size, samples, margin, uv, source, cage, texture_space, max_faces, fmt, bits, obj, workers=2):
+    return {
+        "texture": texture, "size": size, "samples": samples, "margin": margin, "uv": uv,
+        "source": source, "cage": cage, "texture_space": texture_space, "max_faces": max_faces,
+        "fmt": fmt, "bits": bits, "obj": obj, "workers": workers,
+    }
+
+
+_TEXTURE = typer.Option("checker", "--texture", "-t", help="texture name, JSON spec, or a .json spec file")
+_SIZE = typer.Option(1024, "--size", "-s", help="image size in texels (square)")
+_SAMPLES = typer.Option(1, "--samples", help="samples per texel (stratified)")
+_MARGIN = typer.Option(16, "--margin", help="texels of margin filled around charts")
+_UV = typer.Option("auto", "--uv", help="auto | unwrap | keep")
+_SOURCE = typer.Option(None, "--source", help="mesh to transfer the texture from (high poly)")
+_CAGE = typer.Option(None, "--cage", help="max transfer ray distance (default 5% of the bbox diagonal)")
+_SPACE = typer.Option("unit", "--texture-space", help="unit (bbox scaled to 1) | object")
+_FACES = typer.Option(5_000_000, "--max-faces", help="reject meshes with more faces")
+_FMT = typer.Option("png", "--format", "-f", help="png | exr | tif")
+_BITS = typer.Option(None, "--bits", help="png/tif 8 or 16; exr 16 (half) or 32; tif 32 (float)")
+_OBJ = typer.Option(False, "--obj", help="also write OBJ + MTL")
+
+
+@app.command()
+def bake(
+    mesh: str = typer.Argument(..., help="mesh file: OBJ, PLY, STL, OFF, glTF, GLB"),
+    out: Path = typer.Option(..., "--out", "-o", help="output folder"),
+    texture: str = _TEXTURE, size: int = _SIZE, samples: int = _SAMPLES, margin: int = _MARGIN,
+    uv: str = _UV, source: Optional[str] = _SOURCE, cage: Optional[float] = _CAGE,
+    texture_space: str = _SPACE, max_faces: int = _FACES, fmt: str = _FMT, bits: Optional[int] = _BITS,
+    obj: bool = _OBJ,
+):
+    """Bake one mesh: writes DIR/albedo.<format>, DIR/<mesh>.glb and DIR/report.json."""
+    settings = _settings(texture, size, samples, margin, uv, source, cage, texture_space, max_faces, fmt, bits, obj)
+    try:
+        report = _bake_one(mesh, str(out), settings)
+    except BakeError as exc:
+        _fail(str(exc))
+    t = report["texels"]
+    typer.echo(
+        f"{mesh}: {t['covered']} texels covered, {t['margin']} margin; "
+        f"atlas {report['atlas']['method']}; {sum(report['seconds'].values()):.2f} s -> {out}"
+    )
+
+
+def _expand(inputs: list[str]) -> list[tuple[str, dict]]:
+    """Mesh paths and per-item settings from files, globs and ``.jsonl`` manifests."""
+    items = []
+    for arg in inputs:
+        if arg.endswith(".jsonl"):
+            try:
+                lines = Path(arg).read_text().splitlines()
+            except OSError as exc:
+                _fail(f"{arg}: cannot read manifest: {exc.strerror}")
+            for number, line in enumerate(lines, 1):
+                if not line.strip() or line.lstrip().startswith("#"):
+                    continue
+                try:
+                    entry = json.loads(line)
+                    mesh = entry.pop("mesh")
+                except (json.JSONDecodeError, KeyError, AttributeError, TypeError):
+                    _fail(f"{arg}:{number}: expected a JSON object with a 'mesh' key")
+                if not Path(mesh).is_absolute():
+                    mesh = str(Path(arg).parent / mesh)
+                items.append((mesh, entry))
+        elif any(c in arg for c in "*?["):
+            matches = sorted(glob.glob(arg, recursive=True))
+            if not matches:
+                _fail(f"{arg}: no file matches")
+            items.extend((m, {}) for m in matches)
+        else:
+            items.append((arg, {}))
+    return items
+
+
+def _unique_folder(out: Path, stem: str, used: set[str]) -> Path:
+    name, k = stem, 1
+    while name in used:
+        k += 1
+        name = f"{stem}-{k}"
+    used.add(name)
+    return out / name
+
+
+@app.command()
+def batch(
+    inputs: list[str] = typer.Argument(..., help="mesh files, globs, or .jsonl manifests (one JSON object a line: mesh and settings)"),
+    out: Path = typer.Option(..., "--out", "-o", help="output folder; one sub-folder per mesh"),
+    jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="parallel processes"),
+    texture: str = _TEXTURE, size: int = _SIZE, samples: int = _SAMPLES, margin: int = _MARGIN,
+    uv: str = _UV, texture_space: str = _SPACE, max_faces: int = _FACES, fmt: str = _FMT,
+    bits: Optional[int] = _BITS, obj: bool = _OBJ,
+):
+    """Bake many meshes in parallel; keeps going past failures, exits 1 if any failed."""
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
+    from rich.table import Table
+
+    base = _settings(texture, size, samples, margin, uv, None, None, texture_space, max_faces, fmt, bits, obj, workers=1)
+    items = _expand(inputs)
+    if not items:
+        _fail("no input meshes")
+    used: set[str] = set()
+    jobs_list = [(mesh, str(_unique_folder(out, Path(mesh).stem, used)), {**base, **extra}) for mesh, extra in items]
+    rows = []
+    console = Console(stderr=True)
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as pool, Progress(
+        "[progress.description]{task.description}", BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(), console=console
+    ) as progress:
+        task = progress.add_task("baking", total=len(jobs_list))
+        started = {pool.submit(_bake_one, mesh, folder, settings): (mesh, folder, time.perf_counter()) for mesh, folder, settings in jobs_list}
+        for future in as_completed(started):
+            mesh, folder, t0 = started[future]
+            try:
+                report = future.result()
+                rows.append((mesh, "done", time.perf_counter() - t0, f"{report['texels']['covered']} texels -> {folder}"))
+            except BakeError as exc:
+                rows.append((mesh, "failed", time.perf_counter() - t0, str(exc)))
+            except Exception as exc:  # a crash in one item must not stop the batch
+                rows.append((mesh, "failed", time.perf_counter() - t0, f"{type(exc).__name__}: {exc}"))
+            progress.advance(task)
+    table = Table(title=f"texbake batch: {len(rows)} meshes")
+    for col in ("mesh", "status", "seconds", "result"):
+        table.add_column(col)
+    for mesh, status, seconds, detail in sorted(rows):
+        table.add_row(mesh, "[green]done" if status == "done" else "[red]failed", f"{seconds:.2f}", detail)
+    Console().print(table)
+    failed = sum(r[1] == "failed" for r in rows)
+    if failed:
+        typer.echo(f"texbake: {failed} of {len(rows)} failed", err=True)
+        raise typer.Exit(1)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point: usage errors print one line and exit 2, like bake errors."""
+    argv = sys.argv[1:] if argv is None else argv
+    command = typer.main.get_command(app)
+    if not argv:
+        argv = ["--help"]
+    try:
+        code = command.main(args=argv, prog_name="texbake", standalone_mode=False)
+    except typer.TyperException as exc:  # usage errors: one line, exit 2
+        typer.echo(f"texbake: error: {exc.format_message()}", err=True)
+        return exc.exit_code
+    except typer.Exit as exc:
+        return exc.exit_code
+    except typer.Abort:
+        typer.echo("texbake: aborted", err=True)
+        return 130
+    return code if isinstance(code, int) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

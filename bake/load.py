@@ -1,0 +1,285 @@
+"""Load and validate a mesh: one triangle mesh in float64, or a clear error.
+
+Formats: OBJ (+MTL), PLY, STL (ASCII and binary), OFF, glTF and GLB, read with trimesh.
+A scene is flattened, node transforms applied, into one mesh. The file is checked before
+and after parsing: archives, references that leave the mesh's folder, non-finite or
+out-of-range coordinates, out-of-range face indices and too many faces are rejected with
+a :class:`~bake.errors.MeshError` naming the file; zero-area faces are removed and counted.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import re
+import struct
+from dataclasses import dataclass
+from pathlib import Path, PurePosixPath
+
+import numpy as np
+
+from .errors import MeshError
+
+FORMATS = {".obj": "obj", ".ply": "ply", ".stl": "stl", ".off": "off", ".gltf": "gltf", ".glb": "glb"}
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+# Leading bytes of archive and compressed formats (which trimesh would open).
+_ARCHIVES = {
+    b"PK\x03\x04": "zip",
+    b"PK\x05\x06": "zip",
+    b"\x1f\x8b": "gzip",
+    b"BZh": "bzip2",
+    b"\xfd7zXZ\x00": "xz",
+    b"7z\xbc\xaf\x27\x1c": "7z",
+    b"Rar!\x1a\x07": "rar",
+    b"\x28\xb5\x2f\xfd": "zstd",
+}
+
+
+@dataclass
+class LoadedMesh:
+    """A validated triangle mesh."""
+
+    vertices: np.ndarray  # (n, 3) float64, object space, node transforms applied
+    faces: np.ndarray  # (m, 3) int64 indices into vertices; no zero-area faces
+    uv: np.ndarray | None  # (n, 2) float64 per-vertex UVs (v up), or None
+    name: str
+    path: str  # the file as given, or "<mesh>"
+    removed_degenerate: int  # zero-area faces removed
+    sha256: str  # of the file's bytes, or of the arrays for an in-memory mesh
+
+
+def load_mesh(path, *, max_faces: int = 5_000_000) -> LoadedMesh:
+    """Read and validate the mesh file at ``path`` (see the module docstring)."""
+    import trimesh  # pip install trimesh
+
+    path = Path(path)
+    where = str(path)
+    if not path.is_file():
+        raise MeshError(where, "no such file" if not path.exists() else "not a file")
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise MeshError(where, f"cannot read: {exc.strerror}") from None
+    for magic, kind in _ARCHIVES.items():
+        if data.startswith(magic):
+            raise MeshError(where, f"is a {kind} archive; archives are not accepted")
+    if path.name.lower().endswith(".tar") or (len(data) > 262 and data[257:262] == b"ustar"):
+        raise MeshError(where, "is a tar archive; archives are not accepted")
+    kind = FORMATS.get(path.suffix.lower())
+    if kind is None:
+        raise MeshError(where, f"unknown mesh format {path.suffix!r} (expected one of {', '.join(FORMATS)})")
+    if not data.strip():
+        raise MeshError(where, "file is empty")
+
+    if kind == "obj":
+        data = _resolve_obj(data, path)
+    elif kind in ("gltf", "glb"):
+        _check_gltf_uris(_gltf_json(data, kind, where), path)
+
+    try:
+        loaded = trimesh.load(
+            io.BytesIO(data),
+            file_type=kind,
+            resolver=trimesh.resolvers.FilePathResolver(str(path.parent)),
+            process=False,
+        )
+    except MeshError:
+        raise
+    except Exception as exc:  # trimesh raises many kinds on corrupt input
+        raise MeshError(where, f"cannot parse {kind.upper()} file: {_short(exc)}") from None
+    return _validate(loaded, path.stem, where, hashlib.sha256(data).hexdigest(), max_faces)
+
+
+def mesh_from_trimesh(mesh, *, name: str = "mesh", max_faces: int = 5_000_000) -> LoadedMesh:
+    """Validate an in-memory ``trimesh.Trimesh`` or ``trimesh.Scene``."""
+    import trimesh
+
+    if not isinstance(mesh, (trimesh.Trimesh, trimesh.Scene)):
+        raise TypeError(f"expected trimesh.Trimesh or trimesh.Scene, got {type(mesh).__name__}")
+    h = hashlib.sha256()
+    for g in [mesh] if isinstance(mesh, trimesh.Trimesh) else mesh.geometry.values():
+        if isinstance(g, trimesh.Trimesh):
+            h.update(np.ascontiguousarray(g.vertices, dtype=np.float64).tobytes())
+            h.update(np.ascontiguousarray(g.faces, dtype=np.int64).tobytes())
+    return _validate(mesh, name, "<mesh>", h.hexdigest(), max_faces)
+
+
+def _short(exc: Exception) -> str:
+    text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    return text[:200]
+
+
+# -- references -------------------------------------------------------------------
+
+
+def _check_reference(ref: str, path: Path, what: str) -> None:
+    """Reject a referenced file name that is absolute, a URL, or escapes the folder."""
+    ref = ref.strip()
+    if re.match(r"^[a-zA-Z][a-zA-Z0-9+.-]*:", ref) and not re.match(r"^[a-zA-Z]:[\\/]", ref):
+        raise MeshError(str(path), f"{what} {ref!r} is a URL; only files beside the mesh are allowed")
+    parts = PurePosixPath(ref.replace("\\", "/"))
+    if parts.is_absolute() or re.match(r"^[a-zA-Z]:[\\/]", ref) or ".." in parts.parts:
+        raise MeshError(str(path), f"{what} {ref!r} leaves the mesh's folder")
+
+
+def _resolve_obj(data: bytes, path: Path) -> bytes:
+    """Rewrite an OBJ's relative (negative) indices as absolute ones, checking every index.
+
+    A negative index counts back from the elements defined so far (trimesh 5.2 counts
+    from the end of the file, which is wrong when ``v`` and ``f`` lines interleave).
+    Also checks ``mtllib`` references and the texture maps of the MTL files.
+    """
+    text = data.decode("utf-8", errors="replace")
+    counts = {"v": 0, "vt": 0, "vn": 0}
+    totals = {k: len(re.findall(rf"^\s*{k}\s", text, flags=re.M)) for k in counts}
+    kinds = ("v", "vt", "vn")
+    out = []
+    for number, line in enumerate(text.splitlines(), 1):
+        head = line.split(None, 1)[0] if line.strip() else ""
+        if head in counts:
+            counts[head] += 1
+        elif head in ("f", "l", "p"):
+            tokens = line.split()
+            for t, token in enumerate(tokens[1:], 1):
+                fields = token.split("/")
+                for k, field in enumerate(fields):
+                    if not field:
+                        continue
+                    try:
+                        index = int(field)
+                    except ValueError:
+                        raise MeshError(str(path), f"line {number}: bad index {field!r}") from None
+                    if index < 0:
+                        index = counts[kinds[k]] + 1 + index
+                    if not 1 <= index <= totals[kinds[k]]:
+                        raise MeshError(str(path), f"line {number}: face index {field} out of range ({counts[kinds[k]]} {kinds[k]} defined)")
+                    fields[k] = str(index)
+                tokens[t] = "/".join(fields)
+            line = " ".join(tokens)
+        elif head == "mtllib":
+            for ref in line.split()[1:]:
+                _check_reference(ref, path, "mtllib")
+                _check_mtl(path.parent / ref, path)
+        out.append(line)
+    return "\n".join(out).encode("utf-8")
+
+
+_MTL_MAPS = re.compile(r"^\s*(map_\w+|bump|disp|decal|refl|norm)\s+(.*)$", re.M | re.I)
+
+
+def _check_mtl(mtl: Path, path: Path) -> None:
+    if not mtl.is_file():
+        return  # a missing MTL only loses materials
+    for _, args in _MTL_MAPS.findall(mtl.read_text(errors="replace")):
+        words = args.split()
+        if words:  # the file name is the last word; options come before it
+            _check_reference(words[-1], path, f"texture in {mtl.name}")
+
+
+def _gltf_json(data: bytes, kind: str, where: str) -> dict:
+    try:
+        if kind == "glb":
+            magic, _, length = struct.unpack_from("<4sII", data, 0)
+            chunk_length, chunk_type = struct.unpack_from("<I4s", data, 12)
+            if magic != b"glTF" or chunk_type != b"JSON" or chunk_length > len(data) - 20:
+                raise ValueError("not a GLB file")
+            return json.loads(data[20 : 20 + chunk_length])
+        return json.loads(data)
+    except (ValueError, struct.error) as exc:
+        raise MeshError(where, f"cannot parse {kind.upper()} header: {_short(exc)}") from None
+
+
+def _check_gltf_uris(doc: dict, path: Path) -> None:
+    for section in ("buffers", "images"):
+        for item in doc.get(section) or []:
+            uri = item.get("uri") if isinstance(item, dict) else None
+            if isinstance(uri, str) and not uri.startswith("data:"):
+                from urllib.parse import unquote
+
+                _check_reference(unquote(uri), path, f"{section[:-1]} uri")
+
+
+# -- geometry ----------------------------------------------------------------------
+
+
+def _parts(loaded):
+    """(vertices, faces, uv or None) of every triangle mesh, transforms applied."""
+    import trimesh
+
+    if isinstance(loaded, trimesh.Trimesh):
+        return [(loaded.vertices, loaded.faces, _uv(loaded))]
+    if not isinstance(loaded, trimesh.Scene):
+        return []
+    parts = []
+    for node in loaded.graph.nodes_geometry:
+        transform, name = loaded.graph[node]
+        g = loaded.geometry[name]
+        if isinstance(g, trimesh.Trimesh):
+            v = np.asarray(g.vertices, dtype=np.float64)
+            v = v @ transform[:3, :3].T + transform[:3, 3]
+            parts.append((v, g.faces, _uv(g)))
+    return parts
+
+
+def _uv(mesh):
+    uv = getattr(mesh.visual, "uv", None)
+    if uv is None or len(uv) != len(mesh.vertices):
+        return None
+    return np.asarray(uv, dtype=np.float64)
+
+
+def _weld(vertices, faces, uv):
+    """Merge vertices equal in position and UV (trimesh splits every face corner).
+
+    Exact equality only: corners that differ in UV stay separate (UV seams survive), and
+    a welded surface keeps its connectivity for the unwrap and the normals.
+    """
+    rows = vertices if uv is None else np.hstack([vertices, uv])
+    if not np.isfinite(rows).all():
+        return vertices, faces, uv  # rejected (vertices) or judged by the atlas (UVs)
+    unique, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first)  # keep vertices in file order
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    keep = first[order]
+    return vertices[keep], rank[inverse.ravel()][faces], None if uv is None else uv[keep]
+
+
+def _validate(loaded, name: str, where: str, sha256: str, max_faces: int) -> LoadedMesh:
+    parts = [p for p in _parts(loaded) if len(p[1])]
+    if not parts:
+        raise MeshError(where, "no faces: the file holds no triangle geometry")
+    n_faces = sum(len(p[1]) for p in parts)
+    if n_faces > max_faces:
+        raise MeshError(where, f"{n_faces} faces is more than the limit of {max_faces}")
+    vertices, faces, uvs, offset = [], [], [], 0
+    for v, f, uv in parts:
+        v = np.asarray(v, dtype=np.float64)
+        f = np.asarray(f)
+        if f.ndim != 2 or f.shape[1] != 3:
+            raise MeshError(where, f"faces must be triangles, got shape {f.shape}")
+        if f.min() < 0 or f.max() >= len(v):
+            raise MeshError(where, f"face index {int(f.max()) if f.max() >= len(v) else int(f.min())} out of range ({len(v)} vertices)")
+        vertices.append(v)
+        faces.append(f.astype(np.int64) + offset)
+        uvs.append(uv)
+        offset += len(v)
+    vertices = np.concatenate(vertices)
+    faces = np.concatenate(faces)
+    uv = None if any(u is None for u in uvs) else np.concatenate(uvs)
+    vertices, faces, uv = _weld(vertices, faces, uv)
+    if not np.isfinite(vertices).all():
+        bad = int((~np.isfinite(vertices)).any(axis=1).sum())
+        raise MeshError(where, f"{bad} vertices have non-finite (NaN or infinite) coordinates")
+    if np.abs(vertices).max() > FLOAT32_MAX:
+        raise MeshError(where, f"coordinate {np.abs(vertices).max():.3g} is beyond float32 range")
+
+    tri = vertices[faces]
+    area2 = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    diag = float(np.linalg.norm(vertices.max(axis=0) - vertices.min(axis=0)))
+    keep = area2 > 1e-30 * diag * diag
+    if not keep.any():
+        raise MeshError(where, f"all {len(faces)} faces are degenerate (zero area)")
+    return LoadedMesh(vertices, faces[keep], uv, name, where, int((~keep).sum()), sha256)

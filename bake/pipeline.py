@@ -1,0 +1,255 @@
+"""The bake, stage by stage: load, atlas, texel lookup, surface samples, (transfer),
+texture evaluation, margin; then, on ``save``, images, textured mesh and report.
+
+This module wires the stages together; each stage lives in its own module.
+"""
+
+from __future__ import annotations
+
+import time
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import margin as margin_stage
+from .atlas import Atlas, make_atlas
+from .errors import ParameterError
+from .load import LoadedMesh, load_mesh, mesh_from_trimesh
+from .report import library_versions
+from .surface import SurfaceMap
+from .texels import UVLookup, sample_offsets, tile_sample_uv, tiles
+from .textures import evaluate, parse_spec
+
+TEXTURE_SPACES = ("unit", "object")
+
+
+@dataclass
+class BakedMesh:
+    """The mesh with its atlas: per-atlas-vertex arrays, faces index them."""
+
+    vertices: np.ndarray  # (k, 3) float64
+    faces: np.ndarray  # (m, 3) int64
+    uv: np.ndarray  # (k, 2) float64, v up
+    name: str
+
+
+@dataclass
+class BakeResult:
+    """What a bake made: images as arrays, the mesh with its atlas, and the report."""
+
+    images: dict[str, np.ndarray]  # name -> (h, w, c) float32 linear, row 0 at the top
+    coverage: np.ndarray  # (h, w) bool: texels covered by the atlas
+    margin: np.ndarray  # (h, w) bool: texels filled by the margin
+    mesh: BakedMesh
+    report: dict = field(default_factory=dict)
+
+    def save(self, folder, *, fmt: str = "png", bits: int | None = None, obj: bool = False):
+        """Write the maps, ``<name>.glb`` (and OBJ+MTL if ``obj``) and ``report.json``."""
+        from .save import save_result
+
+        return save_result(self, Path(folder), fmt=fmt, bits=bits, obj=obj)
+
+
+class _Timer:
+    def __init__(self):
+        self.seconds: dict[str, float] = {}
+
+    @contextmanager
+    def stage(self, name: str):
+        start = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - start
+
+
+def _check(name, value, ok, expected):
+    if not ok:
+        raise ParameterError(name, f"{expected}, got {value!r}")
+
+
+def _as_mesh(mesh_or_path, max_faces: int, what: str) -> LoadedMesh:
+    if isinstance(mesh_or_path, LoadedMesh):
+        return mesh_or_path
+    if isinstance(mesh_or_path, (str, Path)):
+        return load_mesh(mesh_or_path, max_faces=max_faces)
+    try:
+        return mesh_from_trimesh(mesh_or_path, max_faces=max_faces)
+    except TypeError:
+        raise ParameterError(what, f"expected a path or a trimesh mesh, got {type(mesh_or_path).__name__}") from None
+
+
+def bake_mesh(
+    mesh_or_path,
+    texture,
+    *,
+    size: int | tuple[int, int] = 1024,
+    samples: int = 1,
+    margin: int = 16,
+    uv: str = "auto",
+    source=None,
+    cage: float | None = None,
+    texture_space: str = "unit",
+    max_faces: int = 5_000_000,
+    unwrap_deadline: float = 120.0,
+    workers: int = 2,
+    seed: int = 0,
+    tile_samples: int = 1 << 20,
+) -> BakeResult:
+    """Bake a solid texture into the UV atlas of a mesh.
+
+    Parameters
+    ----------
+    mesh_or_path : path, trimesh.Trimesh, trimesh.Scene or LoadedMesh
+    texture : texture spec, dict, name or JSON (see ``bake.textures.parse_spec``)
+    size : int or (width, height)
+        Image size in texels.
+    samples : int
+        Samples per texel (stratified); 1 samples the texel centre.
+    margin : int
+        Texels of "extend" margin around charts.
+    uv : "auto" | "unwrap" | "keep"
+        Keep the mesh's UVs when usable ("auto"), always unwrap, or require them.
+    source : path or mesh, optional
+        A second mesh to transfer the texture from (high poly to low poly): the texture
+        is evaluated where rays along the target normal hit it.
+    cage : float, optional
+        Maximum transfer ray distance in object units; default 5% of the target's
+        bounding-box diagonal.
+    texture_space : "unit" | "object"
+        "object" evaluates the texture at object coordinates; "unit" first scales and
+        moves the object uniformly so that its bounding box starts at the origin and its
+        longest side is 1 (texture parameters then do not depend on the mesh's size).
+    max_faces : int
+        Meshes with more faces are rejected.
+    unwrap_deadline : float
+        Seconds xatlas may take before it is stopped and a fallback atlas is used.
+    """
+    width, height = (size, size) if np.isscalar(size) else tuple(size)
+    _check("size", size, all(isinstance(s, (int, np.integer)) and 1 <= s <= 65536 for s in (width, height)), "expected whole numbers from 1 to 65536")
+    _check("samples", samples, isinstance(samples, (int, np.integer)) and 1 <= samples <= 1024, "expected a whole number from 1 to 1024")
+    _check("margin", margin, isinstance(margin, (int, np.integer)) and 0 <= margin <= 4096, "expected a whole number from 0 to 4096")
+    _check("texture_space", texture_space, texture_space in TEXTURE_SPACES, f"expected one of {TEXTURE_SPACES}")
+    _check("cage", cage, cage is None or (np.isfinite(cage) and cage > 0), "expected a positive distance")
+    spec = parse_spec(texture)
+    timer = _Timer()
+    skipped: list[dict] = []
+
+    with timer.stage("load"):
+        mesh = _as_mesh(mesh_or_path, max_faces, "mesh")
+        src = None if source is None else _as_mesh(source, max_faces, "source")
+    if src is None:
+        skipped.append({"stage": "transfer", "why": "no source mesh given"})
+
+    with timer.stage("atlas"):
+        atlas: Atlas = make_atlas(
+            mesh.vertices, mesh.faces, mesh.uv, mode=uv, size=max(width, height),
+            deadline=unwrap_deadline, workers=workers,
+        )
+    if atlas.method == "kept":
+        skipped.append({"stage": "unwrap", "why": atlas.reason})
+
+    lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
+    if texture_space == "unit":
+        scale = 1.0 / (float(np.max(hi - lo)) or 1.0)
+        shift = -lo * scale
+    else:
+        scale, shift = 1.0, np.zeros(3)
+    bounds = np.array([lo, hi]) * scale + shift
+
+    with timer.stage("prepare"):
+        lookup = UVLookup(atlas.uv, atlas.faces)
+        surface = SurfaceMap(mesh.vertices, mesh.faces, atlas.uv, atlas.faces, width, height)
+        caster = None
+        if src is not None:
+            from .transfer import SourceMesh
+
+            caster = SourceMesh(src.vertices, src.faces)
+            reach = cage if cage is not None else 0.05 * float(np.linalg.norm(hi - lo))
+
+    offsets = sample_offsets(samples, seed)
+    image = np.zeros((height, width, spec.channels), dtype=np.float32)
+    hits = np.zeros((height, width), dtype=np.uint16 if samples < 65536 else np.uint32)
+    transfer_misses = 0
+    for tile in tiles(height, width, samples, tile_samples):
+        with timer.stage("lookup"):
+            uvs = tile_sample_uv(tile, width, height, offsets)
+            face = lookup.faces_at(uvs)
+            hit = face >= 0
+            face = face[hit]
+            bary = lookup.barycentric(uvs[hit], face)
+        with timer.stage("surface"):
+            s = surface.samples(face, bary)
+            points = s.points
+        if caster is not None:
+            with timer.stage("transfer"):
+                points, found = caster.project(points, s.normals, reach)
+                transfer_misses += int((~found).sum())
+                hit[np.flatnonzero(hit)[~found]] = False
+                points, s.dpdx, s.dpdy = points[found], s.dpdx[found], s.dpdy[found]
+        with timer.stage("texture"):
+            footprint = np.stack([s.dpdx, s.dpdy], axis=1) * scale
+            values = evaluate(spec, points * scale + shift, footprint, bounds=bounds)
+        with timer.stage("accumulate"):
+            rows = tile.stop - tile.start
+            texel = np.flatnonzero(hit) // samples
+            count = np.bincount(texel, minlength=rows * width)
+            block = np.zeros((rows * width, spec.channels))
+            for c in range(spec.channels):
+                block[:, c] = np.bincount(texel, weights=values[:, c], minlength=rows * width)
+            nz = count > 0
+            block[nz] /= count[nz, None]
+            image[tile.start : tile.stop] = block.reshape(rows, width, -1)
+            hits[tile.start : tile.stop] = count.reshape(rows, width)
+
+    covered = hits > 0
+    with timer.stage("margin"):
+        filled = margin_stage.extend(image, covered, margin)
+
+    # Texels that no sample hit although their four neighbours are covered: cracks.
+    inner = np.zeros_like(covered)
+    inner[1:-1, 1:-1] = (
+        ~covered[1:-1, 1:-1] & covered[:-2, 1:-1] & covered[2:, 1:-1] & covered[1:-1, :-2] & covered[1:-1, 2:]
+    )
+    total_samples = width * height * samples
+    report = {
+        "mesh": {
+            "name": mesh.name,
+            "path": mesh.path,
+            "sha256": mesh.sha256,
+            "vertices": int(len(mesh.vertices)),
+            "faces": int(len(mesh.faces)),
+            "degenerate_faces_removed": int(mesh.removed_degenerate),
+            "bounds": [lo.tolist(), hi.tolist()],
+        },
+        "source": None if src is None else {"path": src.path, "sha256": src.sha256, "faces": int(len(src.faces)), "cage": reach},
+        "parameters": {
+            "texture": spec.model_dump(mode="json"),
+            "size": [width, height],
+            "samples": samples,
+            "margin": margin,
+            "uv": uv,
+            "texture_space": texture_space,
+            "seed": seed,
+        },
+        "atlas": {"method": atlas.method, "reason": atlas.reason, **atlas.stats},
+        "texels": {
+            "total": width * height,
+            "covered": int(covered.sum()),
+            "margin": int(filled.sum()),
+            "empty": int(width * height - covered.sum() - filled.sum()),
+        },
+        "rays": {
+            "cast": total_samples,
+            "missed": int(total_samples - hits.sum(dtype=np.int64) - transfer_misses),
+            "missed_inside_atlas": int(inner.sum()),
+            "transfer_missed": transfer_misses,
+        },
+        "skipped": skipped,
+        "seconds": {k: round(v, 4) for k, v in timer.seconds.items()},
+        "versions": library_versions(),
+    }
+    baked = BakedMesh(mesh.vertices[atlas.vmapping], atlas.faces, atlas.uv, mesh.name)
+    return BakeResult({"albedo": image}, covered, filled, baked, report)

@@ -1,0 +1,60 @@
+"""Writing a bake: maps with OpenImageIO, the textured mesh, and the report.
+
+Every file is written to a temporary name, checked and renamed into place, so nothing
+half-written is left under a final name.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from .errors import OutputError, ParameterError
+from .export import write_glb, write_obj
+from .imageio import write_image
+from .report import write_json
+
+FORMATS = {"png": (8, 16), "exr": (16, 32), "tif": (8, 16, 32)}
+
+
+def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = None, obj: bool = False) -> dict:
+    """Write ``result`` (a ``BakeResult``) into ``folder``; return the files written.
+
+    Maps: ``albedo.<fmt>`` and ``coverage.png`` (1 where the atlas covers a texel);
+    mesh: ``<name>.glb`` with the albedo bound as base colour (and ``<name>.obj`` + MTL
+    if ``obj``); ``report.json`` last, so its presence means the rest is complete.
+    """
+    fmt = fmt.lower().lstrip(".")
+    fmt = "tif" if fmt == "tiff" else fmt
+    if fmt not in FORMATS:
+        raise ParameterError("format", f"expected one of {', '.join(FORMATS)}, got {fmt!r}")
+    if bits is not None and bits not in FORMATS[fmt]:
+        raise ParameterError("bits", f"{fmt} takes {FORMATS[fmt]} bits, got {bits}")
+    folder = Path(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"{folder}: cannot create output folder: {exc.strerror}") from None
+
+    start = time.perf_counter()
+    written = {}
+    for name, pixels in result.images.items():
+        written[name] = write_image(folder / f"{name}.{fmt}", pixels, bits=bits)
+    written["coverage"] = write_image(folder / "coverage.png", result.coverage[:, :, None].astype("float32"))
+
+    albedo = result.images["albedo"]
+    texture = folder / "albedo.png"
+    if fmt != "png":  # glTF takes PNG or JPEG only
+        texture = folder / "albedo_gltf.png"
+        written["albedo_gltf"] = write_image(texture, albedo)
+    m = result.mesh
+    written["glb"] = write_glb(folder / f"{m.name}.glb", m.vertices, m.faces, m.uv, texture, name=m.name)
+    if obj:
+        written["obj"] = write_obj(folder / f"{m.name}.obj", m.vertices, m.faces, m.uv, texture.name)
+
+    report = dict(result.report)
+    report["seconds"] = {**report.get("seconds", {}), "write": round(time.perf_counter() - start, 4)}
+    report["outputs"] = {k: {"path": Path(v["path"]).name, **{x: y for x, y in v.items() if x != "path"}} for k, v in written.items()}
+    write_json(folder / "report.json", report)
+    result.report = report
+    return written

@@ -1,0 +1,56 @@
+"""The command line, run as a real process."""
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+
+def texbake(*args, cwd=None, timeout=300):
+    env = {k: v for k, v in os.environ.items() if k != "COLUMNS"} | {"COLUMNS": "200"}
+    return subprocess.run(
+        [sys.executable, "-m", "bake.cli", *map(str, args)],
+        capture_output=True, text=True, timeout=timeout, cwd=cwd, env=env,
+    )
+
+
+def test_bake_writes_maps_mesh_and_report(meshes, tmp_path):
+    r = texbake("bake", meshes / "bunny.ply", "--texture", "checker", "--size", 128, "--out", tmp_path / "o")
+    assert r.returncode == 0, r.stderr
+    out = tmp_path / "o"
+    assert {"albedo.png", "coverage.png", "bunny.glb", "report.json"} <= {p.name for p in out.iterdir()}
+    report = json.loads((out / "report.json").read_text())
+    assert report["atlas"]["method"].startswith("xatlas") and report["texels"]["covered"] > 1000
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["bake", "{meshes}/nope.obj"], "nope.obj"),
+        (["bake", "{meshes}/bunny.ply", "--size", "0"], "size"),
+        (["bake", "{meshes}/bunny.ply", "--texture", "marbel"], "marbel"),
+        (["bake", "{meshes}/bunny.ply", "--format", "bmp"], "format"),
+        (["bake", "{meshes}/bunny.ply", "--uv", "keep"], "UV"),
+    ],
+)
+def test_user_errors_exit_2_with_one_line(meshes, tmp_path, args, words):
+    args = [a.format(meshes=meshes) for a in args] + ["--out", str(tmp_path / "o")]
+    r = texbake(*args)
+    assert r.returncode == 2, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in r.stderr
+    assert words.lower() in lines[0].lower()
+
+
+def test_batch_keeps_going_and_exits_1_on_a_failure(meshes, tmp_path):
+    bad = tmp_path / "broken.obj"
+    bad.write_text("v 0 0 0\nf 1 2 3\n")
+    manifest = tmp_path / "list.jsonl"
+    manifest.write_text(json.dumps({"mesh": str(meshes / "BoxTextured.glb"), "size": 32}) + "\n")
+    r = texbake("batch", meshes / "suzanne.ply", bad, manifest, "--out", tmp_path / "o", "--size", 64, "--jobs", 2)
+    assert r.returncode == 1, r.stderr
+    assert "broken.obj" in r.stdout and "failed" in r.stdout and r.stdout.count("done") == 2
+    assert (tmp_path / "o" / "suzanne" / "report.json").exists()
+    assert json.loads((tmp_path / "o" / "BoxTextured" / "report.json").read_text())["parameters"]["size"] == [32, 32]

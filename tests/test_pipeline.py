@@ -1,0 +1,124 @@
+"""End-to-end bakes through the library call, on real meshes and small fixtures."""
+
+import json
+
+import numpy as np
+import pytest
+import trimesh
+
+import bake
+from bake.errors import ParameterError
+
+
+def exact_points_at_texels(mesh, uv, faces, rows, cols, size):
+    """Surface points under texel centres, by brute-force point-in-triangle search in UV."""
+    q = np.stack([(cols + 0.5) / size, 1 - (rows + 0.5) / size], axis=1)
+    t = uv[faces]  # (m, 3, 2)
+    out = np.full((len(q), 3), np.nan)
+    for i, p in enumerate(q):
+        a, b, c = t[:, 0], t[:, 1], t[:, 2]
+        d = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+        l1 = ((p[0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (p[1] - a[:, 1]) * (c[:, 0] - a[:, 0])) / d
+        l2 = ((b[:, 0] - a[:, 0]) * (p[1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (p[0] - a[:, 0])) / d
+        inside = np.flatnonzero((l1 >= 0) & (l2 >= 0) & (l1 + l2 <= 1))
+        if len(inside):
+            f = inside[0]
+            out[i] = (1 - l1[f] - l2[f]) * mesh.vertices[faces[f, 0]] + l1[f] * mesh.vertices[faces[f, 1]] + l2[f] * mesh.vertices[faces[f, 2]]
+    return out
+
+
+def test_position_bake_matches_exact_surface_points(meshes):
+    size = 128
+    result = bake.bake_mesh(meshes / "ico4uv.obj", "position", size=size, margin=0, texture_space="object")
+    assert result.report["atlas"]["method"] == "kept"
+    m = result.mesh
+    rows, cols = np.nonzero(result.coverage)
+    pick = np.random.default_rng(0).choice(len(rows), 300, replace=False)
+    rows, cols = rows[pick], cols[pick]
+    exact = exact_points_at_texels(m, m.uv, m.faces, rows, cols, size)
+    found = ~np.isnan(exact[:, 0])
+    assert found.mean() > 0.95  # texel centres on a shared edge may fall either side
+    lo, hi = np.array(result.report["mesh"]["bounds"])
+    expect = (exact[found] - lo) / (hi - lo)
+    got = result.images["albedo"][rows[found], cols[found]]
+    assert np.abs(got - expect).max() < 2e-6  # float32 image of values in [0, 1]
+
+
+def sample_nearest(image, uv):
+    h, w = image.shape[:2]
+    c = np.clip((uv[:, 0] * w).astype(int), 0, w - 1)
+    r = np.clip(((1 - uv[:, 1]) * h).astype(int), 0, h - 1)
+    return image[r, c]
+
+
+@pytest.mark.parametrize("mode", ["auto", "unwrap"])
+def test_uv_reuse_and_unwrap_both_bake_the_surface(meshes, mode):
+    size = 256
+    result = bake.bake_mesh(meshes / "suzanne.ply", "position", size=size, uv=mode, texture_space="object")
+    assert result.report["atlas"]["method"] == ("kept" if mode == "auto" else "xatlas")
+    m = result.mesh
+    # face centroids: the nearest texel must hold the position of the centroid
+    centroid_uv = m.uv[m.faces].mean(axis=1)
+    centroid = m.vertices[m.faces].mean(axis=1)
+    lo, hi = np.array(result.report["mesh"]["bounds"])
+    got = sample_nearest(result.images["albedo"], centroid_uv)
+    expect = (centroid - lo) / (hi - lo)
+    # one texel of footprint, in normalised units, bounds the error
+    texel = np.linalg.norm(hi - lo) / (hi - lo).min() / size * 8
+    err = np.abs(got - expect).max(axis=1)
+    assert np.median(err) < texel / 4 and np.quantile(err, 0.95) < texel
+
+
+def test_unwrap_is_skipped_when_uvs_are_usable(meshes):
+    result = bake.bake_mesh(meshes / "BoxTextured.glb", "checker", size=64)
+    skipped = {s["stage"]: s["why"] for s in result.report["skipped"]}
+    assert "unwrap" in skipped and "transfer" in skipped
+
+
+def test_transfer_from_a_subdivided_mesh():
+    fine = trimesh.creation.icosphere(subdivisions=5)
+    coarse = trimesh.creation.icosphere(subdivisions=1)
+    kw = dict(size=128, margin=0, texture_space="object", uv="unwrap")
+    plain = bake.bake_mesh(coarse, "position", **kw)
+    moved = bake.bake_mesh(coarse, "position", source=fine, cage=0.2, **kw)
+    assert moved.report["rays"]["transfer_missed"] == 0
+    lo, hi = np.array(moved.report["mesh"]["bounds"])
+
+    def radii(result):
+        p = result.images["albedo"][result.coverage] * (hi - lo) + lo
+        return np.linalg.norm(p, axis=1)
+
+    assert radii(plain).min() < 0.85  # the coarse mesh cuts well inside the sphere
+    r = radii(moved)
+    assert np.abs(r - 1).max() < 2e-3  # the fine mesh lies within its chord error
+
+
+def test_transfer_misses_are_reported():
+    far = trimesh.creation.icosphere(subdivisions=2)
+    far.apply_translation([10, 0, 0])
+    result = bake.bake_mesh(trimesh.creation.box(), "checker", size=32, source=far, cage=0.1, margin=0)
+    assert result.report["rays"]["transfer_missed"] > 0 and not result.coverage.any()
+
+
+def test_samples_and_report(meshes, tmp_path):
+    result = bake.bake_mesh(meshes / "suzanne.ply", "checker", size=64, samples=4, margin=4)
+    r = result.report
+    assert r["rays"]["cast"] == 64 * 64 * 4
+    assert r["texels"]["covered"] + r["texels"]["margin"] + r["texels"]["empty"] == 64 * 64
+    assert r["texels"]["margin"] > 0 and r["rays"]["missed_inside_atlas"] < 0.01 * r["texels"]["covered"]
+    assert set(r["seconds"]) >= {"load", "atlas", "lookup", "texture", "margin"}
+    assert r["versions"]["embreex"] and len(r["mesh"]["sha256"]) == 64
+    result.save(tmp_path)
+    on_disk = json.loads((tmp_path / "report.json").read_text())
+    assert {"albedo", "coverage", "glb"} <= set(on_disk["outputs"]) and "write" in on_disk["seconds"]
+    assert (tmp_path / "suzanne.glb").stat().st_size > 0 and (tmp_path / "albedo.png").exists()
+
+
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [({"size": 0}, "size"), ({"samples": 0}, "samples"), ({"margin": -1}, "margin"),
+     ({"texture_space": "world"}, "texture_space"), ({"cage": -1.0}, "cage"), ({"uv": "maybe"}, "uv")],
+)
+def test_bad_parameters_are_named(kwargs, name):
+    with pytest.raises(ParameterError, match=name):
+        bake.bake_mesh(trimesh.creation.box(), "checker", **kwargs)
