@@ -24,6 +24,9 @@ class MeshError(BakeError):
         self.problem = problem
         super().__init__(f"{self.path}: {problem}")
 
+    def __reduce__(self):  # picklable across processes (batch workers)
+        return (type(self), (self.path, self.problem))
+
 
 class ParameterError(BakeError, ValueError):
     """A bake parameter is out of range or unknown: ``name`` and the problem."""
@@ -32,6 +35,9 @@ class ParameterError(BakeError, ValueError):
         self.name = name
         self.problem = problem
         super().__init__(f"parameter {name!r}: {problem}")
+
+    def __reduce__(self):
+        return (type(self), (self.name, self.problem))
 
 
 class AtlasError(BakeError):

@@ -70,9 +70,16 @@ def test_uv_reuse_and_unwrap_both_bake_the_surface(meshes, mode):
 
 
 def test_unwrap_is_skipped_when_uvs_are_usable(meshes):
-    result = bake.bake_mesh(meshes / "BoxTextured.glb", "checker", size=64)
+    result = bake.bake_mesh(meshes / "Duck.glb", "checker", size=64)
     skipped = {s["stage"]: s["why"] for s in result.report["skipped"]}
     assert "unwrap" in skipped and "transfer" in skipped
+
+
+def test_uvs_outside_the_unit_square_are_unwrapped(meshes):
+    # BoxTextured's UVs run from 0 to 6 (a repeating texture): not an atlas
+    result = bake.bake_mesh(meshes / "BoxTextured.glb", "checker", size=64)
+    assert result.report["atlas"]["method"] == "xatlas"
+    assert "unit square" in result.report["atlas"]["reason"]
 
 
 def test_transfer_from_a_subdivided_mesh():
@@ -88,7 +95,7 @@ def test_transfer_from_a_subdivided_mesh():
         p = result.images["albedo"][result.coverage] * (hi - lo) + lo
         return np.linalg.norm(p, axis=1)
 
-    assert radii(plain).min() < 0.85  # the coarse mesh cuts well inside the sphere
+    assert radii(plain).min() < 0.95  # the coarse mesh cuts inside the sphere
     r = radii(moved)
     assert np.abs(r - 1).max() < 2e-3  # the fine mesh lies within its chord error
 
