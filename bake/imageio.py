@@ -89,10 +89,10 @@ def write_image(path, pixels, *, fmt: str | None = None, bits: int | None = None
         spec = oiio.ImageSpec(w, h, c, typedesc)
         spec.attribute("oiio:ColorSpace", colorspace)
         spec.attribute("Software", "texbake")
-        if fmt == "exr":
-            spec.attribute("compression", "zip")
-        elif fmt == "tif":
-            spec.attribute("compression", "zip")
+        spec.attribute("oiio:UnassociatedAlpha", 1)  # alpha is coverage, not premultiplied
+        spec.attribute("compression", "zip")
+        if fmt == "tif":
+            spec.attribute("tiff:write_exif", 0)  # libtiff fails on OIIO's Exif directory
         out = oiio.ImageOutput.create(str(tmp))
         if out is None:
             raise OutputError(f"{path}: cannot create a {fmt} writer: {oiio.geterror()}")
@@ -118,10 +118,19 @@ def write_image(path, pixels, *, fmt: str | None = None, bits: int | None = None
     }
 
 
+def _open(path: Path):
+    """An ImageInput that keeps alpha as stored (not premultiplied), or None."""
+    import OpenImageIO as oiio
+
+    config = oiio.ImageSpec()
+    config.attribute("oiio:UnassociatedAlpha", 1)
+    return oiio.ImageInput.open(str(path), config)
+
+
 def _read_raw(path: Path, dtype) -> np.ndarray:
     import OpenImageIO as oiio
 
-    inp = oiio.ImageInput.open(str(path))
+    inp = _open(path)
     if inp is None:
         raise OutputError(f"{path}: cannot be read back: {oiio.geterror()}")
     try:
@@ -140,7 +149,7 @@ def read_image(path) -> np.ndarray:
     """``(h, w, c)`` float32 linear pixels of an image file (sRGB decoded where tagged)."""
     import OpenImageIO as oiio
 
-    inp = oiio.ImageInput.open(str(path))
+    inp = _open(path)
     if inp is None:
         raise OutputError(f"{path}: cannot read: {oiio.geterror()}")
     try:
