@@ -127,8 +127,24 @@ def _valid(result, n_faces: int, n_vertices: int) -> str | None:
 # -- xatlas in child processes -----------------------------------------------------
 
 
-def _chart_patches(positions, patches, size, padding, pack):
-    """Unwrap each patch (list of (m, 3) uint32 face arrays) with xatlas; child side."""
+def _pack_options(size: int, padding: int, texels_per_unit: float = 0.0):
+    import xatlas
+
+    po = xatlas.PackOptions()
+    po.resolution = size
+    po.texels_per_unit = texels_per_unit
+    po.padding = padding
+    po.bilinear = True
+    return po
+
+
+def _chart_patches(positions, patches, size, padding, texels_per_unit=0.0):
+    """Unwrap each patch (list of (m, 3) uint32 face arrays) with xatlas; child side.
+
+    Returns per patch ``(vmapping, indices, uv)`` with ``uv`` in texels of a square
+    atlas of ``size`` texels, or, when ``texels_per_unit`` is given, in texels at that
+    density (the atlas as large as it needs to be: its charts are packed again later).
+    """
     import xatlas
 
     out = []
@@ -136,31 +152,44 @@ def _chart_patches(positions, patches, size, padding, pack):
         used, local = np.unique(faces, return_inverse=True)
         atlas = xatlas.Atlas()
         atlas.add_mesh(positions[used], local.reshape(-1, 3).astype(np.uint32))
-        po = xatlas.PackOptions()
-        po.padding = padding
-        po.bilinear = True
-        if pack:
-            po.resolution = size
-        else:  # the charts are packed later, all together: pack cheaply here
-            po.resolution = 256
-        atlas.generate(pack_options=po)
+        if texels_per_unit:
+            atlas.generate(pack_options=_pack_options(0, padding, texels_per_unit))
+        else:
+            atlas.generate(pack_options=_pack_options(size, padding))
+            if atlas.atlas_count > 1:  # did not fit one page: let it grow, scale it down
+                atlas.generate(pack_options=_pack_options(0, padding))
+        if atlas.atlas_count != 1:
+            raise RuntimeError(f"xatlas made {atlas.atlas_count} atlases, expected 1")
         vmapping, indices, uv = atlas[0]
-        out.append((used[vmapping], indices, uv))
+        texels = uv.astype(np.float64) * [atlas.width, atlas.height]
+        out.append((used[vmapping], indices, texels, (atlas.width, atlas.height)))
     return out
 
 
-def _pack_uv_mesh(uv, faces, size, padding):
-    """Pack the charts of a UV mesh (connected pieces) into one atlas; child side."""
-    import xatlas
+def _shelf_pack(sizes: np.ndarray) -> tuple[np.ndarray, float]:
+    """Place ``(n, 2)`` rectangles (width, height) without overlap in a near-square.
 
-    atlas = xatlas.Atlas()
-    atlas.add_uv_mesh(uv.astype(np.float32), faces.astype(np.uint32))
-    po = xatlas.PackOptions()
-    po.resolution = size
-    po.padding = padding
-    po.bilinear = True
-    atlas.generate(pack_options=po)
-    return atlas[0]
+    Shelves of decreasing height, several shelf widths tried. Returns ``(n, 2)`` lower
+    left corners and the side of the square that holds them all.
+    """
+    order = np.argsort(-sizes[:, 1], kind="stable")
+    best = None
+    total = float((sizes[:, 0] * sizes[:, 1]).sum())
+    for fill in (1.0, 0.95, 0.9, 0.85, 0.8, 0.75):
+        width = max(np.sqrt(total / fill), sizes[:, 0].max())
+        corners = np.zeros_like(sizes)
+        x = y = shelf = 0.0
+        for i in order:
+            w, h = sizes[i]
+            if x + w > width:
+                x, y, shelf = 0.0, y + shelf, 0.0
+            corners[i] = (x, y)
+            x += w
+            shelf = max(shelf, h)
+        side = max((corners + sizes).max(axis=0))
+        if best is None or side < best[1]:
+            best = (corners, side)
+    return best
 
 
 def _run_children(function, jobs: list[tuple], deadline: float) -> list:
@@ -242,38 +271,34 @@ def _patches(vertices: np.ndarray, faces: np.ndarray, target: int) -> list[np.nd
     return out
 
 
-def _unwrap(vertices, faces, size, padding, deadline, workers):
+def _unwrap(vertices, faces, size, padding, deadline, workers, patch_faces):
     """xatlas atlas ``(vmapping, faces, uv, method)``; raises ``_XatlasFailed``."""
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
     positions = _normalised(vertices)
     f32 = faces.astype(np.uint32)
-    if len(faces) <= 2 * PATCH_FACES or workers < 1:
-        (result,) = _run_children(_chart_patches, [(positions, [f32], size, padding, True)], deadline)
-        return (*result[0], "xatlas")
+    if patch_faces is None or len(faces) <= 2 * patch_faces:
+        (result,) = _run_children(_chart_patches, [(positions, [f32], size, padding)], deadline)
+        vmap, idx, texels, (w, h) = result[0]
+        return vmap, idx, texels / max(w, h), "xatlas"
 
-    start = time.monotonic()
-    patches = _patches(vertices, faces, PATCH_FACES)
+    # Patches are unwrapped in parallel, each packed at the texel density of the final
+    # atlas (about 70 % of a size x size texture), so padding is right in texels; the
+    # patch rectangles are then packed together and scaled to fit.
+    density = size * np.sqrt(0.7 / _area(vertices, faces).sum())  # texels per unit
+    density *= float(np.max(hi - lo)) or 1.0  # in the normalised positions' units
+    patches = _patches(vertices, faces, patch_faces)
     shares = [patches[w::workers] for w in range(workers)]
-    jobs = [(positions, [f32[p] for p in share], size, padding, False) for share in shares if share]
-    done = _run_children(_chart_patches, jobs, deadline)
-    # Bring each patch's charts to one texel density (UV area per 3D area), then merge.
-    uvs, tris, maps, offset = [], [], [], 0
+    jobs = [(positions, [f32[p] for p in share], size, padding, density) for share in shares if share]
+    done = [r for rs in _run_children(_chart_patches, jobs, deadline) for r in rs]
     order = [p for share in shares for p in share]
-    for face_ids, (vmap, idx, uv) in zip(order, [r for rs in done for r in rs]):
-        idx = idx.astype(np.int64)
-        scale = np.sqrt(_area(vertices, faces[face_ids]).sum() / max(_uv_area(uv.astype(np.float64), idx).sum(), 1e-300))
-        uvs.append(uv.astype(np.float64) * scale)
-        tris.append((face_ids, idx + offset))
+    corners, side = _shelf_pack(np.array([r[3] for r in done], dtype=np.float64))
+    uvs, maps, all_faces, offset = [], [], np.empty((len(faces), 3), dtype=np.int64), 0
+    for face_ids, (vmap, idx, texels, _), corner in zip(order, done, corners):
+        uvs.append(texels + corner)
         maps.append(vmap.astype(np.int64))
-        offset += len(uv)
-    all_uv = np.concatenate(uvs)
-    all_faces = np.empty((len(faces), 3), dtype=np.int64)
-    for face_ids, idx in tris:
-        all_faces[face_ids] = idx
-    all_map = np.concatenate(maps)
-    all_uv = (all_uv - all_uv.min(axis=0)) / max(np.ptp(all_uv, axis=0).max(), 1e-300)
-    remaining = max(1.0, deadline - (time.monotonic() - start))
-    ((vmap, idx, uv),) = _run_children(_pack_uv_mesh, [(all_uv, all_faces, size, padding)], remaining)
-    return all_map[vmap.astype(np.int64)], idx, uv, "xatlas-patches"
+        all_faces[face_ids] = idx.astype(np.int64) + offset
+        offset += len(texels)
+    return np.concatenate(maps), all_faces, np.concatenate(uvs) / side, "xatlas-patches"
 
 
 def _grid_atlas(vertices: np.ndarray, faces: np.ndarray, padding: float):
@@ -317,13 +342,15 @@ def make_atlas(
     padding: int = 2,
     deadline: float = 120.0,
     workers: int = 2,
+    patch_faces: int | None = PATCH_FACES,
 ) -> Atlas:
     """A UV atlas for ``(n, 3)`` float64 vertices and ``(m, 3)`` int faces.
 
     ``uv``: ``(n, 2)`` per-vertex UVs or None. ``mode``: "auto" keeps usable UVs and
     unwraps otherwise, "unwrap" always unwraps, "keep" requires usable UVs. ``size``
     and ``padding`` (texels) set xatlas' packing; ``deadline`` bounds its wall time;
-    ``workers`` is the number of processes of the patch unwrap.
+    meshes of more than ``2 * patch_faces`` faces are unwrapped in patches of about
+    ``patch_faces`` faces by ``workers`` processes (``patch_faces=None``: in one piece).
     """
     if mode not in MODES:
         raise ParameterError("uv", f"expected one of {', '.join(MODES)}, got {mode!r}")
@@ -344,7 +371,7 @@ def make_atlas(
         why = "uv='unwrap'"
 
     try:
-        vmapping, afaces, auv, method = _unwrap(vertices, faces, size, padding, deadline, workers)
+        vmapping, afaces, auv, method = _unwrap(vertices, faces, size, padding, deadline, max(1, workers), patch_faces)
         result = (vmapping.astype(np.int64), afaces.astype(np.int64), auv.astype(np.float64))
         bad = _valid(result, len(faces), len(vertices))
         if bad:
