@@ -1,6 +1,7 @@
 """Load and validate a mesh: one triangle mesh in float64, or a clear error.
 
-Formats: OBJ (+MTL), PLY, STL (ASCII and binary), OFF, glTF and GLB, read with trimesh.
+Formats: OBJ (+MTL, read by :mod:`bake.objfile`), PLY, STL (ASCII and binary), OFF, glTF
+and GLB (read with trimesh).
 A scene is flattened, node transforms applied, into one mesh. The file is checked before
 and after parsing: archives, references that leave the mesh's folder, non-finite or
 out-of-range coordinates, out-of-range face indices and too many faces are rejected with
@@ -20,6 +21,7 @@ from pathlib import Path, PurePosixPath
 import numpy as np
 
 from .errors import MeshError
+from .objfile import read_obj
 
 FORMATS = {".obj": "obj", ".ply": "ply", ".stl": "stl", ".off": "off", ".gltf": "gltf", ".glb": "glb"}
 FLOAT32_MAX = float(np.finfo(np.float32).max)
@@ -73,9 +75,14 @@ def load_mesh(path, *, max_faces: int = 5_000_000) -> LoadedMesh:
     if not data.strip():
         raise MeshError(where, "file is empty")
 
+    sha256 = hashlib.sha256(data).hexdigest()
     if kind == "obj":
-        data = _resolve_obj(data, path)
-    elif kind in ("gltf", "glb"):
+        def check(name, what):
+            _check_reference(name, path, what)
+            _check_mtl(path.parent / name, path)
+
+        return _validate([read_obj(data, path, check)], path.stem, where, sha256, max_faces)
+    if kind in ("gltf", "glb"):
         _check_gltf_uris(_gltf_json(data, kind, where), path)
 
     try:
@@ -89,7 +96,7 @@ def load_mesh(path, *, max_faces: int = 5_000_000) -> LoadedMesh:
         raise
     except Exception as exc:  # trimesh raises many kinds on corrupt input
         raise MeshError(where, f"cannot parse {kind.upper()} file: {_short(exc)}") from None
-    return _validate(loaded, path.stem, where, hashlib.sha256(data).hexdigest(), max_faces)
+    return _validate(_parts(loaded), path.stem, where, sha256, max_faces)
 
 
 def mesh_from_trimesh(mesh, *, name: str = "mesh", max_faces: int = 5_000_000) -> LoadedMesh:
@@ -103,7 +110,7 @@ def mesh_from_trimesh(mesh, *, name: str = "mesh", max_faces: int = 5_000_000) -
         if isinstance(g, trimesh.Trimesh):
             h.update(np.ascontiguousarray(g.vertices, dtype=np.float64).tobytes())
             h.update(np.ascontiguousarray(g.faces, dtype=np.int64).tobytes())
-    return _validate(mesh, name, "<mesh>", h.hexdigest(), max_faces)
+    return _validate(_parts(mesh), name, "<mesh>", h.hexdigest(), max_faces)
 
 
 def _short(exc: Exception) -> str:
@@ -122,48 +129,6 @@ def _check_reference(ref: str, path: Path, what: str) -> None:
     parts = PurePosixPath(ref.replace("\\", "/"))
     if parts.is_absolute() or re.match(r"^[a-zA-Z]:[\\/]", ref) or ".." in parts.parts:
         raise MeshError(str(path), f"{what} {ref!r} leaves the mesh's folder")
-
-
-def _resolve_obj(data: bytes, path: Path) -> bytes:
-    """Rewrite an OBJ's relative (negative) indices as absolute ones, checking every index.
-
-    A negative index counts back from the elements defined so far (trimesh 5.2 counts
-    from the end of the file, which is wrong when ``v`` and ``f`` lines interleave).
-    Also checks ``mtllib`` references and the texture maps of the MTL files.
-    """
-    text = data.decode("utf-8", errors="replace")
-    counts = {"v": 0, "vt": 0, "vn": 0}
-    totals = {k: len(re.findall(rf"^\s*{k}\s", text, flags=re.M)) for k in counts}
-    kinds = ("v", "vt", "vn")
-    out = []
-    for number, line in enumerate(text.splitlines(), 1):
-        head = line.split(None, 1)[0] if line.strip() else ""
-        if head in counts:
-            counts[head] += 1
-        elif head in ("f", "l", "p"):
-            tokens = line.split()
-            for t, token in enumerate(tokens[1:], 1):
-                fields = token.split("/")
-                for k, field in enumerate(fields):
-                    if not field:
-                        continue
-                    try:
-                        index = int(field)
-                    except ValueError:
-                        raise MeshError(str(path), f"line {number}: bad index {field!r}") from None
-                    if index < 0:
-                        index = counts[kinds[k]] + 1 + index
-                    if not 1 <= index <= totals[kinds[k]]:
-                        raise MeshError(str(path), f"line {number}: face index {field} out of range ({counts[kinds[k]]} {kinds[k]} defined)")
-                    fields[k] = str(index)
-                tokens[t] = "/".join(fields)
-            line = " ".join(tokens)
-        elif head == "mtllib":
-            for ref in line.split()[1:]:
-                _check_reference(ref, path, "mtllib")
-                _check_mtl(path.parent / ref, path)
-        out.append(line)
-    return "\n".join(out).encode("utf-8")
 
 
 _MTL_MAPS = re.compile(r"^\s*(map_\w+|bump|disp|decal|refl|norm)\s+(.*)$", re.M | re.I)
@@ -234,21 +199,31 @@ def _weld(vertices, faces, uv):
     """Merge vertices equal in position and UV (trimesh splits every face corner).
 
     Exact equality only: corners that differ in UV stay separate (UV seams survive), and
-    a welded surface keeps its connectivity for the unwrap and the normals.
+    a welded surface keeps its connectivity for the unwrap and the normals. Rows are
+    grouped by a 64-bit hash of their bits, then checked for exact equality.
     """
     rows = vertices if uv is None else np.hstack([vertices, uv])
     if not np.isfinite(rows).all():
         return vertices, faces, uv  # rejected (vertices) or judged by the atlas (UVs)
-    unique, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
+    rows = np.ascontiguousarray(rows + 0.0)  # -0.0 and 0.0 are the same coordinate
+    bits = rows.view(np.uint64)
+    weights = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9, 0xD6E8FEB86659FD93, 0xFF51AFD7ED558CCD], dtype=np.uint64)
+    key = (bits * weights[: rows.shape[1]]).sum(axis=1, dtype=np.uint64)
+    _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+    inverse = inverse.ravel()
+    if not np.array_equal(rows[first[inverse]], rows):  # a hash collision: sort exactly
+        _, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
+        inverse = inverse.ravel()
     order = np.argsort(first)  # keep vertices in file order
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))
     keep = first[order]
-    return vertices[keep], rank[inverse.ravel()][faces], None if uv is None else uv[keep]
+    return vertices[keep], rank[inverse][faces], None if uv is None else uv[keep]
 
 
-def _validate(loaded, name: str, where: str, sha256: str, max_faces: int) -> LoadedMesh:
-    parts = [p for p in _parts(loaded) if len(p[1])]
+def _validate(parts, name: str, where: str, sha256: str, max_faces: int) -> LoadedMesh:
+    """One checked mesh from ``(vertices, faces, uv or None)`` parts."""
+    parts = [p for p in parts if len(p[1])]
     if not parts:
         raise MeshError(where, "no faces: the file holds no triangle geometry")
     n_faces = sum(len(p[1]) for p in parts)

@@ -1,0 +1,136 @@
+"""A small, strict Wavefront OBJ reader: positions, texture coordinates and faces.
+
+Written for the bake rather than taken from trimesh because relative (negative)
+indices must count back from the elements defined *so far* (trimesh 5.2 counts from the
+end of the file, which is wrong when ``v`` and ``f`` lines interleave), every index must
+be range-checked, and it is several times faster on large files. Polygons are split
+into triangle fans. Materials, normals, groups and smoothing are not needed by a bake
+and are skipped; ``mtllib`` names and the texture maps of the MTL files are checked by
+the caller through ``check_reference``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .errors import MeshError
+
+
+def read_obj(data: bytes, path: Path, check_reference) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Parse OBJ bytes into ``(vertices (n, 3) float64, faces (m, 3) int64, uv)``.
+
+    Vertices are one per distinct (position, texture coordinate) pair used by a face
+    corner, so UV seams survive; ``uv`` is ``(n, 2)`` float64, or None when some face
+    corner has no texture coordinate. ``check_reference(name, what)`` is called for each
+    ``mtllib`` file name.
+    """
+    where = str(path)
+    positions, texcoords, corners, counts, sizes = [], [], [], [], []
+    for number, line in enumerate(data.decode("utf-8", errors="replace").splitlines(), 1):
+        parts = line.split()
+        if not parts:
+            continue
+        key = parts[0]
+        if key == "v":
+            positions.append(parts[1:4])
+        elif key == "vt":
+            texcoords.append((parts[1:3] + ["0"])[:2])
+        elif key == "f":
+            if len(parts) < 4:
+                raise MeshError(where, f"line {number}: a face needs at least 3 corners")
+            corners.extend(parts[1:])
+            sizes.append(len(parts) - 1)
+            counts.append((len(positions), len(texcoords), number))
+        elif key == "mtllib":
+            for name in parts[1:]:
+                check_reference(name, "mtllib")
+    try:
+        v = np.array(positions, dtype=np.float64)
+        vt = np.array(texcoords, dtype=np.float64) if texcoords else np.zeros((0, 2))
+    except ValueError as exc:
+        raise MeshError(where, f"bad coordinate: {exc}") from None
+    if v.ndim != 2 or (len(v) and v.shape[1] != 3):
+        raise MeshError(where, "every 'v' line needs x, y and z")
+    if not corners:
+        return v, np.zeros((0, 3), dtype=np.int64), None
+
+    vi, ti = _corner_indices(corners, where)
+    sizes = np.array(sizes)
+    seen = np.repeat(np.array(counts, dtype=np.int64), sizes, axis=0)  # per corner
+    vi = _absolute(vi, seen[:, 0], len(v), seen[:, 2], "vertex", where)
+    has_uv = bool((ti != 0).all())
+    ti = _absolute(ti, seen[:, 1], len(vt), seen[:, 2], "texture coordinate", where) if has_uv else None
+
+    # Fan-triangulate polygons: corner k of a polygon starting at s gives (s, s+k, s+k+1).
+    starts = np.repeat(np.cumsum(sizes) - sizes, sizes - 2)
+    k = _fan_offsets(sizes)
+    tri_corners = np.stack([starts, starts + k, starts + k + 1], axis=1)
+
+    # One vertex per distinct (position, texcoord) pair, in order of first use.
+    key = vi if ti is None else vi * (len(vt) + 1) + ti
+    unique, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+    order = np.argsort(first)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    faces = rank[inverse.ravel()][tri_corners]
+    used = first[order]
+    return v[vi[used]], faces, None if ti is None else vt[ti[used]]
+
+
+def _corner_indices(corners: list[str], where: str) -> tuple[np.ndarray, np.ndarray]:
+    """Position and texcoord indices (0 where absent) of "v", "v/vt", "v//vn", "v/vt/vn".
+
+    Files write every corner alike: then the whole list is converted at once.
+    """
+    joined = " ".join(corners)
+    slashes = corners[0].count("/")
+    double = "//" in corners[0]
+    if joined.count("/") == slashes * len(corners) and joined.count("//") == (len(corners) if double else 0):
+        columns = 1 if slashes == 0 else (2 if slashes == 1 or double else 3)
+        try:
+            flat = np.array(joined.replace("//", " ").replace("/", " ").split(), dtype=np.int64)
+        except ValueError:
+            flat = None
+        if flat is not None and flat.size == columns * len(corners):
+            flat = flat.reshape(-1, columns)
+            has_vt = columns == 3 or (columns == 2 and not double)
+            return flat[:, 0], flat[:, 1] if has_vt else np.zeros(len(flat), dtype=np.int64)
+    try:
+        fields = [c.split("/") for c in corners]
+        vi = np.array([f[0] for f in fields], dtype=np.int64)
+        ti = np.array([int(f[1]) if len(f) > 1 and f[1] else 0 for f in fields], dtype=np.int64)
+    except ValueError:
+        bad = next(c for c in corners if not _is_index(c))
+        raise MeshError(where, f"bad face index {bad!r}") from None
+    return vi, ti
+
+
+def _is_index(corner: str) -> bool:
+    try:
+        [int(x) for x in corner.split("/") if x]
+        return True
+    except ValueError:
+        return False
+
+
+def _fan_offsets(sizes: np.ndarray) -> np.ndarray:
+    """For polygons of ``sizes`` corners: 1, 2, ..., n - 2 for each polygon, concatenated."""
+    n_tris = sizes - 2
+    total = int(n_tris.sum())
+    ends = np.cumsum(n_tris)
+    return np.arange(total) - np.repeat(ends - n_tris, n_tris) + 1
+
+
+def _absolute(index, defined, total, line, what, where) -> np.ndarray:
+    """0-based indices from 1-based or negative OBJ indices, checked against the file.
+
+    A negative index counts back from the ``defined`` elements before its line.
+    """
+    out = np.where(index < 0, defined + index, index - 1)
+    bad = (index == 0) | (out < 0) | (out >= total)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise MeshError(where, f"line {int(line[i])}: {what} index {int(index[i])} out of range ({total} defined)")
+    return out
