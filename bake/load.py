@@ -54,8 +54,6 @@ class LoadedMesh:
 
 def load_mesh(path, *, max_faces: int = 5_000_000) -> LoadedMesh:
     """Read and validate the mesh file at ``path`` (see the module docstring)."""
-    import trimesh  # pip install trimesh
-
     path = Path(path)
     where = str(path)
     if not path.is_file():
@@ -84,6 +82,8 @@ def load_mesh(path, *, max_faces: int = 5_000_000) -> LoadedMesh:
         return _validate([read_obj(data, path, check)], path.stem, where, sha256, max_faces)
     if kind in ("gltf", "glb"):
         _check_gltf_uris(_gltf_json(data, kind, where), path)
+
+    import trimesh  # pip install trimesh
 
     try:
         loaded = trimesh.load(

@@ -6,7 +6,9 @@ This module wires the stages together; each stage lives in its own module.
 
 from __future__ import annotations
 
+import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,7 +21,7 @@ from .errors import ParameterError
 from .load import LoadedMesh, load_mesh, mesh_from_trimesh
 from .report import library_versions
 from .surface import SurfaceMap
-from .texels import UVLookup, sample_offsets, tile_sample_uv, tiles
+from .texels import UVLookup, sample_offsets, sample_uv, tiles
 from .textures import evaluate, parse_spec
 
 TEXTURE_SPACES = ("unit", "object")
@@ -53,8 +55,11 @@ class BakeResult:
 
 
 class _Timer:
+    """Seconds per stage, summed over the tiles (and threads) that ran it."""
+
     def __init__(self):
         self.seconds: dict[str, float] = {}
+        self._lock = threading.Lock()
 
     @contextmanager
     def stage(self, name: str):
@@ -62,7 +67,8 @@ class _Timer:
         try:
             yield
         finally:
-            self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - start
+            with self._lock:
+                self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - start
 
 
 def _check(name, value, ok, expected):
@@ -161,7 +167,7 @@ def bake_mesh(
 
     with timer.stage("prepare"):
         lookup = UVLookup(atlas.uv, atlas.faces)
-        surface = SurfaceMap(mesh.vertices, mesh.faces, atlas.uv, atlas.faces, width, height)
+        surface = SurfaceMap(mesh.vertices, mesh.faces, atlas.uv, atlas.faces, width, height, normals=src is not None)
         caster = None
         if src is not None:
             from .transfer import SourceMesh
@@ -172,48 +178,65 @@ def bake_mesh(
     offsets = sample_offsets(samples, seed)
     image = np.zeros((height, width, spec.channels), dtype=np.float32)
     hits = np.zeros((height, width), dtype=np.uint16 if samples < 65536 else np.uint32)
-    transfer_misses = 0
-    for tile in tiles(height, width, samples, tile_samples):
+
+    def bake_tile(tile) -> int:
+        """Bake the rows of one tile into ``image`` and ``hits``.
+
+        Returns ``[rays cast, transfer rays that missed]``.
+        """
         with timer.stage("lookup"):
-            uvs = tile_sample_uv(tile, width, height, offsets)
+            texels = lookup.candidates(tile, width, height)
+            uvs = sample_uv(tile, texels, width, height, offsets)
             face = lookup.faces_at(uvs)
             hit = face >= 0
             face = face[hit]
             bary = lookup.barycentric(uvs[hit], face)
         with timer.stage("surface"):
             s = surface.samples(face, bary)
-            points = s.points
+            points, dpdx, dpdy = s.points, s.dpdx, s.dpdy
+        missed = 0
         if caster is not None:
             with timer.stage("transfer"):
                 points, found = caster.project(points, s.normals, reach)
-                transfer_misses += int((~found).sum())
+                missed = int((~found).sum())
                 hit[np.flatnonzero(hit)[~found]] = False
-                points, s.dpdx, s.dpdy = points[found], s.dpdx[found], s.dpdy[found]
+                points, dpdx, dpdy = points[found], dpdx[found], dpdy[found]
         with timer.stage("texture"):
-            footprint = np.stack([s.dpdx, s.dpdy], axis=1) * scale
+            footprint = np.stack([dpdx, dpdy], axis=1) * scale
             values = evaluate(spec, points * scale + shift, footprint, bounds=bounds)
         with timer.stage("accumulate"):
             rows = tile.stop - tile.start
-            texel = np.flatnonzero(hit) // samples
-            count = np.bincount(texel, minlength=rows * width)
-            block = np.zeros((rows * width, spec.channels))
-            for c in range(spec.channels):
-                block[:, c] = np.bincount(texel, weights=values[:, c], minlength=rows * width)
-            nz = count > 0
-            block[nz] /= count[nz, None]
+            texel = texels[np.flatnonzero(hit) // samples]
+            if samples == 1:
+                block = np.zeros((rows * width, spec.channels), dtype=np.float32)
+                block[texel] = values
+                count = np.zeros(rows * width, dtype=hits.dtype)
+                count[texel] = 1
+            else:  # mean of the samples that hit each texel
+                count = np.bincount(texel, minlength=rows * width)
+                block = np.zeros((rows * width, spec.channels))
+                for c in range(spec.channels):
+                    block[:, c] = np.bincount(texel, weights=values[:, c], minlength=rows * width)
+                nz = count > 0
+                block[nz] /= count[nz, None]
             image[tile.start : tile.stop] = block.reshape(rows, width, -1)
             hits[tile.start : tile.stop] = count.reshape(rows, width)
+        return np.array([len(uvs), missed])
+
+    # Tiles run in threads: Embree holds the GIL, numpy mostly does not, so the stages
+    # of two tiles overlap. Each tile writes its own rows.
+    with timer.stage("tiles (wall)"), ThreadPoolExecutor(max(1, workers)) as pool:
+        cast, transfer_misses = (int(x) for x in sum(pool.map(bake_tile, tiles(height, width, samples, tile_samples))))
 
     covered = hits > 0
     with timer.stage("margin"):
-        filled = margin_stage.extend(image, covered, margin)
+        filled = margin_stage.extend(image, covered, margin, workers=workers)
 
     # Texels that no sample hit although their four neighbours are covered: cracks.
     inner = np.zeros_like(covered)
     inner[1:-1, 1:-1] = (
         ~covered[1:-1, 1:-1] & covered[:-2, 1:-1] & covered[2:, 1:-1] & covered[1:-1, :-2] & covered[1:-1, 2:]
     )
-    total_samples = width * height * samples
     report = {
         "mesh": {
             "name": mesh.name,
@@ -242,8 +265,9 @@ def bake_mesh(
             "empty": int(width * height - covered.sum() - filled.sum()),
         },
         "rays": {
-            "cast": total_samples,
-            "missed": int(total_samples - hits.sum(dtype=np.int64) - transfer_misses),
+            "texel_samples": width * height * samples,
+            "cast": cast,  # rays for the samples of texels that some face's UV box touches
+            "missed": int(cast - hits.sum(dtype=np.int64) - transfer_misses),
             "missed_inside_atlas": int(inner.sum()),
             "transfer_missed": transfer_misses,
         },

@@ -22,7 +22,7 @@ class SurfaceSamples:
     """Surface samples; ``n`` rows each."""
 
     points: np.ndarray  # (n, 3) float64, object space
-    normals: np.ndarray  # (n, 3) float64, unit length (zero for a degenerate face)
+    normals: np.ndarray | None  # (n, 3) float64, unit length (zero for a degenerate face)
     dpdx: np.ndarray  # (n, 3) float64, one texel to the right
     dpdy: np.ndarray  # (n, 3) float64, one texel down
 
@@ -50,10 +50,11 @@ class SurfaceMap:
 
     ``vertices``: ``(n, 3)`` float64 object-space positions; ``faces``: ``(m, 3)`` int
     indices into ``vertices``; ``uv_faces``: ``(m, 3)`` indices into ``uv`` (``(k, 2)``)
-    for the same faces; ``width``, ``height``: image size in texels.
+    for the same faces; ``width``, ``height``: image size in texels; ``normals``: also
+    interpolate smooth normals.
     """
 
-    def __init__(self, vertices, faces, uv, uv_faces, width: int, height: int):
+    def __init__(self, vertices, faces, uv, uv_faces, width: int, height: int, normals: bool = False):
         vertices = np.asarray(vertices, dtype=np.float64)
         faces = np.asarray(faces, dtype=np.int64)
         tri = vertices[faces]  # (m, 3, 3)
@@ -73,14 +74,20 @@ class SurfaceMap:
         # One texel right is du = 1/width; one texel down is dv = -1/height.
         self._dpdx = np.clip(dpdu / width, -_MAX_FOOTPRINT, _MAX_FOOTPRINT)
         self._dpdy = np.clip(-dpdv / height, -_MAX_FOOTPRINT, _MAX_FOOTPRINT)
-        self._vn = vertex_normals(vertices, faces)[faces]  # (m, 3, 3)
+        # (m, 3, 3) corner normals, only when asked for (transfer rays need them)
+        self._vn = vertex_normals(vertices, faces)[faces] if normals else None
 
     def samples(self, face: np.ndarray, bary: np.ndarray) -> SurfaceSamples:
-        """Surface samples for ``(n,)`` faces and ``(n, 3)`` barycentric coordinates."""
+        """Surface samples for ``(n,)`` faces and ``(n, 3)`` barycentric coordinates.
+
+        ``normals`` are smooth interpolated normals, or None if the map was made
+        without them.
+        """
         b = bary
         points = self._p0[face] + b[:, 1:2] * self._e1[face] + b[:, 2:3] * self._e2[face]
-        vn = self._vn[face]
-        normals = np.einsum("ni,nij->nj", b, vn)
-        length = np.linalg.norm(normals, axis=1, keepdims=True)
-        normals = np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
-        return SurfaceSamples(points, normals, self._dpdx[face], self._dpdy[face])
+        n = None
+        if self._vn is not None:
+            n = np.einsum("ni,nij->nj", b, self._vn[face])
+            length = np.linalg.norm(n, axis=1, keepdims=True)
+            n = np.divide(n, length, out=np.zeros_like(n), where=length > 0)
+        return SurfaceSamples(points, n, self._dpdx[face], self._dpdy[face])

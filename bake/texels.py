@@ -55,18 +55,18 @@ def tiles(height: int, width: int, samples: int, budget: int = 1 << 20) -> list[
     return [Tile(r, min(height, r + rows)) for r in range(0, height, rows)]
 
 
-def tile_sample_uv(tile: Tile, width: int, height: int, offsets: np.ndarray) -> np.ndarray:
-    """UV positions of every sample of the texels in ``tile``.
+def sample_uv(tile: Tile, texels: np.ndarray, width: int, height: int, offsets: np.ndarray) -> np.ndarray:
+    """UV positions of the samples of some texels of ``tile``.
 
-    Returns ``(rows * width * s, 2)`` float64, texel-major: the ``s`` samples of a texel
-    are contiguous, texels run row by row.
+    ``texels``: ``(t,)`` int indices of texels within the tile (row-major, ``width``
+    per row). Returns ``(t * s, 2)`` float64, texel-major: the ``s`` samples of a texel
+    are contiguous.
     """
-    rows = np.arange(tile.start, tile.stop, dtype=np.float64)
-    cols = np.arange(width, dtype=np.float64)
-    x = cols[None, :, None] + offsets[None, None, :, 0]
-    y = rows[:, None, None] + offsets[None, None, :, 1]
-    x, y = np.broadcast_arrays(x, y)
-    return np.stack([x.ravel() / width, 1.0 - y.ravel() / height], axis=1)
+    row = (texels // width + tile.start).astype(np.float64)
+    col = (texels % width).astype(np.float64)
+    x = (col[:, None] + offsets[None, :, 0]).ravel()
+    y = (row[:, None] + offsets[None, :, 1]).ravel()
+    return np.stack([x / width, 1.0 - y / height], axis=1)
 
 
 class UVLookup:
@@ -103,6 +103,30 @@ class UVLookup:
             axis=1,
         )  # (m, 2, 2)
         self.degenerate = ~ok
+        lo, hi = t.min(axis=1), t.max(axis=1)
+        self._box = np.stack([lo[:, 0], hi[:, 0], 1.0 - hi[:, 1], 1.0 - lo[:, 1]], axis=1)[ok]
+
+    def candidates(self, tile: Tile, width: int, height: int) -> np.ndarray:
+        """Indices of the texels of ``tile`` that some face's UV bounding box touches.
+
+        Only these can be hit, so only their rays are cast. Returns ``(t,)`` int64
+        texel indices within the tile (row-major).
+        """
+        rows = tile.stop - tile.start
+        x0, x1, y0, y1 = self._box.T
+        r0 = np.floor(y0 * height).astype(np.int64) - tile.start
+        r1 = np.floor(y1 * height).astype(np.int64) - tile.start
+        near = (r1 >= 0) & (r0 < rows)
+        r0, r1 = np.clip(r0[near], 0, rows - 1), np.clip(r1[near], 0, rows - 1)
+        c0 = np.clip(np.floor(x0[near] * width).astype(np.int64), 0, width - 1)
+        c1 = np.clip(np.floor(x1[near] * width).astype(np.int64), 0, width - 1)
+        # 2D difference array of the boxes, summed up: > 0 where any box lies
+        diff = np.zeros((rows + 1) * (width + 1), dtype=np.int32)
+        stride = width + 1
+        for r, c, sign in ((r0, c0, 1), (r0, c1 + 1, -1), (r1 + 1, c0, -1), (r1 + 1, c1 + 1, 1)):
+            np.add.at(diff, r * stride + c, sign)
+        cover = diff.reshape(rows + 1, stride).cumsum(axis=0).cumsum(axis=1)[:rows, :width]
+        return np.flatnonzero(cover > 0)
 
     def faces_at(self, uv: np.ndarray) -> np.ndarray:
         """``(n,)`` int64 face under each ``(n, 2)`` UV point, -1 where no face is."""

@@ -42,11 +42,11 @@ def whole_process(runs: int) -> float:
 
 def lookup_rate(runs: int) -> float:
     from bake.load import load_mesh
-    from bake.texels import Tile, UVLookup, sample_offsets, tile_sample_uv
+    from bake.texels import Tile, UVLookup, sample_offsets, sample_uv
 
     mesh = load_mesh(MESH)
     lookup = UVLookup(mesh.uv, mesh.faces)
-    uv = tile_sample_uv(Tile(0, 2048), 2048, 2048, sample_offsets(1))
+    uv = sample_uv(Tile(0, 2048), np.arange(2048 * 2048), 2048, 2048, sample_offsets(1))
     times = []
     for _ in range(runs):
         start = time.perf_counter()

@@ -8,7 +8,7 @@ def test_points_normals_and_footprint_on_a_plane():
     v = np.array([[0, 0, 5], [2, 0, 5], [2, 3, 5], [0, 3, 5]], float)
     uv = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
     f = np.array([[0, 1, 2], [0, 2, 3]])
-    sm = SurfaceMap(v, f, uv, f, width=64, height=32)
+    sm = SurfaceMap(v, f, uv, f, width=64, height=32, normals=True)
     b = np.array([[0.2, 0.3, 0.5], [1 / 3, 1 / 3, 1 / 3]])
     s = sm.samples(np.array([0, 1]), b)
     assert np.allclose(s.points, np.einsum("ni,nij->nj", b, v[f[[0, 1]]]), atol=1e-15)

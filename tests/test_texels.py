@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from bake.errors import ParameterError
-from bake.texels import Tile, UVLookup, sample_offsets, tile_sample_uv, tiles
+from bake.texels import Tile, UVLookup, sample_offsets, sample_uv, tiles
 
 
 def test_one_sample_is_the_texel_centre():
@@ -35,7 +35,7 @@ def test_tiles_cover_the_image_once():
 
 
 def test_sample_uv_convention():
-    uv = tile_sample_uv(Tile(0, 2), 4, 2, sample_offsets(1))
+    uv = sample_uv(Tile(0, 2), np.arange(8), 4, 2, sample_offsets(1))
     # row 0 is the top of the image: v close to 1
     assert np.allclose(uv[0], [0.125, 0.75]) and np.allclose(uv[4], [0.125, 0.25])
 
@@ -60,3 +60,18 @@ def test_lookup_misses_outside_and_on_degenerate_faces():
     look = UVLookup(uv, np.array([[0, 1, 2], [3, 4, 5]]))
     f = look.faces_at(np.array([[0.1, 0.1], [0.8, 0.1], [0.75, 0.75]]))
     assert f.tolist() == [0, -1, -1]
+
+
+def test_candidates_cover_every_texel_a_face_can_hit():
+    rng = np.random.default_rng(5)
+    uv = (rng.random((100, 1, 2)) * 0.9 + rng.random((100, 3, 2)) * 0.1).reshape(-1, 2)  # small
+    faces = np.arange(300).reshape(100, 3)
+    look = UVLookup(uv, faces)
+    width, height = 64, 48
+    for tile in tiles(height, width, 4, budget=2000):
+        cand = set(look.candidates(tile, width, height).tolist())
+        texels = np.arange((tile.stop - tile.start) * width)
+        q = sample_uv(tile, texels, width, height, sample_offsets(16, seed=1))
+        hit = look.faces_at(q) >= 0
+        assert set(np.unique(texels.repeat(16)[hit]).tolist()) <= cand
+        assert len(cand) < len(texels)  # and leaves some out

@@ -36,13 +36,14 @@ def evaluate(spec, points, footprint=None, *, bounds=None) -> np.ndarray:
     """
     spec = parse_spec(spec)
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    m = spec.transform.texture_from_object()
-    q = p @ m[:3, :3].T + m[:3, 3]
-    dpdx = dpdy = None
-    if footprint is not None:
-        f = np.asarray(footprint, dtype=np.float64).reshape(-1, 2, 3)
-        dpdx = f[:, 0] @ m[:3, :3].T
-        dpdy = f[:, 1] @ m[:3, :3].T
+    f = None if footprint is None else np.asarray(footprint, dtype=np.float64).reshape(-1, 2, 3)
+    dpdx, dpdy = (None, None) if f is None else (f[:, 0], f[:, 1])
+    q = p
+    if spec.transform != Transform():  # the identity costs nothing
+        m = spec.transform.texture_from_object()
+        q = p @ m[:3, :3].T + m[:3, 3]
+        if f is not None:
+            dpdx, dpdy = dpdx @ m[:3, :3].T, dpdy @ m[:3, :3].T
     if isinstance(spec, Position):
         box = np.array([[0.0] * 3, [1.0] * 3]) if bounds is None else np.asarray(bounds, float)
         return basic.position(p, box[0], box[1])

@@ -21,14 +21,15 @@ def position(points: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     return np.clip((points - lo) / extent, 0.0, 1.0)
 
 
-def _square_wave_integral(t: np.ndarray) -> np.ndarray:
+def _triangle(t: np.ndarray) -> np.ndarray:
     """Integral from 0 to ``t`` of the wave that is +1 on [0, 1) and -1 on [1, 2), period 2."""
-    u = np.mod(t, 2.0)
+    u = t - 2.0 * np.floor(0.5 * t)
     return 1.0 - np.abs(u - 1.0)
 
 
-def _nudge(t: np.ndarray) -> np.ndarray:
-    return t + _PLANE_NUDGE * np.maximum(1.0, np.abs(t))
+def _sign(cells: np.ndarray) -> np.ndarray:
+    """+1 for even, -1 for odd whole numbers (as floats)."""
+    return 1.0 - 2.0 * (cells - 2.0 * np.floor(0.5 * cells))
 
 
 def checker_parity(
@@ -45,21 +46,18 @@ def checker_parity(
     square wave, each the difference of its triangle-wave integral). Returns ``(n,)``
     float64 in ``[-1, 1]``: +1 for the even cells.
     """
-    t = _nudge(points / box)
+    t = points / box
+    t += _PLANE_NUDGE * np.maximum(1.0, np.abs(t))
     if dpdx is None or dpdy is None:
-        return np.prod(1.0 - 2.0 * np.mod(np.floor(t), 2.0), axis=1)
-    half = 0.5 * (np.abs(dpdx) + np.abs(dpdy)) / box
+        return _sign(np.floor(t).sum(axis=1))
+    half = (np.abs(dpdx) + np.abs(dpdy)) * (0.5 / box)
     wide = half > 1e-12
-    a = t - half
-    b = t + half
-    mean = np.divide(
-        _square_wave_integral(b) - _square_wave_integral(a),
-        2.0 * half,
-        out=np.zeros_like(t),
-        where=wide,
-    )
-    point = 1.0 - 2.0 * np.mod(np.floor(t), 2.0)
-    return np.prod(np.where(wide, mean, point), axis=1)
+    mean = _triangle(t + half)
+    mean -= _triangle(t - half)
+    np.divide(mean, 2.0 * half, out=mean, where=wide)
+    if not wide.all():  # no footprint along an axis: point-sample that axis
+        mean[~wide] = _sign(np.floor(t[~wide]))
+    return mean.prod(axis=1)
 
 
 def checker(points, box, color_even, color_odd, dpdx=None, dpdy=None) -> np.ndarray:
