@@ -103,6 +103,8 @@ class UVLookup:
             axis=1,
         )  # (m, 2, 2)
         self.degenerate = ~ok
+        self._any_degenerate = bool(self.degenerate.any())
+        self._down = np.zeros((0, 3), dtype=np.float32)  # ray directions, reused
         lo, hi = t.min(axis=1), t.max(axis=1)
         self._box = np.stack([lo[:, 0], hi[:, 0], 1.0 - hi[:, 1], 1.0 - lo[:, 1]], axis=1)[ok]
 
@@ -129,15 +131,15 @@ class UVLookup:
         return np.flatnonzero(cover > 0)
 
     def faces_at(self, uv: np.ndarray) -> np.ndarray:
-        """``(n,)`` int64 face under each ``(n, 2)`` UV point, -1 where no face is."""
+        """``(n,)`` int32 face under each ``(n, 2)`` UV point, -1 where no face is."""
         n = len(uv)
         origins = np.empty((n, 3), dtype=np.float32)
         origins[:, :2] = uv
         origins[:, 2] = 1.0
-        directions = np.zeros((n, 3), dtype=np.float32)
-        directions[:, 2] = -1.0
-        face = self._scene.run(origins, directions).astype(np.int64)
-        if face.size:
+        if len(self._down) < n:
+            self._down = np.tile(np.array([[0, 0, -1]], dtype=np.float32), (n, 1))
+        face = self._scene.run(origins, self._down[:n])
+        if self._any_degenerate and face.size:
             face[(face >= 0) & self.degenerate[np.maximum(face, 0)]] = -1
         return face
 
