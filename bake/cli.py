@@ -36,11 +36,11 @@ def _bake_one(mesh: str, out: str, settings: dict) -> dict:
     return result.report
 
 
-def _settings(texture, size, samples, margin, uv, source, cage, texture_space, max_faces, fmt, bits, obj, workers=2):
+def _settings(texture, size, samples, margin, uv, source, cage, texture_space, max_faces, deadline, fmt, bits, obj, workers=2):
     return {
         "texture": texture, "size": size, "samples": samples, "margin": margin, "uv": uv,
         "source": source, "cage": cage, "texture_space": texture_space, "max_faces": max_faces,
-        "fmt": fmt, "bits": bits, "obj": obj, "workers": workers,
+        "unwrap_deadline": deadline, "fmt": fmt, "bits": bits, "obj": obj, "workers": workers,
     }
 
 
@@ -53,6 +53,7 @@ _SOURCE = typer.Option(None, "--source", help="mesh to transfer the texture from
 _CAGE = typer.Option(None, "--cage", help="max transfer ray distance (default 5% of the bbox diagonal)")
 _SPACE = typer.Option("unit", "--texture-space", help="unit (bbox scaled to 1) | object")
 _FACES = typer.Option(5_000_000, "--max-faces", help="reject meshes with more faces")
+_DEADLINE = typer.Option(120.0, "--unwrap-deadline", help="seconds xatlas may run before a fallback atlas is used")
 _FMT = typer.Option("png", "--format", "-f", help="png | exr | tif")
 _BITS = typer.Option(None, "--bits", help="png/tif 8 or 16; exr 16 (half) or 32; tif 32 (float)")
 _OBJ = typer.Option(False, "--obj", help="also write OBJ + MTL")
@@ -64,11 +65,11 @@ def bake(
     out: Path = typer.Option(..., "--out", "-o", help="output folder"),
     texture: str = _TEXTURE, size: int = _SIZE, samples: int = _SAMPLES, margin: int = _MARGIN,
     uv: str = _UV, source: Optional[str] = _SOURCE, cage: Optional[float] = _CAGE,
-    texture_space: str = _SPACE, max_faces: int = _FACES, fmt: str = _FMT, bits: Optional[int] = _BITS,
-    obj: bool = _OBJ,
+    texture_space: str = _SPACE, max_faces: int = _FACES, unwrap_deadline: float = _DEADLINE,
+    fmt: str = _FMT, bits: Optional[int] = _BITS, obj: bool = _OBJ,
 ):
     """Bake one mesh: writes DIR/albedo.<format>, DIR/<mesh>.glb and DIR/report.json."""
-    settings = _settings(texture, size, samples, margin, uv, source, cage, texture_space, max_faces, fmt, bits, obj)
+    settings = _settings(texture, size, samples, margin, uv, source, cage, texture_space, max_faces, unwrap_deadline, fmt, bits, obj)
     try:
         report = _bake_one(mesh, str(out), settings)
     except BakeError as exc:
@@ -125,15 +126,15 @@ def batch(
     out: Path = typer.Option(..., "--out", "-o", help="output folder; one sub-folder per mesh"),
     jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="parallel processes"),
     texture: str = _TEXTURE, size: int = _SIZE, samples: int = _SAMPLES, margin: int = _MARGIN,
-    uv: str = _UV, texture_space: str = _SPACE, max_faces: int = _FACES, fmt: str = _FMT,
-    bits: Optional[int] = _BITS, obj: bool = _OBJ,
+    uv: str = _UV, texture_space: str = _SPACE, max_faces: int = _FACES, unwrap_deadline: float = _DEADLINE,
+    fmt: str = _FMT, bits: Optional[int] = _BITS, obj: bool = _OBJ,
 ):
     """Bake many meshes in parallel; keeps going past failures, exits 1 if any failed."""
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
     from rich.table import Table
 
-    base = _settings(texture, size, samples, margin, uv, None, None, texture_space, max_faces, fmt, bits, obj, workers=1)
+    base = _settings(texture, size, samples, margin, uv, None, None, texture_space, max_faces, unwrap_deadline, fmt, bits, obj, workers=1)
     items = _expand(inputs)
     if not items:
         _fail("no input meshes")

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from . import margin as margin_stage
-from .atlas import Atlas, make_atlas
+from .atlas import MODES, Atlas, make_atlas
 from .errors import ParameterError
 from .load import LoadedMesh, load_mesh, mesh_from_trimesh
 from .report import library_versions
@@ -138,6 +138,7 @@ def bake_mesh(
     _check("samples", samples, isinstance(samples, (int, np.integer)) and 1 <= samples <= 1024, "expected a whole number from 1 to 1024")
     _check("margin", margin, isinstance(margin, (int, np.integer)) and 0 <= margin <= 4096, "expected a whole number from 0 to 4096")
     _check("texture_space", texture_space, texture_space in TEXTURE_SPACES, f"expected one of {TEXTURE_SPACES}")
+    _check("uv", uv, uv in MODES, f"expected one of {MODES}")
     _check("cage", cage, cage is None or (np.isfinite(cage) and cage > 0), "expected a positive distance")
     spec = parse_spec(texture)
     timer = _Timer()
@@ -157,13 +158,14 @@ def bake_mesh(
     if atlas.method == "kept":
         skipped.append({"stage": "unwrap", "why": atlas.reason})
 
+    # Texture space: object coordinates, or "unit": (p - origin) * scale, computed in
+    # that order so that a mesh far from the origin keeps its precision.
     lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
     if texture_space == "unit":
-        scale = 1.0 / (float(np.max(hi - lo)) or 1.0)
-        shift = -lo * scale
+        origin, scale = lo, 1.0 / (float(np.max(hi - lo)) or 1.0)
     else:
-        scale, shift = 1.0, np.zeros(3)
-    bounds = np.array([lo, hi]) * scale + shift
+        origin, scale = np.zeros(3), 1.0
+    bounds = (np.array([lo, hi]) - origin) * scale
 
     with timer.stage("prepare"):
         lookup = UVLookup(atlas.uv, atlas.faces)
@@ -203,7 +205,7 @@ def bake_mesh(
                 points, dpdx, dpdy = points[found], dpdx[found], dpdy[found]
         with timer.stage("texture"):
             footprint = np.stack([dpdx, dpdy], axis=1) * scale
-            values = evaluate(spec, points * scale + shift, footprint, bounds=bounds)
+            values = evaluate(spec, (points - origin) * scale, footprint, bounds=bounds)
         with timer.stage("accumulate"):
             rows = tile.stop - tile.start
             texel = texels[np.flatnonzero(hit) // samples]
