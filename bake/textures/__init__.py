@@ -10,9 +10,25 @@ from __future__ import annotations
 import numpy as np
 
 from . import basic
-from .spec import TEXTURES, Checker, Position, TextureSpec, Transform, parse_spec
+from .spec import (
+    TEXTURES, Checker, ColourMap, FBm, Flame, Marble, Noise, Position, TextureSpec, Transform,
+    Turbulence, Wood, parse_spec,
+)
 
-__all__ = ["evaluate", "parse_spec", "TextureSpec", "Transform", "TEXTURES", "Checker", "Position"]
+__all__ = ["evaluate", "parse_spec", "TextureSpec", "Transform", "TEXTURES"]
+
+
+def _colours(colormap: ColourMap, t: np.ndarray) -> np.ndarray:
+    from .solid import spline
+
+    return spline(t, np.asarray(colormap.knots), np.asarray(colormap.colours, dtype=np.float64))
+
+
+def _width(dpdx, dpdy) -> np.ndarray | None:
+    """Footprint width per point: the longer of the two texel edges."""
+    if dpdx is None:
+        return None
+    return np.sqrt(np.maximum(np.einsum("ij,ij->i", dpdx, dpdx), np.einsum("ij,ij->i", dpdy, dpdy)))
 
 
 def evaluate(spec, points, footprint=None, *, bounds=None) -> np.ndarray:
@@ -51,4 +67,37 @@ def evaluate(spec, points, footprint=None, *, bounds=None) -> np.ndarray:
         if not spec.filtered:
             dpdx = dpdy = None
         return basic.checker(q, spec.box, spec.color_even, spec.color_odd, dpdx, dpdy)
+
+    from . import solid
+
+    width = _width(dpdx, dpdy)
+    if isinstance(spec, Noise):
+        t = solid.turbulence(q, width, scale=spec.scale, offset=spec.offset, octaves=1, basis=spec.basis,
+                             interpolation=spec.interpolation, seed=spec.seed)
+        return _colours(spec.colormap, t)
+    if isinstance(spec, (Turbulence, FBm)):
+        t = solid.turbulence(q, width, signed=isinstance(spec, FBm), **_turbulence_args(spec))
+        return _colours(spec.colormap, 0.5 + 0.5 * t if isinstance(spec, FBm) else t)
+    if isinstance(spec, Marble):
+        t = solid.marble(q, width, axis="xyz".index(spec.axis), frequency=spec.frequency,
+                         amplitude=spec.amplitude, **_turbulence_args(spec.turbulence))
+        return _colours(spec.colormap, t)
+    if isinstance(spec, Wood):
+        if any(spec.tilt):
+            tilt = Transform(rotate=spec.tilt).object_from_texture()[:3, :3]
+            q = q @ tilt  # T^-1 p: the ring axis turned by T
+        t = solid.wood(q, width, ring_width=spec.ring_width, wobble=spec.wobble, wobbles=spec.wobbles, twist=spec.twist)
+        return _colours(spec.colormap, t)
+    if isinstance(spec, Flame):
+        s, weight = solid.flame(q, width, half_width=spec.half_width, height=spec.height, time=spec.time,
+                                rise=spec.rise, turbulence_amount=spec.turbulence_amount,
+                                **_turbulence_args(spec.turbulence))
+        rgb = [solid.spline(s, np.asarray(c.knots), np.asarray(c.values)[:, None])[:, 0] for c in (spec.red, spec.green, spec.blue)]
+        return np.clip(np.column_stack(rgb), 0.0, None) * weight[:, None]
     raise TypeError(f"no evaluator for texture {spec.name!r}")  # pragma: no cover
+
+
+def _turbulence_args(params) -> dict:
+    """Keyword arguments of ``solid.turbulence`` from a spec holding turbulence fields."""
+    names = ("scale", "offset", "octaves", "lacunarity", "gain", "basis", "interpolation", "seed")
+    return {name: getattr(params, name) for name in names}

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Annotated, Literal, Union
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, model_validator
 
 from ..errors import TextureError
 
@@ -80,10 +80,142 @@ class Checker(_Texture):
     filtered: bool = Field(True, description="box-filter over the texel footprint")
 
 
-TextureSpec = Annotated[Union[Position, Checker], Field(discriminator="name")]
+class ColourMap(BaseModel):
+    """A spline colour curve: colours at increasing knots, Catmull-Rom in between."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    knots: tuple[float, ...] = (0.0, 1.0)
+    colours: tuple[Colour, ...] = ((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
+
+    @model_validator(mode="after")
+    def _check(self):
+        if len(self.knots) != len(self.colours) or not self.knots:
+            raise ValueError(f"{len(self.knots)} knots for {len(self.colours)} colours")
+        if any(b <= a for a, b in zip(self.knots, self.knots[1:])):
+            raise ValueError(f"knots must increase, got {self.knots}")
+        return self
+
+
+class Curve(BaseModel):
+    """A scalar spline curve (one colour channel)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    knots: tuple[float, ...]
+    values: tuple[float, ...]
+
+    @model_validator(mode="after")
+    def _check(self):
+        if len(self.knots) != len(self.values) or not self.knots:
+            raise ValueError(f"{len(self.knots)} knots for {len(self.values)} values")
+        if any(b <= a for a, b in zip(self.knots, self.knots[1:])):
+            raise ValueError(f"knots must increase, got {self.knots}")
+        return self
+
+
+class NoiseBasis(BaseModel):
+    """Which noise: the lecture's lattice (value) noise or Perlin's gradient noise."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    basis: Literal["value", "perlin"] = "value"
+    interpolation: Literal["linear", "cubic", "catmull-rom"] = Field("linear", description="value noise only")
+    seed: Annotated[int, Field(ge=0, le=2**32 - 1)] = 0
+
+
+class TurbulenceParams(NoiseBasis):
+    """Octaves of noise: ``sum_k gain^k noise(lacunarity^k (scale p + offset))``."""
+
+    scale: Annotated[float, Field(gt=0, le=1e6)] = 4.0
+    offset: Annotated[float, Field(ge=-1e9, le=1e9)] = 0.0
+    octaves: Annotated[int, Field(ge=1, le=30)] = 8
+    lacunarity: Annotated[float, Field(ge=1.1, le=8.0)] = 2.0
+    gain: Annotated[float, Field(gt=0, lt=1)] = 0.5
+
+
+class Noise(_Texture, NoiseBasis):
+    """Scaled and offset lattice noise: ``noise(scale * p + offset)``, through a colour map."""
+
+    name: Literal["noise"] = "noise"
+    scale: Annotated[float, Field(gt=0, le=1e6)] = 8.0
+    offset: Annotated[float, Field(ge=-1e9, le=1e9)] = 0.0
+    colormap: ColourMap = ColourMap()
+
+
+class Turbulence(_Texture, TurbulenceParams):
+    """Perlin's turbulence in [0, 1], octave count cut per texel by its footprint."""
+
+    name: Literal["turbulence"] = "turbulence"
+    colormap: ColourMap = ColourMap()
+
+
+class FBm(_Texture, TurbulenceParams):
+    """Fractional Brownian motion: signed octave sum, shown as 0.5 + 0.5 fBm."""
+
+    name: Literal["fbm"] = "fbm"
+    colormap: ColourMap = ColourMap()
+
+
+MARBLE_COLOURS = ColourMap(
+    knots=(0.0, 0.35, 0.65, 0.85, 1.0),
+    colours=((0.08, 0.07, 0.09), (0.45, 0.42, 0.45), (0.85, 0.83, 0.8), (0.93, 0.92, 0.9), (0.98, 0.97, 0.95)),
+)
+WOOD_COLOURS = ColourMap(knots=(0.0, 1.0), colours=((0.55, 0.33, 0.14), (0.30, 0.15, 0.05)))
+
+
+class Marble(_Texture):
+    """Perlin's marble: ``MarbleColor(sin(frequency * x + amplitude * turbulence(p)))``."""
+
+    name: Literal["marble"] = "marble"
+    axis: Literal["x", "y", "z"] = "x"
+    frequency: Annotated[float, Field(gt=0, le=1e6)] = 12.0
+    amplitude: Annotated[float, Field(ge=0, le=1e3)] = 4.0
+    turbulence: TurbulenceParams = TurbulenceParams()
+    colormap: ColourMap = MARBLE_COLOURS
+
+
+class Wood(_Texture):
+    """Wood grain: rings ``D + A rings(r / M + K sin(N theta + B z))`` about a tilted axis.
+
+    ``ring_width`` is M, ``wobble`` K, ``wobbles`` N, ``twist`` B, ``tilt`` the rotation T
+    of the ring axis (XYZ Euler degrees); D and A are the colour map's ends.
+    """
+
+    name: Literal["wood"] = "wood"
+    ring_width: Annotated[float, Field(gt=0, le=1e6)] = 0.04
+    wobble: Annotated[float, Field(ge=0, le=100)] = 0.3
+    wobbles: Annotated[float, Field(ge=0, le=1000)] = 4.0
+    twist: Annotated[float, Field(ge=-1e3, le=1e3)] = 2.0
+    tilt: Vec3 = (0.0, 0.0, 0.0)
+    colormap: ColourMap = WOOD_COLOURS
+
+
+class Flame(_Texture):
+    """Watt and Watt's flame: ``(1 - y/h) flame_color(|x/b| + turbulence(x, t))``.
+
+    The flame spans (-b, 0) to (b, h) in the x-y plane; ``red``, ``green`` and ``blue``
+    are spline curves of ``|x/b| + turbulence``, highest at the centre, green and blue
+    falling off faster than red.
+    """
+
+    name: Literal["flame"] = "flame"
+    half_width: Annotated[float, Field(gt=0, le=1e6)] = 0.3
+    height: Annotated[float, Field(gt=0, le=1e6)] = 1.0
+    time: Annotated[float, Field(ge=-1e6, le=1e6)] = 0.0
+    rise: Annotated[float, Field(ge=-1e3, le=1e3)] = 1.0
+    turbulence_amount: Annotated[float, Field(ge=0, le=100)] = 0.6
+    turbulence: TurbulenceParams = TurbulenceParams(scale=6.0, octaves=6)
+    red: Curve = Curve(knots=(0.0, 0.6, 1.1), values=(1.0, 0.9, 0.0))
+    green: Curve = Curve(knots=(0.0, 0.35, 0.8), values=(0.95, 0.45, 0.0))
+    blue: Curve = Curve(knots=(0.0, 0.2, 0.45), values=(0.8, 0.15, 0.0))
+
+
+TEXTURE_CLASSES = (Position, Checker, Noise, Turbulence, FBm, Marble, Wood, Flame)
+TextureSpec = Annotated[Union[TEXTURE_CLASSES], Field(discriminator="name")]
 _ADAPTER = TypeAdapter(TextureSpec)
 
-TEXTURES = {cls.model_fields["name"].default: cls for cls in (Position, Checker)}
+TEXTURES = {cls.model_fields["name"].default: cls for cls in TEXTURE_CLASSES}
 
 
 def _describe(error: ValidationError) -> str:
