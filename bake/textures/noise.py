@@ -44,6 +44,14 @@ def _kernels():
         return table[x & 255]
 
     @jit
+    def wrap(x):
+        """``x`` itself, or, past 2^62 (no fraction left), ``x mod 256`` (exact: the tables
+        repeat every 256 cells); an overflow to infinity becomes lattice point 0."""
+        if abs(x) < 4.0e18:
+            return x
+        return np.fmod(x, 256.0) if np.isfinite(x) else 0.0
+
+    @jit
     def lattice(noise, index, i, j, k):
         return noise[perm(index, i + perm(index, j + perm(index, k)))]
 
@@ -53,6 +61,7 @@ def _kernels():
 
     @jit
     def value_noise(noise, index, x, y, z, interp):
+        x, y, z = wrap(x), wrap(y), wrap(z)
         fx, fy, fz = np.floor(x), np.floor(y), np.floor(z)
         ix, iy, iz = np.int64(fx), np.int64(fy), np.int64(fz)
         tx, ty, tz = x - fx, y - fy, z - fz
@@ -107,6 +116,7 @@ def _kernels():
     @jit
     def perlin_noise(index, x, y, z):
         """Perlin's improved noise (2002), in about [-1, 1]."""
+        x, y, z = wrap(x), wrap(y), wrap(z)
         fx, fy, fz = np.floor(x), np.floor(y), np.floor(z)
         ix, iy, iz = np.int64(fx), np.int64(fy), np.int64(fz)
         x, y, z = x - fx, y - fy, z - fz
@@ -141,7 +151,7 @@ def _kernels():
         keep = min(max(limit - k, 0.0), 1.0)
         return keep * keep * (3.0 - 2.0 * keep)
 
-    @nb.njit(cache=True, parallel=True, nogil=True, fastmath=True)
+    @nb.njit(cache=True, parallel=True, nogil=True, fastmath={"nsz", "arcp", "contract", "afn", "reassoc"})
     def octaves(points, width, noise, index, basis, interp, count, lacunarity, gain, signed, out):
         """Sum of ``count`` octaves ``gain^k * n(lacunarity^k * p)``, cut by the footprint.
 
@@ -163,17 +173,19 @@ def _kernels():
             limit = np.empty(m)
             acc = np.zeros(m)
             top = -1e300
+            big = 0.0
             for i in range(m):
                 w = width[lo + i]
                 limit[i] = (np.log(0.5) - np.log(w)) / log_lacunarity if w > 0.0 else 1e300
                 top = max(top, limit[i])
+                big = max(big, abs(points[lo + i, 0]), abs(points[lo + i, 1]), abs(points[lo + i, 2]))
             amp = 1.0
             freq = 1.0
             for k in range(count):
                 if top - k <= 0.0:  # every point of the chunk drops this octave
                     for i in range(m):
                         acc[i] += amp * mean
-                elif basis == 0 and interp < 2:
+                elif basis == 0 and interp < 2 and big * freq < 4.0e18:  # no wrap needed
                     for i in range(m):
                         x = points[lo + i, 0] * freq
                         y = points[lo + i, 1] * freq

@@ -1,0 +1,148 @@
+"""Lattice noise, Perlin noise and octave sums: exactness, precision, continuity, antialiasing."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from bake.textures import noise as N
+
+RNG = np.random.default_rng(11)
+
+
+def reference_value_noise(p, seed=0):
+    """The lecture's noise(), written plainly in float64 numpy with floor (not (int))."""
+    table, index = N.tables(seed)
+    f = np.floor(p)
+    i = f.astype(np.int64)
+    t = p - f
+
+    def lattice(a, b, c):  # INDEX(i, j, k) = PERM(i + PERM(j + PERM(k)))
+        return table[index[(a + index[(b + index[c & 255]) & 255]) & 255]]
+
+    (ix, iy, iz), (tx, ty, tz) = i.T, t.T
+    lerp = lambda f, a, b: a + f * (b - a)  # noqa: E731
+    x0 = lerp(tx, lattice(ix, iy, iz), lattice(ix + 1, iy, iz))
+    x1 = lerp(tx, lattice(ix, iy + 1, iz), lattice(ix + 1, iy + 1, iz))
+    x2 = lerp(tx, lattice(ix, iy, iz + 1), lattice(ix + 1, iy, iz + 1))
+    x3 = lerp(tx, lattice(ix, iy + 1, iz + 1), lattice(ix + 1, iy + 1, iz + 1))
+    return lerp(tz, lerp(ty, x0, x1), lerp(ty, x2, x3))
+
+
+def lecture_noise_float32(p, seed=0):
+    """The lecture's sample code as written: float, +10000, (int) truncation."""
+    table, index = N.tables(seed)
+    pp = p.astype(np.float32) + np.float32(10000)
+    i = pp.astype(np.int64)  # (int) truncates towards zero
+    t = (pp - i.astype(np.float32)).astype(np.float64)
+
+    def lattice(a, b, c):
+        return table[index[(a + index[(b + index[c & 255]) & 255]) & 255]]
+
+    (ix, iy, iz), (tx, ty, tz) = i.T, t.T
+    lerp = lambda f, a, b: a + f * (b - a)  # noqa: E731
+    x0 = lerp(tx, lattice(ix, iy, iz), lattice(ix + 1, iy, iz))
+    x1 = lerp(tx, lattice(ix, iy + 1, iz), lattice(ix + 1, iy + 1, iz))
+    x2 = lerp(tx, lattice(ix, iy, iz + 1), lattice(ix + 1, iy, iz + 1))
+    x3 = lerp(tx, lattice(ix, iy + 1, iz + 1), lattice(ix + 1, iy + 1, iz + 1))
+    return lerp(tz, lerp(ty, x0, x1), lerp(ty, x2, x3))
+
+
+def test_tables_are_the_lectures():
+    table, index = N.tables(3)
+    assert table.shape == (256,) and table.min() >= 0 and table.max() <= 1
+    assert sorted(index) == list(range(256))
+    assert np.array_equal(N.tables(3)[1], index) and not np.array_equal(N.tables(4)[1], index)
+
+
+def test_value_noise_is_the_lecture_formula():
+    p = RNG.random((5000, 3)) * 40 - 20
+    assert np.abs(N.noise(p) - reference_value_noise(p)).max() < 1e-12
+    assert np.array_equal(N.noise(p[:1] * 0 + [[3, -4, 5]]), [N.tables(0)[0][N.tables(0)[1][(3 + N.tables(0)[1][(-4 + N.tables(0)[1][5]) & 255]) & 255]]])
+
+
+@pytest.mark.parametrize("offset", [1e3, -1e3, 1e6, -1e6, 1e9, -1e9])
+def test_far_from_the_origin_matches_float64_reference(offset):
+    p = RNG.random((2000, 3)) * 10 + offset
+    for basis, interp in [("value", "linear"), ("value", "cubic")]:
+        ours = N.noise(p, basis=basis, interpolation=interp)
+        if interp == "linear":
+            assert np.abs(ours - reference_value_noise(p)).max() < 1e-5
+    # the lecture's float32 "+10000" scheme does not hold there
+    if abs(offset) >= 1e6:
+        assert np.abs(lecture_noise_float32(p) - reference_value_noise(p)).max() > 1e-2
+
+
+def test_lecture_scheme_breaks_below_minus_10000_and_ours_holds():
+    p = RNG.random((2000, 3)) * 5 - 10010  # all coordinates below -10000
+    assert np.abs(N.noise(p) - reference_value_noise(p)).max() < 1e-9
+    # (int) truncates towards zero below -10000: the lattice cell is off by one
+    assert np.abs(lecture_noise_float32(p) - reference_value_noise(p)).max() > 0.05
+
+
+@pytest.mark.parametrize("basis", ["value", "perlin"])
+def test_period_256(basis):
+    p = RNG.random((1000, 3)) * 256
+    k = RNG.integers(-4_000_000, 4_000_000, (1000, 3))
+    assert np.abs(N.noise(p, basis=basis) - N.noise(p + 256.0 * k, basis=basis)).max() < 1e-5
+
+
+@pytest.mark.parametrize("basis, interp", [("value", "linear"), ("value", "cubic"), ("value", "catmull-rom"), ("perlin", "linear")])
+@pytest.mark.parametrize("boundary", [-10001.0, -1.0, 0.0, 1.0, 1e6])
+def test_continuous_across_cell_boundaries(basis, interp, boundary):
+    eps = 1e-7  # well above float64 spacing at 1e6 (1.2e-10)
+    base = RNG.random((200, 3)) * 3
+    for axis in range(3):
+        a, b = base.copy(), base.copy()
+        a[:, axis], b[:, axis] = boundary - eps, boundary + eps
+        d = np.abs(N.noise(a, basis=basis, interpolation=interp) - N.noise(b, basis=basis, interpolation=interp))
+        assert d.max() < 1e-5  # slope times 2 eps; a jump would be ~0.1
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.floats(allow_nan=False, allow_infinity=False, width=64), min_size=3, max_size=3))
+def test_finite_for_every_finite_input(xyz):
+    p = np.array([xyz])
+    for basis in ("value", "perlin"):
+        for octaves in (1, 30):
+            v = N.octave_sum(p, None, octaves=octaves, basis=basis)
+            assert np.isfinite(v).all()
+    v = N.noise(p)
+    assert 0.0 <= v[0] <= 1.0
+
+
+def test_signed_zero_and_subnormals():
+    p = np.array([[0.0, 0.0, 0.0], [-0.0, -0.0, -0.0], [5e-324, -5e-324, 1e-310]])
+    v = N.noise(p)
+    assert np.isfinite(v).all() and abs(v[0] - v[1]) < 1e-15 and abs(v[0] - v[2]) < 1e-12
+
+
+def test_deterministic_by_seed():
+    p = RNG.random((500, 3)) * 10
+    assert np.array_equal(N.octave_sum(p, None, octaves=5, seed=7), N.octave_sum(p, None, octaves=5, seed=7))
+    assert not np.allclose(N.octave_sum(p, None, octaves=5, seed=7), N.octave_sum(p, None, octaves=5, seed=8))
+
+
+@pytest.mark.parametrize("basis", ["value", "perlin"])
+def test_octaves_finer_than_the_footprint_are_replaced_by_their_mean(basis):
+    # Texels at 10, 100 and 1000 times the noise frequency: with the footprint the values
+    # approach the mean (each octave is 0.5 on average) and their spread shrinks; point
+    # sampling keeps the full spread (it aliases).
+    n = 4000
+    p = RNG.random((n, 3)) * 50
+    norm = sum(0.5**k for k in range(8))
+    point = N.octave_sum(p, None, octaves=8, basis=basis) / norm
+    spreads = []
+    for ratio in (10, 100, 1000):
+        filtered = N.octave_sum(p, np.full(n, float(ratio)), octaves=8, basis=basis) / norm
+        spreads.append(filtered.std())
+        assert abs(filtered.mean() - 0.5) < 0.5 / ratio + 1e-12
+    assert spreads[0] < 0.2 * point.std() and spreads[2] <= spreads[1] <= spreads[0]
+    assert point.std() > 0.05
+
+
+def test_fading_is_continuous_in_the_footprint():
+    p = RNG.random((300, 3)) * 20
+    widths = np.geomspace(1e-4, 10, 400)
+    values = np.array([N.octave_sum(p, np.full(len(p), w), octaves=12) for w in widths])
+    assert np.abs(np.diff(values, axis=0)).max() < 0.05  # no jump as octaves drop out
