@@ -1,20 +1,45 @@
 """Image maps in and out with OpenImageIO, written atomically and checked.
 
-Dtype policy: pixels come in as ``(h, w, c)`` float linear values, row 0 at the top,
-c = 1, 3 or 4 (the 4th channel is alpha, never colour-encoded). PNG and 8/16-bit TIFF are
-written sRGB-encoded (colour space ``srgb_rec709_scene``); EXR (half or float) and 32-bit
-TIFF linear (``lin_rec709_scene``). ``read_image`` returns float32 linear values.
+Pixels come in as ``(h, w, c)`` float values, row 0 at the top, c = 1, 2, 3 or 4 (the
+last channel of 2 or 4 is alpha, never colour-encoded). Colour policy by format:
 
-A file is written under a temporary name beside its final one, read back in full and
-compared with what was meant to be written (OpenImageIO reports success on a PNG
-truncated by a full disk), and only then renamed into place.
+========  =========  =====================================  ==========================
+format    bits       stored as                              ``oiio:ColorSpace``
+========  =========  =====================================  ==========================
+png       8, 16      sRGB-encoded integers                  ``srgb_rec709_scene``
+tif       8, 16      sRGB-encoded integers                  ``srgb_rec709_scene``
+tif       32         linear float                           ``lin_rec709_scene``
+exr       16, 32     linear half / float, zip compression   ``lin_rec709_scene``
+========  =========  =====================================  ==========================
+
+``colorspace`` says what the given pixels are: ``"linear"`` (the default: scene-linear
+Rec.709 colour), ``"srgb"`` (already sRGB-encoded: stored as they are in integer files,
+decoded to linear for float files) or ``"data"`` (non-colour values such as normals or
+masks: stored as they are everywhere, tagged ``data``/``Raw``).
+
+OpenImageIO 3.2 names (its built-in config): ``srgb_rec709_scene`` and
+``lin_rec709_scene`` are canonical; ``"sRGB"`` and ``"linear"`` are accepted aliases, but
+``"scene_linear"`` is the ACEScg *role* (it is stored as ``lin_ap1_scene``: wrong
+primaries) and ``"Raw"`` is stored as ``data`` in EXR. PNG has no way to say "data": such
+a PNG is written without colour chunks and reads back as sRGB, so ``read_image`` also
+looks at the ``texbake:ColorSpace`` text field written beside it.
+
+A file is written under a temporary name beside its final one (same folder, so the
+rename is atomic), flushed to the disk, read back in full and compared with what was
+meant to be written (OpenImageIO reports success on a PNG truncated by a full disk), and
+only then renamed into place. On any failure the temporary file is removed and
+:class:`OutputError` names the path and the reason; nothing is ever left under the final
+name.
 """
 
 from __future__ import annotations
 
 import functools
 import os
+import struct
+import tempfile
 import uuid
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -23,9 +48,15 @@ from .errors import OutputError, ParameterError
 
 SRGB = "srgb_rec709_scene"
 LINEAR = "lin_rec709_scene"
+DATA = "data"
 BITS = {"png": (8, 16), "exr": (16, 32), "tif": (8, 16, 32)}
 _DEFAULT_BITS = {"png": 8, "exr": 16, "tif": 16}
+_EXTENSION = {"png": ".png", "exr": ".exr", "tif": ".tif"}
+_COLORSPACES = {"linear": "linear", "lin_rec709_scene": "linear", "srgb": "srgb", "srgb_rec709_scene": "srgb",
+                "data": "data", "raw": "data"}
 _BAND = 512  # rows encoded at a time (bounded memory)
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+_EXIF_SRGB, _EXIF_UNCALIBRATED = 1, 0xFFFF
 
 
 def srgb_encode(linear: np.ndarray) -> np.ndarray:
@@ -44,42 +75,79 @@ def _format(path: Path, fmt: str | None) -> str:
     f = (fmt or path.suffix).lower().lstrip(".")
     f = "tif" if f == "tiff" else f
     if f not in BITS:
-        raise ParameterError("format", f"expected one of {', '.join(BITS)}, got {f!r}")
+        raise ParameterError("format", f"expected png, exr, tif or tiff, got {f!r}")
     return f
 
 
-_LUT_LEVELS = 1 << 20  # linear levels of the 8-bit sRGB table: off by one level < 1e-4 of the time
+# -- exact 8-bit sRGB encoding, fast ------------------------------------------------------
+# A table over 2**20 linear levels gives round(255 * oetf(x)) off by one level for about
+# 1e-4 of the values (those close to a rounding threshold); each value is then moved to
+# the exact code by comparing it with the thresholds on either side of the table's code.
+
+_LUT_LEVELS = 1 << 20
 
 
 @functools.cache
-def _srgb8_table() -> np.ndarray:
-    return np.rint(srgb_encode(np.arange(_LUT_LEVELS) / (_LUT_LEVELS - 1)) * 255).astype(np.uint8)
+def _srgb8_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    table = np.rint(srgb_encode(np.arange(_LUT_LEVELS) / (_LUT_LEVELS - 1)) * 255).astype(np.uint8)
+    # code(x) > k  <=>  x >= decode((k + 0.5) / 255); as the smallest float32 at or above it
+    t = srgb_decode((np.arange(255) + 0.5) / 255)
+    t32 = t.astype(np.float32)
+    low = t32.astype(np.float64) < t
+    t32[low] = np.nextafter(t32[low], np.float32(np.inf))
+    above = np.append(t32, np.float32(np.inf))  # threshold to reach code + 1
+    below = np.insert(t32, 0, np.float32(-np.inf))  # threshold of the code itself
+    return table, above, below
 
 
-def _encode(pixels: np.ndarray, fmt: str, bits: int) -> tuple[np.ndarray, str]:
-    """The array to store (its dtype is the file's) and its colour space."""
+def _srgb8(x: np.ndarray) -> np.ndarray:
+    """``round(255 * srgb_encode(x))`` for float32 ``x`` in [0, 1], exactly, as uint8."""
+    table, above, below = _srgb8_tables()
+    code = table[(x * np.float32(_LUT_LEVELS - 1) + np.float32(0.5)).astype(np.int32)]
+    return (code + (x >= above[code]) - (x < below[code])).astype(np.uint8)
+
+
+def _encode(pixels: np.ndarray, fmt: str, bits: int, given: str) -> tuple[np.ndarray, str]:
+    """The array to store (its dtype is the file's) and the file's colour space."""
+    colour = 1 if pixels.shape[2] <= 2 else 3  # channels after these are alpha
     if fmt == "exr" or bits == 32:
-        return pixels.astype(np.float16 if bits == 16 else np.float32), LINEAR
+        data = pixels.astype(np.float16 if bits == 16 else np.float32)
+        if given == "srgb":
+            data[..., :colour] = srgb_decode(pixels[..., :colour])
+        return data, DATA if given == "data" else LINEAR
     dtype, top = (np.uint8, 255) if bits == 8 else (np.uint16, 65535)
     out = np.empty(pixels.shape, dtype=dtype)
-    colour = min(pixels.shape[2], 3) if pixels.shape[2] != 2 else 1
+    encode = given == "linear"
     for r in range(0, pixels.shape[0], _BAND):
-        band = np.clip(pixels[r : r + _BAND], 0.0, 1.0)
-        if bits == 8:  # table lookup: ten times faster than the power function
-            index = (band[..., :colour] * (_LUT_LEVELS - 1) + 0.5).astype(np.int32)
-            out[r : r + _BAND, :, :colour] = _srgb8_table()[index]
-        else:
+        # NaN is written as 0 and infinities clipped: integer files have no room for them
+        band = np.clip(np.nan_to_num(pixels[r : r + _BAND].astype(np.float32), nan=0.0), 0.0, 1.0)
+        if encode and bits == 8:
+            out[r : r + _BAND, :, :colour] = _srgb8(band[..., :colour])
+        elif encode:
             out[r : r + _BAND, :, :colour] = np.rint(srgb_encode(band[..., :colour].astype(np.float64)) * top)
-        out[r : r + _BAND, :, colour:] = np.rint(band[..., colour:] * top)
-    return out, SRGB
+        else:
+            out[r : r + _BAND, :, :colour] = np.rint(band[..., :colour] * np.float32(top))
+        out[r : r + _BAND, :, colour:] = np.rint(band[..., colour:] * np.float32(top))
+    return out, DATA if given == "data" else SRGB
 
 
-def write_image(path, pixels, *, fmt: str | None = None, bits: int | None = None) -> dict:
-    """Write ``(h, w, c)`` float linear ``pixels`` to ``path``; returns what was written.
+def _typedesc(dtype):
+    import OpenImageIO as oiio
 
-    ``fmt``: "png", "exr" or "tif" (default: from the extension); ``bits``: 8 or 16 for
-    PNG, 16 (half) or 32 (float) for EXR, 8, 16 or 32 (float) for TIFF.
-    Raises :class:`OutputError` if the file cannot be written completely.
+    return {np.uint8: oiio.UINT8, np.uint16: oiio.UINT16, np.float16: oiio.HALF, np.float32: oiio.FLOAT}[np.dtype(dtype).type]
+
+
+def write_image(path, pixels, *, fmt: str | None = None, bits: int | None = None, colorspace: str = "linear") -> dict:
+    """Write ``(h, w, c)`` float ``pixels`` (row 0 at the top) to ``path``.
+
+    ``fmt``: "png", "exr", "tif" or "tiff" (default: from the extension); ``bits``: 8 or
+    16 for PNG (default 8), 16 (half, default) or 32 (float) for EXR, 8, 16 (default) or
+    32 (float) for TIFF. ``colorspace``: what ``pixels`` hold, "linear", "srgb" or
+    "data" (see the module's notes). Returns what was written: path, format, bits,
+    colorspace (the file's), width, height, channels, bytes.
+
+    Raises :class:`ParameterError` for a bad format, bit depth, colour space or pixel
+    array and :class:`OutputError` if the file cannot be written completely.
     """
     import OpenImageIO as oiio  # pip install OpenImageIO
 
@@ -87,49 +155,175 @@ def write_image(path, pixels, *, fmt: str | None = None, bits: int | None = None
     fmt = _format(path, fmt)
     bits = _DEFAULT_BITS[fmt] if bits is None else bits
     if bits not in BITS[fmt]:
-        raise ParameterError("bits", f"{fmt} takes {' or '.join(map(str, BITS[fmt]))} bits, got {bits}")
+        raise ParameterError("bits", f"{fmt} takes {' or '.join(map(str, BITS[fmt]))} bits, got {bits!r}")
+    given = _COLORSPACES.get(str(colorspace).lower())
+    if given is None:
+        raise ParameterError("colorspace", f"expected linear, srgb or data, got {colorspace!r}")
     pixels = np.asarray(pixels)
     if pixels.ndim == 2:
         pixels = pixels[:, :, None]
     if pixels.ndim != 3 or pixels.shape[2] not in (1, 2, 3, 4) or 0 in pixels.shape:
         raise ParameterError("pixels", f"expected (h, w, 1-4) values, got shape {pixels.shape}")
-    data, colorspace = _encode(pixels, fmt, bits)
+    if not np.issubdtype(pixels.dtype, np.floating):
+        raise ParameterError("pixels", f"expected float values, got {pixels.dtype}")
+    data, stored = _encode(pixels, fmt, bits, given)
     h, w, c = data.shape
-    typedesc = {np.uint8: oiio.UINT8, np.uint16: oiio.UINT16, np.float16: oiio.HALF, np.float32: oiio.FLOAT}[data.dtype.type]
 
-    tmp = path.with_name(f".{path.stem}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}{path.suffix or '.' + fmt}")
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}{_EXTENSION[fmt]}")
     try:
-        spec = oiio.ImageSpec(w, h, c, typedesc)
-        spec.attribute("oiio:ColorSpace", colorspace)
+        spec = oiio.ImageSpec(w, h, c, _typedesc(data.dtype))
+        spec.attribute("oiio:ColorSpace", "Raw" if stored == DATA else stored)
         spec.attribute("Software", "texbake")
-        spec.attribute("oiio:UnassociatedAlpha", 1)  # alpha is coverage, not premultiplied
+        if stored == DATA:
+            spec.attribute("texbake:ColorSpace", DATA)  # PNG, TIFF cannot say it otherwise
+        if c in (2, 4):
+            spec.attribute("oiio:UnassociatedAlpha", 1)  # alpha is coverage, not premultiplied
         spec.attribute("compression", "zip")
         spec.attribute("png:compressionLevel", 3)  # most of the size for half the time
         if fmt == "tif":
-            spec.attribute("tiff:write_exif", 0)  # libtiff fails on OIIO's Exif directory
+            # libtiff fails ("TIFFWriteCustomDirectory() of the Exif data") on the Exif
+            # directory OIIO writes unless it holds a tag: the colour space is one.
+            spec.attribute("Exif:ColorSpace", _EXIF_SRGB if stored == SRGB else _EXIF_UNCALIBRATED)
         out = oiio.ImageOutput.create(str(tmp))
         if out is None:
-            raise OutputError(f"{path}: cannot create a {fmt} writer: {oiio.geterror()}")
-        ok = out.open(str(tmp), spec) and out.write_image(data)
+            raise OutputError(f"{path}: cannot create a {fmt} writer: {oiio.geterror() or 'unknown error'}")
+        ok = bool(out.open(str(tmp), spec))
         error = out.geterror()
-        ok = out.close() and ok
-        error = error or out.geterror()
+        if ok:
+            ok = bool(out.write_image(data))
+            error = error or out.geterror()
+        ok = bool(out.close()) and ok
+        error = error or out.geterror() or oiio.geterror()
         if not ok or error:
             raise OutputError(f"{path}: write failed: {error or 'unknown OpenImageIO error'}")
-        back = _read_raw(tmp, data.dtype)
-        if back.shape != data.shape or not np.array_equal(back, data):
-            raise OutputError(f"{path}: the written file does not read back intact (disk full?)")
+        _sync(tmp)
+        _verify(tmp, data, fmt)
         os.replace(tmp, path)
-    except OutputError:
-        tmp.unlink(missing_ok=True)
+    except OutputError as exc:
+        _remove(tmp)
+        if str(path) not in str(exc):
+            raise OutputError(f"{path}: {exc}") from None
         raise
     except OSError as exc:
-        tmp.unlink(missing_ok=True)
+        _remove(tmp)
         raise OutputError(f"{path}: {exc.strerror or exc}") from None
+    except BaseException:
+        _remove(tmp)
+        raise
     return {
-        "path": str(path), "format": fmt, "bits": bits, "colorspace": colorspace,
+        "path": str(path), "format": fmt, "bits": bits, "colorspace": stored,
         "width": w, "height": h, "channels": c, "bytes": path.stat().st_size,
     }
+
+
+def encode_png_bytes(pixels, bits: int = 8, *, colorspace: str = "linear") -> bytes:
+    """The bytes of a PNG of ``pixels`` (as :func:`write_image` writes it, checked)."""
+    with tempfile.TemporaryDirectory(prefix="texbake-png-") as folder:
+        target = Path(folder) / "image.png"
+        write_image(target, pixels, fmt="png", bits=bits, colorspace=colorspace)
+        return target.read_bytes()
+
+
+def _remove(path: Path) -> None:
+    try:
+        path.unlink(missing_ok=True)
+    except OSError:
+        pass
+
+
+def _sync(path: Path) -> None:
+    """Flush a written file to the disk: a full disk may only show here (delayed allocation)."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _verify(tmp: Path, data: np.ndarray, fmt: str) -> None:
+    """Read a written file back in full; raise OutputError unless it holds ``data``."""
+    if fmt == "png":
+        _check_png_chunks(tmp)
+    elif fmt == "tif":
+        _check_tiff_layout(tmp)
+    back = _read_raw(tmp, data.dtype)
+    if back.shape != data.shape:
+        raise OutputError(f"{tmp}: reads back as {back.shape[1]}x{back.shape[0]}x{back.shape[2]}, not {data.shape[1]}x{data.shape[0]}x{data.shape[2]} (disk full?)")
+    if not np.array_equal(back, data, equal_nan=data.dtype.kind == "f"):
+        raise OutputError(f"{tmp}: the written pixels do not read back intact (disk full?)")
+
+
+def _check_png_chunks(path: Path) -> None:
+    """Walk a PNG's chunks: each whole with a right CRC, IEND last at the end of the file.
+
+    libpng reads the pixels of a PNG cut short after its last IDAT without an error.
+    """
+    data = path.read_bytes()
+    if not data.startswith(_PNG_SIGNATURE):
+        raise OutputError(f"{path}: not a PNG file (truncated?)")
+    p = len(_PNG_SIGNATURE)
+    while True:
+        if p + 12 > len(data):
+            raise OutputError(f"{path}: truncated PNG (chunk header at byte {p}, disk full?)")
+        length, kind = struct.unpack_from(">I4s", data, p)
+        end = p + 12 + length
+        if end > len(data):
+            raise OutputError(f"{path}: truncated PNG ({kind.decode('latin-1')} chunk, disk full?)")
+        crc = struct.unpack_from(">I", data, end - 4)[0]
+        if zlib.crc32(data[p + 4 : end - 4]) != crc:
+            raise OutputError(f"{path}: corrupt PNG ({kind.decode('latin-1')} chunk CRC)")
+        p = end
+        if kind == b"IEND":
+            break
+    if p != len(data):
+        raise OutputError(f"{path}: {len(data) - p} stray bytes after the PNG's end")
+
+
+_TIFF_TYPE_SIZE = {1: 1, 2: 1, 3: 2, 4: 4, 5: 8, 6: 1, 7: 1, 8: 2, 9: 4, 10: 8, 11: 4, 12: 8, 13: 4}
+_TIFF_IFD_POINTERS = (34665, 34853, 40965, 330)  # Exif, GPS, interoperability, SubIFDs
+_TIFF_DATA = ((273, 279), (324, 325))  # strip / tile offsets and byte counts
+
+
+def _check_tiff_layout(path: Path) -> None:
+    """Every directory, tag value, strip and tile of a (classic) TIFF inside the file.
+
+    libtiff reads the pixels of a TIFF cut short in its trailing metadata without an
+    error. BigTIFF files (only written beyond 4 GB) are left to the pixel check.
+    """
+    data = path.read_bytes()
+    size = len(data)
+    if size < 8 or data[:2] not in (b"II", b"MM"):
+        raise OutputError(f"{path}: not a TIFF file (truncated?)")
+    e = "<" if data[:2] == b"II" else ">"
+    if struct.unpack_from(e + "H", data, 2)[0] != 42:
+        return  # BigTIFF
+    todo, seen = [struct.unpack_from(e + "I", data, 4)[0]], set()
+    while todo:
+        ifd = todo.pop()
+        if ifd == 0 or ifd in seen:
+            continue
+        seen.add(ifd)
+        if ifd + 2 > size:
+            raise OutputError(f"{path}: truncated TIFF (directory at byte {ifd}, disk full?)")
+        n = struct.unpack_from(e + "H", data, ifd)[0]
+        if ifd + 2 + 12 * n + 4 > size:
+            raise OutputError(f"{path}: truncated TIFF (directory at byte {ifd}, disk full?)")
+        tags = {}
+        for i in range(n):
+            tag, kind, count, value = struct.unpack_from(e + "HHII", data, ifd + 2 + 12 * i)
+            length = _TIFF_TYPE_SIZE.get(kind, 1) * count
+            if length > 4 and value + length > size:
+                raise OutputError(f"{path}: truncated TIFF (tag {tag} value, disk full?)")
+            if kind in (3, 4, 13) and count:
+                fmt = e + ("H" if kind == 3 else "I") * count
+                tags[tag] = struct.unpack_from(fmt, data, value if length > 4 else ifd + 2 + 12 * i + 8)
+        for tag in _TIFF_IFD_POINTERS:
+            todo.extend(tags.get(tag, ()))
+        for offsets, counts in _TIFF_DATA:
+            for offset, count in zip(tags.get(offsets, ()), tags.get(counts, ())):
+                if offset + count > size:
+                    raise OutputError(f"{path}: truncated TIFF (pixel data, disk full?)")
+        todo.append(struct.unpack_from(e + "I", data, ifd + 2 + 12 * n)[0])
 
 
 def _open(path: Path):
@@ -146,10 +340,9 @@ def _read_raw(path: Path, dtype) -> np.ndarray:
 
     inp = _open(path)
     if inp is None:
-        raise OutputError(f"{path}: cannot be read back: {oiio.geterror()}")
+        raise OutputError(f"{path}: cannot be read back: {oiio.geterror() or 'unknown error'}")
     try:
-        want = {np.uint8: oiio.UINT8, np.uint16: oiio.UINT16, np.float16: oiio.HALF, np.float32: oiio.FLOAT}[np.dtype(dtype).type]
-        data = inp.read_image(want)
+        data = inp.read_image(_typedesc(dtype))
         error = inp.geterror()
     finally:
         inp.close()
@@ -160,22 +353,38 @@ def _read_raw(path: Path, dtype) -> np.ndarray:
 
 
 def read_image(path) -> np.ndarray:
-    """``(h, w, c)`` float32 linear pixels of an image file (sRGB decoded where tagged)."""
+    """``(h, w, c)`` float32 pixels of an image file, row 0 at the top.
+
+    Colour channels of an sRGB file (by its ``oiio:ColorSpace``; an integer file that says
+    nothing counts as sRGB) are decoded to linear; linear and data files are returned as
+    stored (integers scaled to [0, 1]). Raises :class:`OutputError` if it cannot be read.
+    """
     import OpenImageIO as oiio
 
     inp = _open(path)
     if inp is None:
-        raise OutputError(f"{path}: cannot read: {oiio.geterror()}")
+        raise OutputError(f"{path}: cannot read: {oiio.geterror() or 'unknown error'}")
     try:
         spec = inp.spec()
         data = inp.read_image(oiio.FLOAT)
-        colorspace = str(spec.getattribute("oiio:ColorSpace") or "")
+        error = inp.geterror()
+        colorspace = str(spec.getattribute("oiio:ColorSpace") or "").lower()
+        ours = str(spec.getattribute("texbake:ColorSpace") or "").lower()
+        exif = spec.getattribute("Exif:ColorSpace")
         integer = spec.format.basetype in (oiio.UINT8, oiio.UINT16)
     finally:
         inp.close()
+    if data is None or error:
+        raise OutputError(f"{path}: cannot read: {error or 'no data'}")
     data = np.asarray(data, dtype=np.float32)
     data = data if data.ndim == 3 else data[:, :, None]
-    if "srgb" in colorspace.lower() or (integer and not colorspace):
-        colour = min(data.shape[2], 3) if data.shape[2] != 2 else 1
+    if ours == DATA:
+        srgb = False
+    elif colorspace:
+        srgb = "srgb" in colorspace
+    else:  # e.g. TIFF: Exif says sRGB (1) or uncalibrated (65535)
+        srgb = integer and exif != _EXIF_UNCALIBRATED
+    if srgb:
+        colour = 1 if data.shape[2] <= 2 else 3
         data[..., :colour] = srgb_decode(data[..., :colour])
     return data
