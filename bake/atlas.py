@@ -1,17 +1,33 @@
 """UV atlas: keep the mesh's own UVs when usable, or unwrap with xatlas.
 
-xatlas can hang, return NaN UVs or crash on bad input, so it only ever runs in child
-processes with a wall-clock deadline, on a copy of the mesh normalised to a unit box in
-float64, and what comes back is checked. Large meshes are cut into spatially coherent
-patches that are unwrapped in parallel; their charts, brought to one texel density, are
-then packed together in a single xatlas packing pass. When xatlas fails, a simple atlas
-with one chart per triangle is used instead and the report says why.
+xatlas hangs on some inputs (an infinite vertex, a mesh 1e20 units across), returns NaN
+UVs on others and segfaults on some (``trimesh.creation.icosphere(6)`` in one piece). So
+it only ever runs in worker processes (``bake._unwrap_worker``, fresh interpreters) under
+one wall-clock deadline, on a copy of the mesh normalised to a unit box in float64 before
+the cast to float32, and whatever comes back is checked.
+
+The unwrap has two stages. Charting: the mesh is cut into spatially coherent patches of
+about ``PATCH_FACES`` faces (one patch for small meshes) that the workers chart in
+parallel. Packing: each patch's charts are brought to one texel density (scaled by
+sqrt(3D area / UV area) of the patch), faces whose UV triangle collapsed get a small chart
+of their own, and all charts are packed together in a single xatlas packing pass at the
+texture's resolution and padding (one ``add_uv_mesh`` per patch). When that fails (crash, deadline, bad UVs) a one-piece
+attempt is retried in patches, and as a last resort every triangle gets its own cell of a
+grid ("fallback-grid"); ``Atlas.reason`` says what failed.
 """
 
 from __future__ import annotations
 
+import os
+import pickle
+import select
+import shutil
+import subprocess
+import sys
+import tempfile
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -19,17 +35,23 @@ from .errors import AtlasError, ParameterError
 
 MODES = ("auto", "unwrap", "keep")
 PATCH_FACES = 2000  # faces per patch of the parallel unwrap
+CHART_ITERATIONS = 1  # xatlas ChartOptions.max_iterations: half the time of 4, same quality here
+UV_EPS = 1e-6  # tolerance of the unit-square test of UVs
 
 
 @dataclass
 class Atlas:
-    """A UV layout for a mesh; the faces are the mesh's own, in the same order."""
+    """A UV layout for a mesh; the faces are the mesh's own, in the same order.
+
+    ``vertices[vmapping][faces] == vertices[input_faces]`` exactly: atlas vertex ``i``
+    is mesh vertex ``vmapping[i]`` (seams split mesh vertices into several).
+    """
 
     vmapping: np.ndarray  # (k,) int64: atlas vertex -> mesh vertex
-    faces: np.ndarray  # (m, 3) int64: faces in atlas-vertex indices
-    uv: np.ndarray  # (k, 2) float64 in [0, 1], v up
+    faces: np.ndarray  # (m, 3) int64: faces in atlas-vertex indices, same order as the mesh's
+    uv: np.ndarray  # (k, 2) float64 in [0, 1], OpenGL convention (v up)
     method: str  # "kept" | "xatlas" | "xatlas-patches" | "fallback-grid"
-    reason: str
+    reason: str  # why this method (and what failed before it)
     stats: dict = field(default_factory=dict)  # charts, utilisation, stretch, seconds
 
 
@@ -47,20 +69,28 @@ def _area(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return 0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1)
 
 
-def uv_problem(uv: np.ndarray | None, faces: np.ndarray) -> str | None:
-    """Why per-vertex ``(n, 2)`` UVs are not usable for ``(m, 3)`` faces, or None if they are.
+def uv_problem(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray | None) -> str | None:
+    """Why per-vertex UVs are not usable as an atlas of the mesh, or None if they are.
 
-    Usable: present, finite, inside the unit square (within 1e-6), and no face with zero
-    UV area.
+    Usable: given, one ``(u, v)`` row per vertex, finite, inside the unit square (within
+    ``UV_EPS``: a repeating texture's UVs are not an atlas) and every face with a UV
+    area above zero.
     """
     if uv is None:
         return "the mesh has no UVs"
     uv = np.asarray(uv, dtype=np.float64)
+    n = len(vertices)
+    if uv.ndim != 2 or uv.shape != (n, 2):
+        return f"the mesh's UVs have shape {uv.shape}, expected ({n}, 2)"
+    faces = np.asarray(faces)
+    if len(faces) == 0:
+        return "the mesh has no faces"
     used = uv[np.unique(faces)]
     if not np.isfinite(used).all():
         return "the mesh's UVs are not finite"
-    if used.min() < -1e-6 or used.max() > 1 + 1e-6:
-        return f"the mesh's UVs leave the unit square (range {used.min():.3g} to {used.max():.3g})"
+    lo, hi = used.min(), used.max()
+    if lo < -UV_EPS or hi > 1 + UV_EPS:
+        return f"the mesh's UVs leave the unit square (range {lo:.3g} to {hi:.3g})"
     zero = int((_uv_area(uv, faces) <= 0).sum())
     if zero:
         return f"{zero} faces have zero UV area"
@@ -68,17 +98,21 @@ def uv_problem(uv: np.ndarray | None, faces: np.ndarray) -> str | None:
 
 
 def atlas_stats(vertices, faces, uv_faces, uv) -> dict:
-    """Chart count, utilisation, stretch and zero-area faces of an atlas.
+    """Chart count, utilisation and stretch of an atlas (``uv_faces`` index ``uv``).
 
-    ``utilisation`` is the UV area covered (of the unit square). ``stretch`` is Sander
-    et al.'s L2 stretch normalised by the overall scale: 1.0 for a map that is an
-    isometry up to scale, larger with more distortion.
+    ``charts``: connected pieces of the UV mesh (faces sharing atlas vertices).
+    ``utilisation``: the UV area covered, as a fraction of the unit square.
+    ``stretch``: Sander et al.'s L2 stretch of the map from UV to the surface,
+    normalised so that 1.0 is an isometry up to one global scale. Per face,
+    ``L2^2 = (|dP/du|^2 + |dP/dv|^2) / 2``; over the mesh,
+    ``stretch = sqrt(sum(A3d * L2^2) / sum(A3d)) * sqrt(sum(Auv) / sum(A3d))``. It grows
+    with anisotropic distortion and with uneven texel density between faces (faces with
+    zero UV area are left out).
     """
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
-    k = len(uv)
-    m = len(uv_faces)
+    k, m = len(uv), len(uv_faces)
     rows = np.repeat(np.arange(m), 3)
     graph = coo_matrix((np.ones(3 * m), (rows, uv_faces.ravel() + m)), shape=(m + k, m + k))
     _, labels = connected_components(graph, directed=False)
@@ -96,253 +130,233 @@ def atlas_stats(vertices, faces, uv_faces, uv) -> dict:
     l2sq = 0.5 * (np.einsum("ij,ij->i", ps, ps) + np.einsum("ij,ij->i", pt, pt))
     a_uv = 0.5 * np.abs(det)
     a_3d = _area(vertices, faces)
-    if a_uv.sum() > 0 and a_3d.sum() > 0:
-        stretch = float(np.sqrt((a_uv * l2sq).sum() / a_uv.sum() * a_uv.sum() / a_3d.sum()))
+    w3, wuv = a_3d[ok].sum(), a_uv[ok].sum()
+    if w3 > 0 and wuv > 0:
+        stretch = float(np.sqrt((a_3d[ok] * l2sq[ok]).sum() / w3 * wuv / w3))
     else:
         stretch = float("inf")
-    return {
-        "charts": int(charts),
-        "utilisation": float(a_uv.sum()),
-        "stretch": stretch,
-        "zero_area_faces": int((~ok).sum()),
-    }
+    return {"charts": int(charts), "utilisation": float(a_uv.sum()), "stretch": stretch}
 
 
-def _valid(result, n_faces: int, n_vertices: int) -> str | None:
-    """Why an xatlas result ``(vmapping, faces, uv)`` is unusable, or None."""
-    vmapping, faces, uv = result
+def _problem(vmapping, faces, uv, n_faces: int, n_vertices: int, input_faces) -> str | None:
+    """Why an unwrap result is unusable, or None."""
     if faces.shape != (n_faces, 3):
-        return f"xatlas returned {len(faces)} faces for {n_faces}"
-    if len(vmapping) != len(uv) or (len(vmapping) and (vmapping.max() >= n_vertices)):
-        return "xatlas returned an inconsistent vertex mapping"
-    if not np.isfinite(uv).all() or uv.min() < -1e-6 or uv.max() > 1 + 1e-6:
-        return "xatlas returned UVs that are not finite or leave the unit square"
-    # Tiny faces can round to zero UV area in float32: tolerate a few (they get no texel).
+        return f"{len(faces)} faces came back for {n_faces}"
+    if len(vmapping) != len(uv) or (len(vmapping) and (vmapping.min() < 0 or vmapping.max() >= n_vertices)):
+        return "the vertex mapping is inconsistent"
+    if len(faces) and (faces.min() < 0 or faces.max() >= len(uv)):
+        return "the faces index missing UV vertices"
+    if not np.array_equal(vmapping[faces], input_faces):
+        return "the faces do not match the mesh's faces"
+    if not np.isfinite(uv).all():
+        return "the UVs are not finite"
+    if uv.min() < -UV_EPS or uv.max() > 1 + UV_EPS:
+        return f"the UVs leave the unit square ({uv.min():.3g} to {uv.max():.3g})"
     zero = int((_uv_area(uv, faces) <= 0).sum())
-    if zero > max(1, n_faces // 1000):
-        return f"xatlas returned {zero} faces with zero UV area"
+    if zero:
+        return f"{zero} faces have zero UV area"
     return None
 
 
-# -- xatlas in child processes -----------------------------------------------------
-
-
-def _pack_options(size: int, padding: int, texels_per_unit: float = 0.0):
-    import xatlas
-
-    po = xatlas.PackOptions()
-    po.resolution = size
-    po.texels_per_unit = texels_per_unit
-    po.padding = padding
-    po.bilinear = True
-    return po
-
-
-def _chart_patches(positions, patches, size, padding, texels_per_unit=0.0):
-    """Unwrap each patch (list of (m, 3) uint32 face arrays) with xatlas; child side.
-
-    Returns per patch ``(vmapping, indices, uv)`` with ``uv`` in texels of a square
-    atlas of ``size`` texels, or, when ``texels_per_unit`` is given, in texels at that
-    density (the atlas as large as it needs to be: its charts are packed again later).
-    """
-    import xatlas
-
-    out = []
-    for faces in patches:
-        used, local = np.unique(faces, return_inverse=True)
-        atlas = xatlas.Atlas()
-        atlas.add_mesh(positions[used], local.reshape(-1, 3).astype(np.uint32))
-        if texels_per_unit:
-            atlas.generate(pack_options=_pack_options(0, padding, texels_per_unit))
-        else:
-            atlas.generate(pack_options=_pack_options(size, padding))
-            if atlas.atlas_count > 1:  # did not fit one page: let it grow, scale it down
-                atlas.generate(pack_options=_pack_options(0, padding))
-        if atlas.atlas_count != 1:
-            raise RuntimeError(f"xatlas made {atlas.atlas_count} atlases, expected 1")
-        vmapping, indices, uv = atlas[0]
-        texels = uv.astype(np.float64) * [atlas.width, atlas.height]
-        out.append((used[vmapping], indices, texels, (atlas.width, atlas.height)))
-    return out
-
-
-def _shelf_pack(sizes: np.ndarray) -> tuple[np.ndarray, float]:
-    """Place ``(n, 2)`` rectangles (width, height) without overlap in a near-square.
-
-    Shelves of decreasing height, several shelf widths tried (on these charts a
-    skyline packer did no better). Returns ``(n, 2)`` lower left corners and the side
-    of the square that holds them all.
-    """
-    order = np.argsort(-sizes[:, 1], kind="stable")
-    best = None
-    total = float((sizes[:, 0] * sizes[:, 1]).sum())
-    for fill in (1.0, 0.95, 0.9, 0.85, 0.8, 0.75):
-        width = max(np.sqrt(total / fill), sizes[:, 0].max())
-        corners = np.zeros_like(sizes)
-        x = y = shelf = 0.0
-        for i in order:
-            w, h = sizes[i]
-            if x + w > width:
-                x, y, shelf = 0.0, y + shelf, 0.0
-            corners[i] = (x, y)
-            x += w
-            shelf = max(shelf, h)
-        side = max((corners + sizes).max(axis=0))
-        if best is None or side < best[1]:
-            best = (corners, side)
-    return best
-
-
-def _run_children(function, jobs: list[tuple], deadline: float) -> list:
-    """Run ``function(*args)`` for each args tuple in its own process, all at once.
-
-    Returns the results in order. Raises ``_XatlasFailed`` when one raises, dies (a
-    segfault) or is still running at the deadline (then all are killed).
-    """
-    import os
-    import pickle
-    import subprocess
-    import sys
-    import tempfile
-
-    running = []
-    with tempfile.TemporaryDirectory(prefix="texbake-xatlas-") as tmp:
-        try:
-            for i, args in enumerate(jobs):
-                job = os.path.join(tmp, f"job{i}.pickle")
-                with open(job, "wb") as f:
-                    pickle.dump((__name__, function.__name__, args), f, protocol=pickle.HIGHEST_PROTOCOL)
-                running.append(
-                    subprocess.Popen(
-                        [sys.executable, "-m", "bake._child", job],
-                        stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL,
-                    )
-                )
-            end = time.monotonic() + deadline
-            results = []
-            for p in running:
-                try:
-                    out, _ = p.communicate(timeout=max(0.0, end - time.monotonic()))
-                except subprocess.TimeoutExpired:
-                    raise _XatlasFailed(f"xatlas took longer than the deadline of {deadline:g} s") from None
-                if p.returncode != 0 or not out:
-                    raise _XatlasFailed(f"xatlas crashed (exit code {p.returncode})")
-                status, value = pickle.loads(out)
-                if status != "ok":
-                    raise _XatlasFailed(f"xatlas failed: {value}")
-                results.append(value)
-            return results
-        finally:
-            for p in running:
-                if p.poll() is None:
-                    p.kill()
-                p.wait()
-                if p.stdout:
-                    p.stdout.close()
+# -- xatlas workers ----------------------------------------------------------------
 
 
 class _XatlasFailed(Exception):
     pass
 
 
+_ROOT = str(Path(__file__).resolve().parents[1])  # the folder that holds the package
+
+
+class _Workers:
+    """Up to ``n`` xatlas worker processes sharing one wall-clock end (``time.monotonic``).
+
+    Started lazily, reused for every job of a :func:`make_atlas` call, and replaced when
+    one dies. Use as a context manager: leaving it ends them all (terminate, then kill).
+    """
+
+    def __init__(self, n: int, end: float):
+        self.n = max(1, n)
+        self.end = end
+        self.idle: list[subprocess.Popen] = []
+        self.all: list[subprocess.Popen] = []
+        self.tmp = tempfile.mkdtemp(prefix="texbake-xatlas-")
+        self.count = 0
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def _start(self) -> subprocess.Popen:
+        env = dict(os.environ)
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (_ROOT, env.get("PYTHONPATH")) if p)
+        p = subprocess.Popen(
+            [sys.executable, "-m", "bake._unwrap_worker"],
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+            bufsize=0, env=env, cwd=self.tmp,
+        )
+        self.all.append(p)
+        return p
+
+    def _end(self, p: subprocess.Popen) -> int | None:
+        if p.poll() is None:
+            p.terminate()
+            try:
+                p.wait(0.5)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
+        for s in (p.stdin, p.stdout):
+            try:
+                s.close()
+            except OSError:
+                pass
+        if p in self.idle:
+            self.idle.remove(p)
+        return p.returncode
+
+    def close(self) -> None:
+        for p in self.all:
+            if p.poll() is None and p.stdin and not p.stdin.closed:
+                try:  # polite end: an empty line
+                    p.stdin.write(b"\n")
+                    p.stdin.flush()
+                except OSError:
+                    pass
+        for p in self.all:
+            try:
+                p.wait(0.2)
+            except subprocess.TimeoutExpired:
+                pass
+            self._end(p)
+        self.all.clear()
+        shutil.rmtree(self.tmp, ignore_errors=True)
+
+    def run(self, jobs: list[tuple[str, tuple]]) -> list[tuple[bool, object]]:
+        """Run ``(kind, args)`` jobs; per job ``(True, result)`` or ``(False, why)``.
+
+        ``why`` is "timeout" for jobs not done at the end (then every worker is ended),
+        "exit code N" for a worker that died, or the child's exception message.
+        """
+        results: list = [None] * len(jobs)
+        pending = list(range(len(jobs)))[::-1]
+        busy: dict[int, tuple[subprocess.Popen, int, bytearray]] = {}  # fd -> proc, job, buffer
+        while pending or busy:
+            while pending and (self.idle or len(self.all) - sum(p.poll() is not None for p in self.all) < self.n):
+                p = self.idle.pop() if self.idle else self._start()
+                i = pending.pop()
+                path = os.path.join(self.tmp, f"job{self.count}.pickle")
+                self.count += 1
+                with open(path, "wb") as f:
+                    pickle.dump(jobs[i], f, protocol=pickle.HIGHEST_PROTOCOL)
+                try:
+                    p.stdin.write(path.encode() + b"\n")  # a short line: never blocks
+                    p.stdin.flush()
+                except OSError:
+                    results[i] = (False, f"exit code {self._end(p)}")
+                    continue
+                busy[p.stdout.fileno()] = (p, i, bytearray())
+            if not busy:
+                continue
+            left = self.end - time.monotonic()
+            ready = select.select(list(busy), [], [], max(0.0, left))[0] if left > 0 else []
+            if not ready and time.monotonic() >= self.end:
+                for p, i, _ in busy.values():
+                    self._end(p)
+                    results[i] = (False, "timeout")
+                for i in pending:
+                    results[i] = (False, "timeout")
+                return results
+            for fd in ready:
+                p, i, buf = busy[fd]
+                data = os.read(fd, 1 << 22)
+                if not data:  # died (a segfault: negative exit code)
+                    del busy[fd]
+                    try:
+                        p.wait(1.0)
+                    except subprocess.TimeoutExpired:
+                        pass
+                    results[i] = (False, f"exit code {self._end(p)}")
+                    continue
+                buf += data
+                if len(buf) >= 8 and len(buf) >= 8 + int.from_bytes(buf[:8], "little"):
+                    del busy[fd]
+                    status, value = pickle.loads(bytes(buf[8:]))
+                    results[i] = (status == "ok", value)
+                    self.idle.append(p)
+        return results
+
+
+def _describe(why: str, deadline: float) -> str:
+    if why == "timeout":
+        return f"xatlas timed out after {deadline:g} s"
+    if why.startswith("exit code"):
+        return f"xatlas crashed ({why})"
+    return f"xatlas failed ({why})"
+
+
+def _run_xatlas_in_child(positions: np.ndarray, faces: np.ndarray, deadline: float, *, size: int = 1024,
+                         padding: int = 2) -> tuple[bool, object]:
+    """Chart and pack ``(n, 3)`` float32 positions, as given, in one worker; a test hook.
+
+    Returns ``(True, (vmapping, faces, uv))`` or ``(False, why)`` once the worker is
+    done, dead, or past ``deadline`` seconds (then it is killed).
+    """
+    start = time.monotonic()
+    with _Workers(1, start + deadline) as workers:
+        ((ok, value),) = workers.run([("chart", (np.asarray(positions, np.float32), np.asarray(faces, np.uint32),
+                                                 CHART_ITERATIONS))])
+        if not ok:
+            return False, _describe(value, deadline)
+        vmap, idx, uv = value
+        ((ok, value),) = workers.run([("pack", ([(uv.astype(np.float32), idx)], size, padding))])
+        if not ok:
+            return False, _describe(value, deadline)
+        ((v2, idx2, uv2),), _ = value
+        return True, (vmap[v2].astype(np.int64), idx2.astype(np.int64), uv2)
+
+
+# -- the unwrap ----------------------------------------------------------------------
+
+
 def _normalised(vertices: np.ndarray) -> np.ndarray:
-    """``(n, 3)`` float32 copy of the vertices in a unit box (computed in float64)."""
+    """``(n, 3)`` float64 copy of the vertices centred in a box of largest side 1."""
     lo, hi = vertices.min(axis=0), vertices.max(axis=0)
-    scale = float(np.max(hi - lo)) or 1.0
-    return ((vertices - 0.5 * (lo + hi)) / scale).astype(np.float32)
+    scale = float(np.max(hi - lo))
+    if not scale > 0 or not np.isfinite(scale):
+        scale = 1.0
+    return (vertices - 0.5 * (lo + hi)) / scale
 
 
 def _patches(vertices: np.ndarray, faces: np.ndarray, target: int) -> list[np.ndarray]:
-    """Face index arrays of spatially coherent patches of about ``target`` faces.
+    """Face index arrays of spatially coherent patches of at most ``target`` faces.
 
-    Recursive bisection of face centroids at the median of the longest axis.
+    Recursive bisection of the face centroids at the median of the longest axis.
     """
     centroids = vertices[faces].mean(axis=1)
     stack, out = [np.arange(len(faces))], []
     while stack:
         idx = stack.pop()
         if len(idx) <= target:
-            out.append(idx)
+            if len(idx):
+                out.append(idx)
             continue
         c = centroids[idx]
         axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
         order = idx[np.argsort(c[:, axis], kind="stable")]
         half = len(order) // 2
-        stack += [order[:half], order[half:]]
+        stack += [order[half:], order[:half]]
     return out
 
 
-def _unwrap(vertices, faces, size, padding, deadline, workers, patch_faces):
-    """xatlas atlas ``(vmapping, faces, uv, method)``; raises ``_XatlasFailed``."""
-    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
-    positions = _normalised(vertices)
-    f32 = faces.astype(np.uint32)
-    if patch_faces is None or len(faces) <= 2 * patch_faces:
-        (result,) = _run_children(_chart_patches, [(positions, [f32], size, padding)], deadline)
-        vmap, idx, texels, (w, h) = result[0]
-        return vmap, idx, texels / max(w, h), "xatlas"
+def _flat_triangles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``(m, 3, 2)`` each triangle laid flat in 2D by its edge lengths (same size).
 
-    # Patches are unwrapped in parallel at the texel density of the final atlas (about
-    # 70 % of a size x size texture); then all their charts are packed together.
-    density = size * np.sqrt(0.7 / _area(vertices, faces).sum())  # texels per unit
-    density *= float(np.max(hi - lo)) or 1.0  # in the normalised positions' units
-    patches = _patches(vertices, faces, patch_faces)
-    shares = [patches[w::workers] for w in range(workers)]
-    jobs = [(positions, [f32[p] for p in share], size, padding, density) for share in shares if share]
-    done = [r for rs in _run_children(_chart_patches, jobs, deadline) for r in rs]
-    order = [p for share in shares for p in share]
-    texels, maps, all_faces, offset = [], [], np.empty((len(faces), 3), dtype=np.int64), 0
-    for face_ids, (vmap, idx, uv, _) in zip(order, done):
-        texels.append(uv)
-        maps.append(vmap.astype(np.int64))
-        all_faces[face_ids] = idx.astype(np.int64) + offset
-        offset += len(uv)
-    uv = _pack_charts(np.concatenate(texels), all_faces, padding)
-    return np.concatenate(maps), all_faces, uv, "xatlas-patches"
-
-
-def _chart_labels(faces: np.ndarray, n_vertices: int) -> np.ndarray:
-    """``(n_vertices,)`` chart number of each atlas vertex (faces sharing vertices)."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    m = len(faces)
-    graph = coo_matrix((np.ones(3 * m), (np.repeat(np.arange(m), 3), faces.ravel() + m)), shape=(m + n_vertices,) * 2)
-    return connected_components(graph, directed=False)[1][m:]
-
-
-def _pack_charts(texels: np.ndarray, faces: np.ndarray, padding: int) -> np.ndarray:
-    """Pack the charts of ``(k, 2)`` texel-space UVs into the unit square, ``padding``
-    texels apart, keeping their scale; returns ``(k, 2)`` UVs."""
-    label = _chart_labels(faces, len(texels))
-    _, label = np.unique(label, return_inverse=True)
-    n = label.max() + 1
-
-    def boxes(t):
-        lo, hi = np.full((n, 2), np.inf), np.full((n, 2), -np.inf)
-        np.minimum.at(lo, label, t)
-        np.maximum.at(hi, label, t)
-        return lo, hi
-
-    # Lay every chart on its long side (a quarter turn for tall ones): even shelves.
-    lo, hi = boxes(texels)
-    tall = (hi - lo)[:, 1] > (hi - lo)[:, 0]
-    turn = tall[label]
-    texels = np.where(turn[:, None], np.column_stack([texels[:, 1], -texels[:, 0]]), texels)
-    lo, hi = boxes(texels)
-    corners, side = _shelf_pack(hi - lo + padding)
-    return (texels - lo[label] + corners[label] + 0.5 * padding) / side
-
-
-def _grid_atlas(vertices: np.ndarray, faces: np.ndarray, padding: float):
-    """One chart per triangle, each in its own cell of a square grid: always works.
-
-    ``padding`` is the gap around each triangle in UV units (at most a quarter cell).
-
-    Each triangle keeps its shape (laid flat by its edge lengths), scaled to its cell.
+    A degenerate triangle becomes a unit right triangle (so it still has a UV area).
     """
     m = len(faces)
-    g = int(np.ceil(np.sqrt(m)))
     t = vertices[faces]
     ab = np.linalg.norm(t[:, 1] - t[:, 0], axis=1)
     e2 = t[:, 2] - t[:, 0]
@@ -353,12 +367,99 @@ def _grid_atlas(vertices: np.ndarray, faces: np.ndarray, padding: float):
     flat[:, 2, 0] = cx
     flat[:, 2, 1] = cy
     flat -= flat.min(axis=1, keepdims=True)
+    area = 0.5 * np.abs(flat[:, 1, 0] * flat[:, 2, 1] - flat[:, 1, 1] * flat[:, 2, 0])
     extent = flat.max(axis=(1, 2))
-    flat /= np.where(extent > 0, extent, 1)[:, None, None]
-    degenerate = _uv_area(flat.reshape(-1, 2), np.arange(3 * m).reshape(m, 3)) <= 0
-    flat[degenerate] = [[0, 0], [1, 0], [0, 1]]  # keep every face addressable
+    bad = ~(area > 1e-12 * np.maximum(extent, 1e-300) ** 2) | ~np.isfinite(flat).all(axis=(1, 2))
+    flat[bad] = [[0, 0], [1, 0], [0, 1]]
+    return flat
+
+
+def _unwrap(vertices, faces, size, padding, end, deadline, workers, patch_faces):
+    """xatlas atlas ``(vmapping, faces, uv, method, charting_patches)``; raises ``_XatlasFailed``."""
+    pos = _normalised(vertices)
+    pos32 = pos.astype(np.float32)
+    m = len(faces)
+    # Faces that are degenerate in float32 are kept away from xatlas (they give NaNs)
+    # and get a small chart of their own below.
+    area32 = _area(pos32.astype(np.float64), faces)
+    good = np.flatnonzero(area32 > 0)
+    if patch_faces is None or len(good) <= 2 * patch_faces:
+        patches = [good] if len(good) else []
+    else:
+        patches = [good[p] for p in _patches(pos, faces[good], patch_faces)]
+    jobs, used_of = [], []
+    for p in patches:
+        used, local = np.unique(faces[p], return_inverse=True)
+        used_of.append(used)
+        jobs.append(("chart", (pos32[used], local.reshape(-1, 3).astype(np.uint32), CHART_ITERATIONS)))
+
+    with _Workers(min(workers, max(1, len(jobs))), end) as pool:
+        done = pool.run(jobs)
+        for (ok, value), p in zip(done, patches):
+            if not ok:
+                what = _describe(value, deadline)
+                raise _XatlasFailed(what if len(patches) == 1 else f"{what} on a patch of {len(p)} faces")
+
+        # Each patch's charts at one texel density (world units of ``pos``), one UV mesh
+        # per patch: xatlas' add_uv_mesh merges touching or overlapping charts of one
+        # mesh, so charts of different patches must not share a mesh.
+        meshes = []  # (face ids, atlas vertex -> mesh vertex, uv, local faces)
+        lost = [np.setdiff1d(np.arange(m), good)]
+        for (_, (vmap, idx, uv)), p, used in zip(done, patches, used_of):
+            idx = idx.astype(np.int64)
+            if idx.shape != (len(p), 3) or not np.isfinite(uv).all():
+                raise _XatlasFailed("xatlas returned bad UVs for a patch")
+            a_uv = _uv_area(uv, idx)
+            if not a_uv.sum() > 0:
+                raise _XatlasFailed("xatlas returned UVs of zero area for a patch")
+            keep = a_uv > 0
+            lost.append(p[~keep])
+            if keep.any():
+                scale = np.sqrt(_area(pos, faces[p]).sum() / a_uv.sum())
+                meshes.append((p[keep], used[vmap.astype(np.int64)], uv * scale, idx[keep]))
+        # Faces left out or collapsed to zero UV area: a chart each, about 2 texels wide.
+        lost = np.concatenate(lost)
+        if len(lost):
+            total = max(_area(pos, faces).sum(), 1e-30)
+            texel = np.sqrt(total / 0.7) / size  # world units per texel, roughly
+            flat = _flat_triangles(pos, faces[lost])
+            flat *= (2 * texel / flat.max(axis=(1, 2)))[:, None, None]
+            flat[:, :, 0] += (np.arange(len(lost)) * 4 * texel)[:, None]
+            meshes.append((lost, faces[lost].reshape(-1), flat.reshape(-1, 2), np.arange(3 * len(lost)).reshape(-1, 3)))
+
+        pack_in = [(uv.astype(np.float32), idx.astype(np.uint32)) for _, _, uv, idx in meshes]
+        ((ok, value),) = pool.run([("pack", (pack_in, size, padding))])
+        if not ok:
+            raise _XatlasFailed(f"{_describe(value, deadline)} while packing")
+    packed, _info = value
+    if len(packed) != len(meshes):
+        raise _XatlasFailed("xatlas' packing lost meshes")
+    maps, uvs, out_faces, offset = [], [], np.full((m, 3), -1, dtype=np.int64), 0
+    for (face_ids, vmap, _, _), (vm2, idx2, uv2) in zip(meshes, packed):
+        if idx2.shape != (len(face_ids), 3):
+            raise _XatlasFailed("xatlas' packing changed the faces")
+        maps.append(vmap[vm2.astype(np.int64)])
+        uvs.append(uv2)
+        out_faces[face_ids] = idx2.astype(np.int64) + offset
+        offset += len(uv2)
+    vmapping = np.concatenate(maps)
+    idx, uv = out_faces, np.concatenate(uvs)
+    method = "xatlas-patches" if len(patches) > 1 else "xatlas"
+    return vmapping, idx.astype(np.int64), uv.astype(np.float64), method, len(patches)
+
+
+def _grid_atlas(vertices: np.ndarray, faces: np.ndarray, padding: float):
+    """One chart per triangle, each in its own cell of a square grid: always works.
+
+    Each triangle keeps its shape (laid flat by its edge lengths), scaled to fill its
+    cell less ``padding`` (UV units, at most a quarter cell) on every side.
+    """
+    m = len(faces)
+    g = int(np.ceil(np.sqrt(m)))
+    flat = _flat_triangles(_normalised(vertices), faces)
+    flat /= flat.max(axis=(1, 2))[:, None, None]
     cell = 1.0 / g
-    pad = min(padding, cell / 4)  # in UV units
+    pad = min(padding, cell / 4)
     inner = cell - 2 * pad
     origin = np.stack([np.arange(m) % g, np.arange(m) // g], axis=1) * cell + pad
     uv = (origin[:, None, :] + flat * inner).reshape(-1, 2)
@@ -375,45 +476,84 @@ def make_atlas(
     padding: int = 2,
     deadline: float = 120.0,
     workers: int = 2,
-    patch_faces: int | None = PATCH_FACES,
+    _patch_faces: int | None = PATCH_FACES,
 ) -> Atlas:
     """A UV atlas for ``(n, 3)`` float64 vertices and ``(m, 3)`` int faces.
 
-    ``uv``: ``(n, 2)`` per-vertex UVs or None. ``mode``: "auto" keeps usable UVs and
-    unwraps otherwise, "unwrap" always unwraps, "keep" requires usable UVs. ``size``
-    and ``padding`` (texels) set xatlas' packing; ``deadline`` bounds its wall time;
-    meshes of more than ``2 * patch_faces`` faces are unwrapped in patches of about
-    ``patch_faces`` faces by ``workers`` processes (``patch_faces=None``: in one piece).
+    ``uv``: ``(n, 2)`` per-vertex UVs or None. ``mode``: "auto" keeps usable UVs (see
+    :func:`uv_problem`) and unwraps otherwise, "unwrap" always unwraps, "keep" requires
+    usable UVs (:class:`AtlasError` otherwise). ``size`` (texels of the square texture)
+    and ``padding`` (texels between charts) set xatlas' packing; ``deadline`` bounds the
+    wall time of all xatlas work, in ``workers`` processes. Meshes of more than
+    ``2 * PATCH_FACES`` faces are charted in patches in parallel (``_patch_faces=None``:
+    in one piece, for tests). If xatlas fails the result is a "fallback-grid" atlas and
+    ``reason`` says what failed. ``stats``: see :func:`atlas_stats`, plus ``seconds``.
     """
+    start = time.perf_counter()
     if mode not in MODES:
         raise ParameterError("uv", f"expected one of {', '.join(MODES)}, got {mode!r}")
+    for name, value, ok in (
+        ("size", size, isinstance(size, (int, np.integer)) and 1 <= size <= 65536),
+        ("padding", padding, isinstance(padding, (int, np.integer)) and 0 <= padding <= 64),
+        ("deadline", deadline, isinstance(deadline, (int, float)) and deadline > 0),
+        ("workers", workers, isinstance(workers, (int, np.integer)) and workers >= 1),
+    ):
+        if not ok:
+            raise ParameterError(name, f"out of range or of the wrong type: {value!r}")
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
-    start = time.perf_counter()
+    if vertices.ndim != 2 or vertices.shape[1] != 3 or faces.ndim != 2 or faces.shape[1] != 3:
+        raise AtlasError(f"expected (n, 3) vertices and (m, 3) faces, got {vertices.shape} and {faces.shape}")
+    if len(faces) == 0:
+        raise AtlasError("the mesh has no faces")
+    if faces.min() < 0 or faces.max() >= len(vertices):
+        raise AtlasError("the mesh's faces index missing vertices")
+    if not np.isfinite(vertices[np.unique(faces)]).all():
+        raise AtlasError("the mesh's vertices are not finite")
+
+    def stats_of(vm, fa, u):
+        s = atlas_stats(vertices, faces, fa, u)
+        s["seconds"] = time.perf_counter() - start
+        return s
+
     if mode != "unwrap":
-        problem = uv_problem(uv, faces)
+        problem = uv_problem(vertices, faces, uv)
         if problem is None:
             uv = np.asarray(uv, dtype=np.float64)
-            stats = atlas_stats(vertices, faces, faces, uv)
-            stats["seconds"] = time.perf_counter() - start
-            return Atlas(np.arange(len(uv)), faces, uv, "kept", "the mesh's UVs are usable", stats)
+            vm = np.arange(len(vertices), dtype=np.int64)
+            return Atlas(vm, faces, uv, "kept", "the mesh's UVs are usable", stats_of(vm, faces, uv))
         if mode == "keep":
             raise AtlasError(f"uv='keep' but {problem}")
         why = problem
     else:
         why = "uv='unwrap'"
 
-    try:
-        vmapping, afaces, auv, method = _unwrap(vertices, faces, size, padding, deadline, max(1, workers), patch_faces)
-        result = (vmapping.astype(np.int64), afaces.astype(np.int64), auv.astype(np.float64))
-        bad = _valid(result, len(faces), len(vertices))
-        if bad:
-            raise _XatlasFailed(bad)
-        reason = f"unwrapped: {why}"
-    except _XatlasFailed as exc:
-        vmapping, afaces, auv = _grid_atlas(vertices, faces, padding / max(size, 1))
-        result = (vmapping, afaces, auv)
-        method, reason = "fallback-grid", f"unwrapped ({why}) with one chart per triangle: {exc}"
-    stats = atlas_stats(vertices, faces, result[1], result[2])
-    stats["seconds"] = time.perf_counter() - start
-    return Atlas(*result, method, reason, stats)
+    end = time.monotonic() + deadline
+    failures = []
+    attempts = [_patch_faces]
+    if _patch_faces is None and len(faces) > 2 * PATCH_FACES:
+        attempts.append(PATCH_FACES)  # e.g. icosphere(6) crashes xatlas in one piece
+    elif _patch_faces is not None and len(faces) > 2 * _patch_faces:
+        attempts.append(max(250, _patch_faces // 4))  # smaller patches may get through
+    for patch_faces in attempts:
+        if time.monotonic() >= end:
+            break
+        try:
+            vm, fa, u, method, _ = _unwrap(vertices, faces, size, padding, end, deadline, workers, patch_faces)
+        except _XatlasFailed as exc:
+            failures.append(str(exc))
+            if "timed out" in str(exc):
+                break
+            continue
+        bad = _problem(vm, fa, u, len(faces), len(vertices), faces)
+        if bad is None:
+            retried = f" (after: {'; '.join(failures)})" if failures else ""
+            return Atlas(vm, fa, u, method, f"{why}{retried}", stats_of(vm, fa, u))
+        failures.append(f"xatlas returned an unusable atlas: {bad}")
+
+    vm, fa, u = _grid_atlas(vertices, faces, padding / size)
+    bad = _problem(vm, fa, u, len(faces), len(vertices), faces)
+    if bad is not None:
+        raise AtlasError(f"no atlas could be made ({'; '.join(failures)}; grid atlas: {bad})")
+    reason = f"{why}; {'; '.join(failures) or 'xatlas was not run'}; used fallback"
+    return Atlas(vm, fa, u, "fallback-grid", reason, stats_of(vm, fa, u))
