@@ -19,7 +19,11 @@ from __future__ import annotations
 
 import functools
 
+import numba as nb  # pip install numba
 import numpy as np
+
+# Kernels are module-level so that numba's on-disk cache finds them in a new process.
+jit = functools.partial(nb.njit, cache=True, fastmath=False, nogil=True)
 
 INTERPOLATIONS = ("linear", "cubic", "catmull-rom")
 BASES = ("value", "perlin")
@@ -32,206 +36,197 @@ def tables(seed: int) -> tuple[np.ndarray, np.ndarray]:
     return rng.random(256), rng.permutation(256).astype(np.int64)
 
 
-@functools.cache
-def _kernels():
-    """Compile (or load from the cache) the numba kernels on first use."""
-    import numba as nb  # pip install numba
+@jit
+def perm(table, x):
+    return table[x & 255]
 
-    jit = functools.partial(nb.njit, cache=True, fastmath=False, nogil=True)
+@jit
+def wrap(x):
+    """``x`` itself, or, past 2^62 (no fraction left), ``x mod 256`` (exact: the tables
+    repeat every 256 cells); an overflow to infinity becomes lattice point 0."""
+    if abs(x) < 4.0e18:
+        return x
+    return np.fmod(x, 256.0) if np.isfinite(x) else 0.0
 
-    @jit
-    def perm(table, x):
-        return table[x & 255]
+@jit
+def lattice(noise, index, i, j, k):
+    return noise[perm(index, i + perm(index, j + perm(index, k)))]
 
-    @jit
-    def wrap(x):
-        """``x`` itself, or, past 2^62 (no fraction left), ``x mod 256`` (exact: the tables
-        repeat every 256 cells); an overflow to infinity becomes lattice point 0."""
-        if abs(x) < 4.0e18:
-            return x
-        return np.fmod(x, 256.0) if np.isfinite(x) else 0.0
+@jit
+def catmull_rom(t, a, b, c, d):
+    return 0.5 * ((2.0 * b) + (c - a) * t + (2.0 * a - 5.0 * b + 4.0 * c - d) * t * t + (3.0 * b - a - 3.0 * c + d) * t * t * t)
 
-    @jit
-    def lattice(noise, index, i, j, k):
-        return noise[perm(index, i + perm(index, j + perm(index, k)))]
+@jit
+def value_noise(noise, index, x, y, z, interp):
+    x, y, z = wrap(x), wrap(y), wrap(z)
+    fx, fy, fz = np.floor(x), np.floor(y), np.floor(z)
+    ix, iy, iz = np.int64(fx), np.int64(fy), np.int64(fz)
+    tx, ty, tz = x - fx, y - fy, z - fz
+    if interp == 2:  # Catmull-Rom through 4 x 4 x 4 lattice values
+        planes = np.empty(4)
+        rows = np.empty(4)
+        for c in range(4):
+            for b in range(4):
+                rows[b] = catmull_rom(
+                    tx,
+                    lattice(noise, index, ix - 1, iy + b - 1, iz + c - 1),
+                    lattice(noise, index, ix, iy + b - 1, iz + c - 1),
+                    lattice(noise, index, ix + 1, iy + b - 1, iz + c - 1),
+                    lattice(noise, index, ix + 2, iy + b - 1, iz + c - 1),
+                )
+            planes[c] = catmull_rom(ty, rows[0], rows[1], rows[2], rows[3])
+        return catmull_rom(tz, planes[0], planes[1], planes[2], planes[3])
+    if interp == 1:  # Perlin's s-curve
+        tx = tx * tx * (3.0 - 2.0 * tx)
+        ty = ty * ty * (3.0 - 2.0 * ty)
+        tz = tz * tz * (3.0 - 2.0 * tz)
+    # INDEX(i, j, k) = PERM(i + PERM(j + PERM(k))), sharing the inner PERMs
+    pz0 = perm(index, iz)
+    pz1 = perm(index, iz + 1)
+    p00 = perm(index, iy + pz0) + ix
+    p10 = perm(index, iy + 1 + pz0) + ix
+    p01 = perm(index, iy + pz1) + ix
+    p11 = perm(index, iy + 1 + pz1) + ix
+    d000 = noise[perm(index, p00)]
+    d100 = noise[perm(index, p00 + 1)]
+    d010 = noise[perm(index, p10)]
+    d110 = noise[perm(index, p10 + 1)]
+    d001 = noise[perm(index, p01)]
+    d101 = noise[perm(index, p01 + 1)]
+    d011 = noise[perm(index, p11)]
+    d111 = noise[perm(index, p11 + 1)]
+    x0 = d000 + tx * (d100 - d000)
+    x1 = d010 + tx * (d110 - d010)
+    x2 = d001 + tx * (d101 - d001)
+    x3 = d011 + tx * (d111 - d011)
+    y0 = x0 + ty * (x1 - x0)
+    y1 = x2 + ty * (x3 - x2)
+    return y0 + tz * (y1 - y0)
 
-    @jit
-    def catmull_rom(t, a, b, c, d):
-        return 0.5 * ((2.0 * b) + (c - a) * t + (2.0 * a - 5.0 * b + 4.0 * c - d) * t * t + (3.0 * b - a - 3.0 * c + d) * t * t * t)
+@jit
+def grad(h, x, y, z):
+    h = h & 15
+    u = x if h < 8 else y
+    v = y if h < 4 else (x if h == 12 or h == 14 else z)
+    return (u if (h & 1) == 0 else -u) + (v if (h & 2) == 0 else -v)
 
-    @jit
-    def value_noise(noise, index, x, y, z, interp):
-        x, y, z = wrap(x), wrap(y), wrap(z)
-        fx, fy, fz = np.floor(x), np.floor(y), np.floor(z)
-        ix, iy, iz = np.int64(fx), np.int64(fy), np.int64(fz)
-        tx, ty, tz = x - fx, y - fy, z - fz
-        if interp == 2:  # Catmull-Rom through 4 x 4 x 4 lattice values
-            planes = np.empty(4)
-            rows = np.empty(4)
-            for c in range(4):
-                for b in range(4):
-                    rows[b] = catmull_rom(
-                        tx,
-                        lattice(noise, index, ix - 1, iy + b - 1, iz + c - 1),
-                        lattice(noise, index, ix, iy + b - 1, iz + c - 1),
-                        lattice(noise, index, ix + 1, iy + b - 1, iz + c - 1),
-                        lattice(noise, index, ix + 2, iy + b - 1, iz + c - 1),
-                    )
-                planes[c] = catmull_rom(ty, rows[0], rows[1], rows[2], rows[3])
-            return catmull_rom(tz, planes[0], planes[1], planes[2], planes[3])
-        if interp == 1:  # Perlin's s-curve
-            tx = tx * tx * (3.0 - 2.0 * tx)
-            ty = ty * ty * (3.0 - 2.0 * ty)
-            tz = tz * tz * (3.0 - 2.0 * tz)
-        # INDEX(i, j, k) = PERM(i + PERM(j + PERM(k))), sharing the inner PERMs
-        pz0 = perm(index, iz)
-        pz1 = perm(index, iz + 1)
-        p00 = perm(index, iy + pz0) + ix
-        p10 = perm(index, iy + 1 + pz0) + ix
-        p01 = perm(index, iy + pz1) + ix
-        p11 = perm(index, iy + 1 + pz1) + ix
-        d000 = noise[perm(index, p00)]
-        d100 = noise[perm(index, p00 + 1)]
-        d010 = noise[perm(index, p10)]
-        d110 = noise[perm(index, p10 + 1)]
-        d001 = noise[perm(index, p01)]
-        d101 = noise[perm(index, p01 + 1)]
-        d011 = noise[perm(index, p11)]
-        d111 = noise[perm(index, p11 + 1)]
-        x0 = d000 + tx * (d100 - d000)
-        x1 = d010 + tx * (d110 - d010)
-        x2 = d001 + tx * (d101 - d001)
-        x3 = d011 + tx * (d111 - d011)
-        y0 = x0 + ty * (x1 - x0)
-        y1 = x2 + ty * (x3 - x2)
-        return y0 + tz * (y1 - y0)
+@jit
+def perlin_noise(index, x, y, z):
+    """Perlin's improved noise (2002), in about [-1, 1]."""
+    x, y, z = wrap(x), wrap(y), wrap(z)
+    fx, fy, fz = np.floor(x), np.floor(y), np.floor(z)
+    ix, iy, iz = np.int64(fx), np.int64(fy), np.int64(fz)
+    x, y, z = x - fx, y - fy, z - fz
+    u = x * x * x * (x * (x * 6.0 - 15.0) + 10.0)
+    v = y * y * y * (y * (y * 6.0 - 15.0) + 10.0)
+    w = z * z * z * (z * (z * 6.0 - 15.0) + 10.0)
+    a = perm(index, ix) + iy
+    aa = perm(index, a) + iz
+    ab = perm(index, a + 1) + iz
+    b = perm(index, ix + 1) + iy
+    ba = perm(index, b) + iz
+    bb = perm(index, b + 1) + iz
+    l0 = grad(perm(index, aa), x, y, z) + u * (grad(perm(index, ba), x - 1, y, z) - grad(perm(index, aa), x, y, z))
+    l1 = grad(perm(index, ab), x, y - 1, z) + u * (grad(perm(index, bb), x - 1, y - 1, z) - grad(perm(index, ab), x, y - 1, z))
+    l2 = grad(perm(index, aa + 1), x, y, z - 1) + u * (grad(perm(index, ba + 1), x - 1, y, z - 1) - grad(perm(index, aa + 1), x, y, z - 1))
+    l3 = grad(perm(index, ab + 1), x, y - 1, z - 1) + u * (grad(perm(index, bb + 1), x - 1, y - 1, z - 1) - grad(perm(index, ab + 1), x, y - 1, z - 1))
+    m0 = l0 + v * (l1 - l0)
+    m1 = l2 + v * (l3 - l2)
+    return m0 + w * (m1 - m0)
 
-    @jit
-    def grad(h, x, y, z):
-        h = h & 15
-        u = x if h < 8 else y
-        v = y if h < 4 else (x if h == 12 or h == 14 else z)
-        return (u if (h & 1) == 0 else -u) + (v if (h & 2) == 0 else -v)
+@jit
+def basis_value(noise, index, x, y, z, basis, interp):
+    """One octave in [0, 1] (mean 0.5)."""
+    if basis == 1:
+        return 0.5 + 0.5 * perlin_noise(index, x, y, z)
+    return value_noise(noise, index, x, y, z, interp)
 
-    @jit
-    def perlin_noise(index, x, y, z):
-        """Perlin's improved noise (2002), in about [-1, 1]."""
-        x, y, z = wrap(x), wrap(y), wrap(z)
-        fx, fy, fz = np.floor(x), np.floor(y), np.floor(z)
-        ix, iy, iz = np.int64(fx), np.int64(fy), np.int64(fz)
-        x, y, z = x - fx, y - fy, z - fz
-        u = x * x * x * (x * (x * 6.0 - 15.0) + 10.0)
-        v = y * y * y * (y * (y * 6.0 - 15.0) + 10.0)
-        w = z * z * z * (z * (z * 6.0 - 15.0) + 10.0)
-        a = perm(index, ix) + iy
-        aa = perm(index, a) + iz
-        ab = perm(index, a + 1) + iz
-        b = perm(index, ix + 1) + iy
-        ba = perm(index, b) + iz
-        bb = perm(index, b + 1) + iz
-        l0 = grad(perm(index, aa), x, y, z) + u * (grad(perm(index, ba), x - 1, y, z) - grad(perm(index, aa), x, y, z))
-        l1 = grad(perm(index, ab), x, y - 1, z) + u * (grad(perm(index, bb), x - 1, y - 1, z) - grad(perm(index, ab), x, y - 1, z))
-        l2 = grad(perm(index, aa + 1), x, y, z - 1) + u * (grad(perm(index, ba + 1), x - 1, y, z - 1) - grad(perm(index, aa + 1), x, y, z - 1))
-        l3 = grad(perm(index, ab + 1), x, y - 1, z - 1) + u * (grad(perm(index, bb + 1), x - 1, y - 1, z - 1) - grad(perm(index, ab + 1), x, y - 1, z - 1))
-        m0 = l0 + v * (l1 - l0)
-        m1 = l2 + v * (l3 - l2)
-        return m0 + w * (m1 - m0)
+@jit
+def fade_factor(limit, k):
+    """Weight of octave ``k`` when octaves below ``limit`` are kept: 1, 0, or a
+    smoothstep for the last one."""
+    keep = min(max(limit - k, 0.0), 1.0)
+    return keep * keep * (3.0 - 2.0 * keep)
 
-    @jit
-    def basis_value(noise, index, x, y, z, basis, interp):
-        """One octave in [0, 1] (mean 0.5)."""
-        if basis == 1:
-            return 0.5 + 0.5 * perlin_noise(index, x, y, z)
-        return value_noise(noise, index, x, y, z, interp)
+@nb.njit(cache=True, parallel=True, nogil=True, fastmath={"nsz", "arcp", "contract", "afn", "reassoc"})
+def octave_kernel(points, width, noise, index, basis, interp, count, lacunarity, gain, signed, out):
+    """Sum of ``count`` octaves ``gain^k * n(lacunarity^k * p)``, cut by the footprint.
 
-    @jit
-    def fade_factor(limit, k):
-        """Weight of octave ``k`` when octaves below ``limit`` are kept: 1, 0, or a
-        smoothstep for the last one."""
-        keep = min(max(limit - k, 0.0), 1.0)
-        return keep * keep * (3.0 - 2.0 * keep)
-
-    @nb.njit(cache=True, parallel=True, nogil=True, fastmath={"nsz", "arcp", "contract", "afn", "reassoc"})
-    def octaves(points, width, noise, index, basis, interp, count, lacunarity, gain, signed, out):
-        """Sum of ``count`` octaves ``gain^k * n(lacunarity^k * p)``, cut by the footprint.
-
-        ``n`` is the basis in [0, 1] (``signed``: ``2n - 1``). Octave ``k`` is kept while
-        ``lacunarity^k * width < 1/2`` (its lattice spacing spans two footprints); the
-        last one kept fades in with a smoothstep and dropped ones add their mean, so the
-        sum neither aliases nor shifts in brightness. Points go in chunks, octaves in
-        the outer loop, so that the value-noise loop is branch-free and vectorises, and
-        a chunk skips the octaves all its points drop.
-        """
-        n = points.shape[0]
-        chunk = 2048
-        mean = 0.0 if signed else 0.5
-        scale = 2.0 if signed else 1.0
-        log_lacunarity = np.log(lacunarity)
-        for c in nb.prange((n + chunk - 1) // chunk):
-            lo = c * chunk
-            m = min(n, lo + chunk) - lo
-            limit = np.empty(m)
-            acc = np.zeros(m)
-            top = -1e300
-            big = 0.0
-            for i in range(m):
-                w = width[lo + i]
-                limit[i] = (np.log(0.5) - np.log(w)) / log_lacunarity if w > 0.0 else 1e300
-                top = max(top, limit[i])
-                big = max(big, abs(points[lo + i, 0]), abs(points[lo + i, 1]), abs(points[lo + i, 2]))
-            amp = 1.0
-            freq = 1.0
-            for k in range(count):
-                if top - k <= 0.0:  # every point of the chunk drops this octave
-                    for i in range(m):
-                        acc[i] += amp * mean
-                elif basis == 0 and interp < 2 and big * freq < 4.0e18:  # no wrap needed
-                    for i in range(m):
-                        x = points[lo + i, 0] * freq
-                        y = points[lo + i, 1] * freq
-                        z = points[lo + i, 2] * freq
-                        fx, fy, fz = np.floor(x), np.floor(y), np.floor(z)
-                        ix, iy, iz = np.int64(fx) & 255, np.int64(fy) & 255, np.int64(fz) & 255
-                        tx, ty, tz = x - fx, y - fy, z - fz
-                        if interp == 1:
-                            tx = tx * tx * (3.0 - 2.0 * tx)
-                            ty = ty * ty * (3.0 - 2.0 * ty)
-                            tz = tz * tz * (3.0 - 2.0 * tz)
-                        pz0 = index[iz]
-                        pz1 = index[(iz + 1) & 255]
-                        p00 = index[(iy + pz0) & 255] + ix
-                        p10 = index[(iy + 1 + pz0) & 255] + ix
-                        p01 = index[(iy + pz1) & 255] + ix
-                        p11 = index[(iy + 1 + pz1) & 255] + ix
-                        d000 = noise[index[p00 & 255]]
-                        d100 = noise[index[(p00 + 1) & 255]]
-                        d010 = noise[index[p10 & 255]]
-                        d110 = noise[index[(p10 + 1) & 255]]
-                        d001 = noise[index[p01 & 255]]
-                        d101 = noise[index[(p01 + 1) & 255]]
-                        d011 = noise[index[p11 & 255]]
-                        d111 = noise[index[(p11 + 1) & 255]]
-                        x0 = d000 + tx * (d100 - d000)
-                        x1 = d010 + tx * (d110 - d010)
-                        x2 = d001 + tx * (d101 - d001)
-                        x3 = d011 + tx * (d111 - d011)
-                        y0 = x0 + ty * (x1 - x0)
-                        y1 = x2 + ty * (x3 - x2)
-                        v = scale * (y0 + tz * (y1 - y0)) - (scale - 1.0)
-                        f = fade_factor(limit[i], k)
-                        acc[i] += amp * (f * v + (1.0 - f) * mean)
-                else:
-                    for i in range(m):
-                        v = basis_value(noise, index, points[lo + i, 0] * freq, points[lo + i, 1] * freq, points[lo + i, 2] * freq, basis, interp)
-                        v = scale * v - (scale - 1.0)
-                        f = fade_factor(limit[i], k)
-                        acc[i] += amp * (f * v + (1.0 - f) * mean)
-                amp *= gain
-                freq *= lacunarity
-            for i in range(m):
-                out[lo + i] = acc[i]
-
-    return octaves
+    ``n`` is the basis in [0, 1] (``signed``: ``2n - 1``). Octave ``k`` is kept while
+    ``lacunarity^k * width < 1/2`` (its lattice spacing spans two footprints); the
+    last one kept fades in with a smoothstep and dropped ones add their mean, so the
+    sum neither aliases nor shifts in brightness. Points go in chunks, octaves in
+    the outer loop, so that the value-noise loop is branch-free and vectorises, and
+    a chunk skips the octaves all its points drop.
+    """
+    n = points.shape[0]
+    chunk = 2048
+    mean = 0.0 if signed else 0.5
+    scale = 2.0 if signed else 1.0
+    log_lacunarity = np.log(lacunarity)
+    for c in nb.prange((n + chunk - 1) // chunk):
+        lo = c * chunk
+        m = min(n, lo + chunk) - lo
+        limit = np.empty(m)
+        acc = np.zeros(m)
+        top = -1e300
+        big = 0.0
+        for i in range(m):
+            w = width[lo + i]
+            limit[i] = (np.log(0.5) - np.log(w)) / log_lacunarity if w > 0.0 else 1e300
+            top = max(top, limit[i])
+            big = max(big, abs(points[lo + i, 0]), abs(points[lo + i, 1]), abs(points[lo + i, 2]))
+        amp = 1.0
+        freq = 1.0
+        for k in range(count):
+            if top - k <= 0.0:  # every point of the chunk drops this octave
+                for i in range(m):
+                    acc[i] += amp * mean
+            elif basis == 0 and interp < 2 and big * freq < 4.0e18:  # no wrap needed
+                for i in range(m):
+                    x = points[lo + i, 0] * freq
+                    y = points[lo + i, 1] * freq
+                    z = points[lo + i, 2] * freq
+                    fx, fy, fz = np.floor(x), np.floor(y), np.floor(z)
+                    ix, iy, iz = np.int64(fx) & 255, np.int64(fy) & 255, np.int64(fz) & 255
+                    tx, ty, tz = x - fx, y - fy, z - fz
+                    if interp == 1:
+                        tx = tx * tx * (3.0 - 2.0 * tx)
+                        ty = ty * ty * (3.0 - 2.0 * ty)
+                        tz = tz * tz * (3.0 - 2.0 * tz)
+                    pz0 = index[iz]
+                    pz1 = index[(iz + 1) & 255]
+                    p00 = index[(iy + pz0) & 255] + ix
+                    p10 = index[(iy + 1 + pz0) & 255] + ix
+                    p01 = index[(iy + pz1) & 255] + ix
+                    p11 = index[(iy + 1 + pz1) & 255] + ix
+                    d000 = noise[index[p00 & 255]]
+                    d100 = noise[index[(p00 + 1) & 255]]
+                    d010 = noise[index[p10 & 255]]
+                    d110 = noise[index[(p10 + 1) & 255]]
+                    d001 = noise[index[p01 & 255]]
+                    d101 = noise[index[(p01 + 1) & 255]]
+                    d011 = noise[index[p11 & 255]]
+                    d111 = noise[index[(p11 + 1) & 255]]
+                    x0 = d000 + tx * (d100 - d000)
+                    x1 = d010 + tx * (d110 - d010)
+                    x2 = d001 + tx * (d101 - d001)
+                    x3 = d011 + tx * (d111 - d011)
+                    y0 = x0 + ty * (x1 - x0)
+                    y1 = x2 + ty * (x3 - x2)
+                    v = scale * (y0 + tz * (y1 - y0)) - (scale - 1.0)
+                    f = fade_factor(limit[i], k)
+                    acc[i] += amp * (f * v + (1.0 - f) * mean)
+            else:
+                for i in range(m):
+                    v = basis_value(noise, index, points[lo + i, 0] * freq, points[lo + i, 1] * freq, points[lo + i, 2] * freq, basis, interp)
+                    v = scale * v - (scale - 1.0)
+                    f = fade_factor(limit[i], k)
+                    acc[i] += amp * (f * v + (1.0 - f) * mean)
+            amp *= gain
+            freq *= lacunarity
+        for i in range(m):
+            out[lo + i] = acc[i]
 
 
 def octave_sum(
@@ -256,7 +251,7 @@ def octave_sum(
     w = np.zeros(len(p)) if width is None else np.ascontiguousarray(width, dtype=np.float64).reshape(-1)
     noise_table, index_table = tables(seed)
     out = np.empty(len(p))
-    _kernels()(p, w, noise_table, index_table, BASES.index(basis), INTERPOLATIONS.index(interpolation),
+    octave_kernel(p, w, noise_table, index_table, BASES.index(basis), INTERPOLATIONS.index(interpolation),
                int(octaves), float(lacunarity), float(gain), bool(signed), out)
     return out
 
