@@ -29,22 +29,25 @@ def _fail(message: str, code: int = 2):
 def _bake_one(mesh: str, out: str, settings: dict) -> dict:
     """Bake and save one mesh; returns the report (runs in batch worker processes too)."""
     from .pipeline import bake_mesh
+    from .textures.spec import with_overrides
 
     save = {k: settings.pop(k) for k in ("fmt", "bits", "obj") if k in settings}
-    result = bake_mesh(mesh, settings.pop("texture"), **settings)
+    texture = with_overrides(settings.pop("texture"), settings.pop("set", None) or [])
+    result = bake_mesh(mesh, texture, **settings)
     result.save(out, **save)
     return result.report
 
 
-def _settings(texture, size, samples, margin, uv, source, cage, texture_space, max_faces, deadline, fmt, bits, obj, workers=2):
+def _settings(texture, sets, size, samples, margin, uv, source, cage, texture_space, max_faces, deadline, fmt, bits, obj, workers=2):
     return {
-        "texture": texture, "size": size, "samples": samples, "margin": margin, "uv": uv,
+        "texture": texture, "set": list(sets or []), "size": size, "samples": samples, "margin": margin, "uv": uv,
         "source": source, "cage": cage, "texture_space": texture_space, "max_faces": max_faces,
         "unwrap_deadline": deadline, "fmt": fmt, "bits": bits, "obj": obj, "workers": workers,
     }
 
 
-_TEXTURE = typer.Option("checker", "--texture", "-t", help="texture name, JSON spec, or a .json spec file")
+_TEXTURE = typer.Option("checker", "--texture", "-t", help="texture name, JSON spec, or a .json/.yaml spec file (see `texbake textures`)")
+_SET = typer.Option(None, "--set", help="override a texture parameter: key.sub=value (repeatable)")
 _SIZE = typer.Option(1024, "--size", "-s", help="image size in texels (square)")
 _SAMPLES = typer.Option(1, "--samples", help="samples per texel (stratified)")
 _MARGIN = typer.Option(16, "--margin", help="texels of margin filled around charts")
@@ -63,13 +66,13 @@ _OBJ = typer.Option(False, "--obj", help="also write OBJ + MTL")
 def bake(
     mesh: str = typer.Argument(..., help="mesh file: OBJ, PLY, STL, OFF, glTF, GLB"),
     out: Path = typer.Option(..., "--out", "-o", help="output folder"),
-    texture: str = _TEXTURE, size: int = _SIZE, samples: int = _SAMPLES, margin: int = _MARGIN,
+    texture: str = _TEXTURE, set_: Optional[list[str]] = _SET, size: int = _SIZE, samples: int = _SAMPLES, margin: int = _MARGIN,
     uv: str = _UV, source: Optional[str] = _SOURCE, cage: Optional[float] = _CAGE,
     texture_space: str = _SPACE, max_faces: int = _FACES, unwrap_deadline: float = _DEADLINE,
     fmt: str = _FMT, bits: Optional[int] = _BITS, obj: bool = _OBJ,
 ):
     """Bake one mesh: writes DIR/albedo.<format>, DIR/<mesh>.glb and DIR/report.json."""
-    settings = _settings(texture, size, samples, margin, uv, source, cage, texture_space, max_faces, unwrap_deadline, fmt, bits, obj)
+    settings = _settings(texture, set_, size, samples, margin, uv, source, cage, texture_space, max_faces, unwrap_deadline, fmt, bits, obj)
     start = time.perf_counter()
     try:
         report = _bake_one(mesh, str(out), settings)
@@ -126,7 +129,7 @@ def batch(
     inputs: list[str] = typer.Argument(..., help="mesh files, globs, or .jsonl manifests (one JSON object a line: mesh and settings)"),
     out: Path = typer.Option(..., "--out", "-o", help="output folder; one sub-folder per mesh"),
     jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="parallel processes"),
-    texture: str = _TEXTURE, size: int = _SIZE, samples: int = _SAMPLES, margin: int = _MARGIN,
+    texture: str = _TEXTURE, set_: Optional[list[str]] = _SET, size: int = _SIZE, samples: int = _SAMPLES, margin: int = _MARGIN,
     uv: str = _UV, texture_space: str = _SPACE, max_faces: int = _FACES, unwrap_deadline: float = _DEADLINE,
     fmt: str = _FMT, bits: Optional[int] = _BITS, obj: bool = _OBJ,
 ):
@@ -135,7 +138,7 @@ def batch(
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
     from rich.table import Table
 
-    base = _settings(texture, size, samples, margin, uv, None, None, texture_space, max_faces, unwrap_deadline, fmt, bits, obj, workers=1)
+    base = _settings(texture, set_, size, samples, margin, uv, None, None, texture_space, max_faces, unwrap_deadline, fmt, bits, obj, workers=1)
     items = _expand(inputs)
     if not items:
         _fail("no input meshes")
@@ -168,6 +171,28 @@ def batch(
     if failed:
         typer.echo(f"texbake: {failed} of {len(rows)} failed", err=True)
         raise typer.Exit(1)
+
+
+@app.command()
+def textures(as_json: bool = typer.Option(False, "--json", help="print the JSON Schema of a texture spec")):
+    """List every texture with its parameters, defaults and ranges."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from .textures.spec import catalogue, json_schema
+
+    if as_json:
+        typer.echo(json.dumps(json_schema(), indent=2))
+        return
+    console = Console()
+    for texture in catalogue():
+        table = Table(title=f"{texture['name']}: {texture['description']}", title_justify="left")
+        for col in ("parameter", "default", "limits", "description"):
+            table.add_column(col)
+        for p in texture["parameters"]:
+            limits = ", ".join(f"{k} {v}" for k, v in p["limits"].items())
+            table.add_row(p["name"], json.dumps(p["default"]), limits, p["description"])
+        console.print(table)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -50,11 +50,17 @@ def turbulence(points, width, *, scale=1.0, offset=0.0, octaves=8, lacunarity=2.
 def marble(points, width, *, axis=0, frequency=6.0, amplitude=4.0, **turbulence_args) -> np.ndarray:
     """``0.5 + 0.5 sin(frequency * x + amplitude * turbulence(p))`` in [0, 1] (vein pattern).
 
-    The colour comes from a spline colour map, ``MarbleColor`` in the lecture.
+    The colour comes from a spline colour map, ``MarbleColor`` in the lecture. With a
+    footprint the sine is filtered too: a box of width w scales a sine of frequency f by
+    about ``exp(-(f w)^2 / 24)`` (the Gaussian of the same variance), so veins finer than
+    a texel fade to their mean instead of aliasing.
     """
     p = np.asarray(points, dtype=np.float64)
     turb = turbulence(p, width, **turbulence_args)
-    return 0.5 + 0.5 * np.sin(frequency * p[:, axis] + amplitude * turb)
+    wave = np.sin(frequency * p[:, axis] + amplitude * turb)
+    if width is not None:
+        wave *= np.exp(-((frequency * np.asarray(width)) ** 2) / 24.0)
+    return 0.5 + 0.5 * wave
 
 
 def wood(points, width, *, ring_width=0.1, wobble=0.0, wobbles=4.0, twist=0.0) -> np.ndarray:

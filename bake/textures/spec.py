@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Annotated, Literal, Union
+from typing import Annotated, ClassVar, Literal, Union
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, model_validator
@@ -56,7 +56,7 @@ class _Texture(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     transform: Transform = Transform()
-    channels: int = 3
+    channels: ClassVar[int] = 3  # of the colour it gives
 
 
 class Position(_Texture):
@@ -226,6 +226,70 @@ def _describe(error: ValidationError) -> str:
     return "; ".join(parts)
 
 
+def _read_spec_file(path: Path):
+    """The mapping in a JSON or YAML spec file."""
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise TextureError(f"{path}: cannot read texture spec: {exc.strerror}") from None
+    try:
+        if path.suffix.lower() == ".json":
+            return json.loads(text)
+        import yaml  # pip install pyyaml
+
+        return yaml.safe_load(text)
+    except Exception as exc:  # json and yaml parse errors
+        raise TextureError(f"{path}: not a valid spec file: {str(exc).splitlines()[0]}") from None
+
+
+def with_overrides(value, assignments: list[str]) -> _Texture:
+    """A spec with ``key.sub=value`` assignments applied (values are JSON, else strings).
+
+    ``with_overrides("marble", ["turbulence.octaves=6"])``. Unknown keys are rejected
+    by name, like any bad parameter.
+    """
+    spec = parse_spec(value)
+    data = {"name": spec.name, **spec.model_dump(mode="json", exclude_defaults=True)}
+    for item in assignments:
+        key, sep, raw = item.partition("=")
+        if not sep or not key.strip():
+            raise TextureError(f"--set {item!r}: expected key=value, e.g. turbulence.octaves=6")
+        try:
+            parsed = json.loads(raw)
+        except json.JSONDecodeError:
+            parsed = raw
+        node = data
+        *parents, leaf = key.strip().split(".")
+        for part in parents:
+            node = node.setdefault(part, {})
+            if not isinstance(node, dict):
+                raise TextureError(f"--set {item!r}: {part!r} is not a group of parameters")
+        node[leaf] = parsed
+    return parse_spec(data)
+
+
+def catalogue() -> list[dict]:
+    """Every texture with its parameters: name, default, allowed range, description."""
+    out = []
+    for name, cls in TEXTURES.items():
+        schema = cls.model_json_schema()
+        params = []
+        for field, info in cls.model_fields.items():
+            if field == "name":
+                continue
+            prop = schema["properties"].get(field, {})
+            limits = {k: prop[k] for k in ("minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum", "enum") if k in prop}
+            default = info.default.model_dump(mode="json") if isinstance(info.default, BaseModel) else info.default
+            params.append({"name": field, "default": default, "limits": limits, "description": info.description or ""})
+        out.append({"name": name, "description": (cls.__doc__ or "").strip().splitlines()[0], "parameters": params})
+    return out
+
+
+def json_schema() -> dict:
+    """The JSON Schema of a texture spec (all textures, discriminated by ``name``)."""
+    return _ADAPTER.json_schema()
+
+
 def parse_spec(value) -> _Texture:
     """A texture spec from a spec object, a dict, a texture name, JSON text or a JSON file.
 
@@ -242,11 +306,8 @@ def parse_spec(value) -> _Texture:
                 value = json.loads(text)
             except json.JSONDecodeError as exc:
                 raise TextureError(f"texture spec is not valid JSON: {exc}") from None
-        elif Path(text).suffix.lower() == ".json" and Path(text).is_file():
-            try:
-                value = json.loads(Path(text).read_text())
-            except (OSError, json.JSONDecodeError) as exc:
-                raise TextureError(f"{text}: cannot read texture spec: {exc}") from None
+        elif Path(text).suffix.lower() in (".json", ".yaml", ".yml"):
+            value = _read_spec_file(Path(text))
         else:
             known = ", ".join(sorted(TEXTURES))
             raise TextureError(f"unknown texture {text!r} (known: {known})")

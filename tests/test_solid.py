@@ -1,0 +1,112 @@
+"""The lecture's solid textures through the public evaluate(): ranges, seams, flame,
+antialiasing, invariance under moving object and field together, determinism."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from bake.textures import evaluate, parse_spec
+from bake.textures.solid import spline, turbulence, wood
+
+RNG = np.random.default_rng(5)
+NAMES = ["noise", "turbulence", "fbm", "marble", "wood", "flame"]
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_range_and_shape(name):
+    p = RNG.random((5000, 3)) * 4 - 2
+    v = evaluate(name, p)
+    assert v.shape == (5000, 3) and np.isfinite(v).all()
+    assert v.min() >= -1e-9 and v.max() <= 1 + 1e-9
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.floats(-1e6, 1e6), st.floats(1e-6, 1e3), st.integers(1, 30))
+def test_turbulence_stays_in_range(offset, width, octaves):
+    p = RNG.random((64, 3)) + offset
+    t = turbulence(p, np.full(64, width), octaves=octaves)
+    assert np.isfinite(t).all() and t.min() >= 0 and t.max() <= 1
+
+
+def test_spline_passes_through_its_knots():
+    knots = np.array([0.0, 0.3, 1.0])
+    values = np.array([[0, 0, 0], [1, 0.5, 0], [0, 1, 1]], float)
+    assert np.allclose(spline(knots, knots, values), values)
+    assert np.allclose(spline(np.array([-5.0, 5.0]), knots, values), values[[0, 2]])
+
+
+def test_wood_at_the_axis_and_across_the_negative_axis():
+    at_axis = wood(np.array([[0.0, 0.0, 0.3], [-0.0, 0.0, -1.0]]), None)
+    assert np.isfinite(at_axis).all()
+    # theta jumps from +pi to -pi across x = 0, y < 0: the rings must not
+    eps = 1e-9
+    y = -np.linspace(0.05, 2, 500) - 0.0123  # off the ring boundaries (r / M whole)
+    left = np.column_stack([np.full(500, -eps), y, np.zeros(500)])
+    right = np.column_stack([np.full(500, eps), y, np.zeros(500)])
+    for w in (None, np.full(500, 1e-3)):
+        assert np.abs(wood(left, w, wobble=0.5, wobbles=3) - wood(right, w, wobble=0.5, wobbles=3)).max() < 1e-6
+
+
+def test_wood_rings_alternate_with_radius():
+    r = (np.arange(20) + 0.5) * 0.1
+    v = wood(np.column_stack([r, np.zeros(20), np.zeros(20)]), None, ring_width=0.1, wobble=0.0)
+    assert np.array_equal(v, np.arange(20) % 2)
+
+
+def test_flame_shape():
+    spec = {"name": "flame", "half_width": 0.5, "height": 1.0, "turbulence_amount": 0.0}
+    inside = evaluate(spec, [[0.0, 0.1, 0.0]])[0]
+    edge = evaluate(spec, [[0.4, 0.1, 0.0]])[0]
+    above = evaluate(spec, [[0.0, 1.5, 0.0], [0.0, 1.0, 0.0], [0.0, -0.1, 0.0]])
+    assert (inside > edge).all() and not above.any()
+    # blue and green fall off faster than red
+    r, g, b = evaluate(spec, [[0.25, 0.0, 0.0]])[0] / inside
+    assert r > g > b
+
+
+def test_flame_moves_with_time():
+    a = evaluate({"name": "flame", "time": 0.0}, RNG.random((200, 3)) * [0.6, 1, 0] - [0.3, 0, 0])
+    b = evaluate({"name": "flame", "time": 0.5}, RNG.random((200, 3)) * [0.6, 1, 0] - [0.3, 0, 0])
+    assert not np.allclose(a, b)
+
+
+@pytest.mark.parametrize("name", ["turbulence", "marble", "noise"])
+def test_texture_moves_with_the_object(name):
+    # The field placed by T and evaluated at T(p) equals the plain field at p.
+    t = {"scale": 1.7, "rotate": [10, -35, 80], "translate": [3, -2, 0.5]}
+    spec = parse_spec({"name": name, "transform": t})
+    m = spec.transform.object_from_texture()
+    p = RNG.random((1000, 3))
+    moved = p @ m[:3, :3].T + m[:3, 3]
+    fp = RNG.random((1000, 2, 3)) * 1e-3
+    fp_moved = fp @ m[:3, :3].T
+    assert np.abs(evaluate(spec, moved, fp_moved) - evaluate(name, p, fp)).max() < 1e-9
+
+
+@pytest.mark.parametrize("name", ["turbulence", "marble", "fbm"])
+def test_antialiasing_converges_to_the_mean(name):
+    # Footprints 10, 100 and 1000 times the finest feature: the spread of texel values
+    # shrinks and the mean stays put; point sampling keeps aliasing at full spread.
+    spec = parse_spec(name)
+    scale = (spec.turbulence.scale if name == "marble" else spec.scale) * 2 ** 7  # finest octave
+    p = RNG.random((4000, 3)) * 5
+    point = evaluate(spec, p)
+    spreads = []
+    for ratio in (10, 100, 1000):
+        w = ratio / scale
+        fp = np.zeros((4000, 2, 3))
+        fp[:, 0, 0] = fp[:, 1, 1] = w
+        v = evaluate(spec, p, fp)
+        spreads.append(v.std(axis=0).mean())
+        assert abs(v.mean() - point.mean()) < 0.1
+    assert spreads[0] >= spreads[1] >= spreads[2]
+    if name != "marble":  # marble keeps its sine veins: only the turbulence blurs out
+        assert spreads[2] < 0.1 * point.std(axis=0).mean()
+
+
+def test_seed_changes_the_pattern_and_only_the_seed():
+    p = RNG.random((500, 3))
+    a = evaluate({"name": "turbulence", "seed": 1}, p)
+    assert np.array_equal(a, evaluate({"name": "turbulence", "seed": 1}, p))
+    assert not np.allclose(a, evaluate({"name": "turbulence", "seed": 2}, p))
