@@ -54,3 +54,27 @@ def test_batch_keeps_going_and_exits_1_on_a_failure(meshes, tmp_path):
     assert "broken.obj" in r.stdout and "failed" in r.stdout and r.stdout.count("done") == 2
     assert (tmp_path / "o" / "suzanne" / "report.json").exists()
     assert json.loads((tmp_path / "o" / "BoxTextured" / "report.json").read_text())["parameters"]["size"] == [32, 32]
+
+
+def test_textures_lists_every_texture_and_its_schema():
+    r = texbake("textures")
+    assert r.returncode == 0
+    for name in ("checker", "noise", "turbulence", "fbm", "marble", "wood", "flame"):
+        assert name in r.stdout
+    schema = json.loads(texbake("textures", "--json").stdout)
+    assert schema["discriminator"]["propertyName"] == "name"
+    assert {"Marble", "Wood", "Flame"} <= set(schema["$defs"])
+
+
+def test_spec_file_and_overrides(meshes, tmp_path):
+    spec = tmp_path / "wood.yaml"
+    spec.write_text("name: wood\nring_width: 0.08\ntilt: [0, 90, 0]\n")
+    r = texbake("bake", meshes / "suzanne.ply", "--texture", spec, "--set", "wobble=0.1", "--set", "colormap.knots=[0, 1]",
+                "--size", 64, "--out", tmp_path / "o")
+    assert r.returncode == 0, r.stderr
+    texture = json.loads((tmp_path / "o" / "report.json").read_text())["parameters"]["texture"]
+    assert texture["ring_width"] == 0.08 and texture["wobble"] == 0.1 and texture["tilt"] == [0, 90, 0]
+    bad = texbake("bake", meshes / "suzanne.ply", "--texture", "marble", "--set", "turbulence.octavs=6", "--out", tmp_path / "p")
+    assert bad.returncode == 2 and "octavs" in bad.stderr and len(bad.stderr.strip().splitlines()) == 1
+    bad = texbake("bake", meshes / "suzanne.ply", "--texture", "marble", "--set", "turbulence.octaves=99", "--out", tmp_path / "p")
+    assert bad.returncode == 2 and "octaves" in bad.stderr
