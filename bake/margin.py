@@ -14,12 +14,14 @@ import numpy as np
 from scipy import ndimage
 
 
-def extend(image: np.ndarray, covered: np.ndarray, margin: int, band: int = 256, workers: int = 2) -> np.ndarray:
-    """Fill, in place, empty texels of ``image`` near covered ones; return the filled mask.
+def extend(images, covered: np.ndarray, margin: int, band: int = 256, workers: int = 2) -> np.ndarray:
+    """Fill, in place, empty texels of each image near covered ones; return the filled mask.
 
-    ``image``: ``(h, w, c)`` float; ``covered``: ``(h, w)`` bool. Returns ``(h, w)`` bool,
-    True for the texels that were filled (the margin).
+    ``images``: one ``(h, w, c)`` float array or a list of them (filled from the same
+    nearest texels); ``covered``: ``(h, w)`` bool. Returns ``(h, w)`` bool, True for the
+    texels that were filled (the margin).
     """
+    images = [images] if isinstance(images, np.ndarray) else list(images)
     h, w = covered.shape
     filled = np.zeros_like(covered)
     if margin <= 0 or not covered.any() or covered.all():
@@ -35,7 +37,9 @@ def extend(image: np.ndarray, covered: np.ndarray, margin: int, band: int = 256,
         rows = slice(top - lo, bottom - lo)
         fill = (dist[rows] <= margin) & ~cov[rows]
         # sources are covered texels, which no band writes: bands are independent
-        image[top:bottom][fill] = image[ri[rows][fill] + lo, ci[rows][fill]]
+        src_r, src_c = ri[rows][fill] + lo, ci[rows][fill]
+        for image in images:
+            image[top:bottom][fill] = image[src_r, src_c]
         filled[top:bottom] = fill
 
     with ThreadPoolExecutor(max(1, workers)) as pool:

@@ -20,6 +20,9 @@ from .atlas import MODES, Atlas, make_atlas
 from .errors import ParameterError
 from .load import LoadedMesh, load_mesh, mesh_from_trimesh
 from .report import library_versions
+from .bump import LUMINANCE, normal_map
+from .shading import MODES as SHADING_MODES
+from .shading import lit
 from .surface import SurfaceMap
 from .texels import UVLookup, sample_offsets, sample_uv, tiles
 from .textures import evaluate, parse_spec
@@ -41,7 +44,8 @@ class BakedMesh:
 class BakeResult:
     """What a bake made: images as arrays, the mesh with its atlas, and the report."""
 
-    images: dict[str, np.ndarray]  # name -> (h, w, c) float32 linear, row 0 at the top
+    images: dict[str, np.ndarray]  # name -> (h, w, 3) float32 linear, row 0 at the top:
+    # albedo (or albedo_0000... and flipbook), lit, normal (encoded 0.5 + 0.5 n: data)
     coverage: np.ndarray  # (h, w) bool: texels covered by the atlas
     margin: np.ndarray  # (h, w) bool: texels filled by the margin
     mesh: BakedMesh
@@ -52,6 +56,18 @@ class BakeResult:
         from .save import save_result
 
         return save_result(self, Path(folder), fmt=fmt, bits=bits, obj=obj)
+
+
+def flipbook(frames: list[np.ndarray]) -> np.ndarray:
+    """Frames ``(h, w, c)`` laid out left to right, top to bottom in a near-square grid."""
+    h, w, c = frames[0].shape
+    cols = int(np.ceil(np.sqrt(len(frames))))
+    rows = -(-len(frames) // cols)
+    out = np.zeros((rows * h, cols * w, c), dtype=frames[0].dtype)
+    for i, frame in enumerate(frames):
+        r, k = divmod(i, cols)
+        out[r * h : (r + 1) * h, k * w : (k + 1) * w] = frame
+    return out
 
 
 class _Timer:
@@ -102,6 +118,11 @@ def bake_mesh(
     unwrap_deadline: float = 120.0,
     workers: int = 2,
     seed: int = 0,
+    shading: str = "decal",
+    light: tuple[float, float, float] = (0.3, 0.5, 0.8),
+    bump=None,
+    bump_strength: float = 1.0,
+    frames=None,
     tile_samples: int = 1 << 20,
 ) -> BakeResult:
     """Bake a solid texture into the UV atlas of a mesh.
@@ -132,6 +153,15 @@ def bake_mesh(
         Meshes with more faces are rejected.
     unwrap_deadline : float
         Seconds xatlas may take before it is stopped and a fallback atlas is used.
+    shading : "decal" | "ambient-diffuse" | "full"
+        "decal" bakes the texture colour only (``albedo``); the others also bake ``lit``,
+        the colour modulating the local illumination from direction ``light``.
+    bump : texture spec, optional
+        Also bake ``normal``, a tangent-space normal map from the gradient of this
+        texture's luminance, scaled by ``bump_strength``.
+    frames : sequence of float, optional
+        Times at which to bake a texture that has a ``time`` (the flame): maps
+        ``albedo_0000``... and a ``flipbook`` of all frames in a grid.
     """
     width, height = (size, size) if np.isscalar(size) else tuple(size)
     _check("size", size, all(isinstance(s, (int, np.integer)) and 1 <= s <= 65536 for s in (width, height)), "expected whole numbers from 1 to 65536")
@@ -140,7 +170,17 @@ def bake_mesh(
     _check("texture_space", texture_space, texture_space in TEXTURE_SPACES, f"expected one of {TEXTURE_SPACES}")
     _check("uv", uv, uv in MODES, f"expected one of {MODES}")
     _check("cage", cage, cage is None or (np.isfinite(cage) and cage > 0), "expected a positive distance")
+    _check("shading", shading, shading in SHADING_MODES, f"expected one of {SHADING_MODES}")
     spec = parse_spec(texture)
+    bump_spec = None if bump is None else parse_spec(bump)
+    if frames is not None:
+        frames = [float(t) for t in frames]
+        _check("frames", frames, 0 < len(frames) <= 1024 and all(np.isfinite(frames)), "expected 1 to 1024 finite times")
+        _check("frames", frames, "time" in type(spec).model_fields, f"texture {spec.name!r} has no time to animate")
+        specs = {f"albedo_{i:04d}": spec.model_copy(update={"time": t}) for i, t in enumerate(frames)}
+    else:
+        specs = {"albedo": spec}
+    colour_name = next(iter(specs))
     timer = _Timer()
     skipped: list[dict] = []
 
@@ -169,7 +209,8 @@ def bake_mesh(
 
     with timer.stage("prepare"):
         lookup = UVLookup(atlas.uv, atlas.faces)
-        surface = SurfaceMap(mesh.vertices, mesh.faces, atlas.uv, atlas.faces, width, height, normals=src is not None)
+        need_normals = src is not None or shading != "decal" or bump_spec is not None
+        surface = SurfaceMap(mesh.vertices, mesh.faces, atlas.uv, atlas.faces, width, height, normals=need_normals)
         caster = None
         if src is not None:
             from .transfer import SourceMesh
@@ -178,7 +219,8 @@ def bake_mesh(
             reach = cage if cage is not None else 0.05 * float(np.linalg.norm(hi - lo))
 
     offsets = sample_offsets(samples, seed)
-    image = np.zeros((height, width, spec.channels), dtype=np.float32)
+    names = list(specs) + (["lit"] if shading != "decal" else []) + (["normal"] if bump_spec is not None else [])
+    images = {name: np.zeros((height, width, 3), dtype=np.float32) for name in names}
     hits = np.zeros((height, width), dtype=np.uint16 if samples < 65536 else np.uint32)
 
     def bake_tile(tile) -> int:
@@ -203,25 +245,35 @@ def bake_mesh(
                 missed = int((~found).sum())
                 hit[np.flatnonzero(hit)[~found]] = False
                 points, dpdx, dpdy = points[found], dpdx[found], dpdy[found]
+                normals = s.normals[found]
+        else:
+            normals = s.normals
         with timer.stage("texture"):
+            q = (points - origin) * scale
             footprint = np.stack([dpdx, dpdy], axis=1) * scale
-            values = evaluate(spec, (points - origin) * scale, footprint, bounds=bounds)
+            values = {name: evaluate(sp, q, footprint, bounds=bounds) for name, sp in specs.items()}
+        if shading != "decal":
+            with timer.stage("shading"):
+                values["lit"] = lit(values[colour_name], normals, mode=shading, light=light)
+        if bump_spec is not None:
+            with timer.stage("bump"):
+                height_of = lambda x: evaluate(bump_spec, x, bounds=bounds) @ LUMINANCE  # noqa: E731
+                values["normal"] = normal_map(height_of, q, footprint[:, 0], footprint[:, 1], normals, bump_strength)
         with timer.stage("accumulate"):
             rows = tile.stop - tile.start
             texel = texels[np.flatnonzero(hit) // samples]
-            if samples == 1:
-                block = np.zeros((rows * width, spec.channels), dtype=np.float32)
-                block[texel] = values
-                count = np.zeros(rows * width, dtype=hits.dtype)
-                count[texel] = 1
-            else:  # mean of the samples that hit each texel
-                count = np.bincount(texel, minlength=rows * width)
-                block = np.zeros((rows * width, spec.channels))
-                for c in range(spec.channels):
-                    block[:, c] = np.bincount(texel, weights=values[:, c], minlength=rows * width)
-                nz = count > 0
-                block[nz] /= count[nz, None]
-            image[tile.start : tile.stop] = block.reshape(rows, width, -1)
+            count = np.bincount(texel, minlength=rows * width)
+            for name, v in values.items():
+                if samples == 1:
+                    block = np.zeros((rows * width, 3), dtype=np.float32)
+                    block[texel] = v
+                else:  # mean of the samples that hit each texel
+                    block = np.zeros((rows * width, 3))
+                    for c in range(3):
+                        block[:, c] = np.bincount(texel, weights=v[:, c], minlength=rows * width)
+                    nz = count > 0
+                    block[nz] /= count[nz, None]
+                images[name][tile.start : tile.stop] = block.reshape(rows, width, 3)
             hits[tile.start : tile.stop] = count.reshape(rows, width)
         return np.array([len(uvs), missed])
 
@@ -232,7 +284,9 @@ def bake_mesh(
 
     covered = hits > 0
     with timer.stage("margin"):
-        filled = margin_stage.extend(image, covered, margin, workers=workers)
+        filled = margin_stage.extend(list(images.values()), covered, margin, workers=workers)
+    if frames is not None:
+        images["flipbook"] = flipbook([images[name] for name in specs])
 
     # Texels that no sample hit although their four neighbours are covered: cracks.
     inner = np.zeros_like(covered)
@@ -258,6 +312,10 @@ def bake_mesh(
             "uv": uv,
             "texture_space": texture_space,
             "seed": seed,
+            "shading": shading,
+            "light": list(light) if shading != "decal" else None,
+            "bump": None if bump_spec is None else {"texture": bump_spec.model_dump(mode="json"), "strength": bump_strength},
+            "frames": frames,
         },
         "atlas": {"method": atlas.method, "reason": atlas.reason, **atlas.stats},
         "texels": {
@@ -278,4 +336,4 @@ def bake_mesh(
         "versions": library_versions(),
     }
     baked = BakedMesh(mesh.vertices[atlas.vmapping], atlas.faces, atlas.uv, mesh.name)
-    return BakeResult({"albedo": image}, covered, filled, baked, report)
+    return BakeResult(images, covered, filled, baked, report)

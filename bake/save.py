@@ -20,8 +20,9 @@ FORMATS = {"png": (8, 16), "exr": (16, 32), "tif": (8, 16, 32)}
 def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = None, obj: bool = False) -> dict:
     """Write ``result`` (a ``BakeResult``) into ``folder``; return the files written.
 
-    Maps: ``albedo.<fmt>`` and ``coverage.png`` (1 where the atlas covers a texel);
-    mesh: ``<name>.glb`` with the albedo bound as base colour (and ``<name>.obj`` + MTL
+    Maps: ``albedo.<fmt>`` (or one per frame and ``flipbook``), ``lit``, ``normal`` when
+    baked, and ``coverage.png`` (1 where the atlas covers a texel); mesh: ``<name>.glb``
+    with the albedo (of the first frame) bound as base colour (and ``<name>.obj`` + MTL
     if ``obj``); ``report.json`` last, so its presence means the rest is complete.
     """
     fmt = fmt.lower().lstrip(".")
@@ -39,14 +40,15 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
     start = time.perf_counter()
     written = {}
     for name, pixels in result.images.items():
-        written[name] = write_image(folder / f"{name}.{fmt}", pixels, bits=bits)
-    written["coverage"] = write_image(folder / "coverage.png", result.coverage[:, :, None].astype("float32"))
+        kind = "data" if name == "normal" else "linear"  # a normal map is not a colour
+        written[name] = write_image(folder / f"{name}.{fmt}", pixels, bits=bits, colorspace=kind)
+    written["coverage"] = write_image(folder / "coverage.png", result.coverage[:, :, None].astype("float32"), colorspace="data")
 
-    albedo = result.images["albedo"]
-    texture = folder / "albedo.png"
+    colour = "albedo" if "albedo" in result.images else min(n for n in result.images if n.startswith("albedo_"))
+    texture = folder / f"{colour}.png"
     if fmt != "png":  # glTF takes PNG or JPEG only
-        texture = folder / "albedo_gltf.png"
-        written["albedo_gltf"] = write_image(texture, albedo)
+        texture = folder / f"{colour}_gltf.png"
+        written[f"{colour}_gltf"] = write_image(texture, result.images[colour])
     m = result.mesh
     written["glb"] = write_glb(folder / f"{m.name}.glb", m.vertices, m.faces, m.uv, texture, name=m.name)
     if obj:
