@@ -6,6 +6,9 @@ A scene is flattened, node transforms applied, into one mesh. The file is checke
 and after parsing: archives, references that leave the mesh's folder, non-finite or
 out-of-range coordinates, out-of-range face indices and too many faces are rejected with
 a :class:`~bake.errors.MeshError` naming the file; zero-area faces are removed and counted.
+
+Vertices that are equal in position *and* UV are merged (file formats and trimesh split
+every face corner), so UV seams survive and a closed surface stays connected.
 """
 
 from __future__ import annotations
@@ -20,7 +23,7 @@ from pathlib import Path, PurePosixPath
 
 import numpy as np
 
-from .errors import MeshError
+from .errors import MeshError, ParameterError
 from .objfile import read_obj
 
 FORMATS = {".obj": "obj", ".ply": "ply", ".stl": "stl", ".off": "off", ".gltf": "gltf", ".glb": "glb"}
@@ -41,19 +44,43 @@ _ARCHIVES = {
 
 @dataclass
 class LoadedMesh:
-    """A validated triangle mesh."""
+    """A validated triangle mesh.
 
-    vertices: np.ndarray  # (n, 3) float64, object space, node transforms applied
-    faces: np.ndarray  # (m, 3) int64 indices into vertices; no zero-area faces
-    uv: np.ndarray | None  # (n, 2) float64 per-vertex UVs (v up), or None
+    Attributes
+    ----------
+    vertices : (n, 3) float64
+        Object-space positions, node transforms applied; finite, within float32 range.
+    faces : (m, 3) int64
+        Indices into ``vertices``, m >= 1; zero-area faces removed.
+    uv : (n, 2) float64 or None
+        Per-vertex texture coordinates as loaded (OpenGL convention: v up), or None when
+        some part of the mesh has none.
+    name : str
+        The file's stem, or the name given for an in-memory mesh.
+    path : str
+        The file as given, or ``"<mesh>"``.
+    removed_degenerate : int
+        How many zero-area faces were removed.
+    sha256 : str
+        Hex digest of the file's bytes, or of the arrays of an in-memory mesh.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    uv: np.ndarray | None
     name: str
-    path: str  # the file as given, or "<mesh>"
-    removed_degenerate: int  # zero-area faces removed
-    sha256: str  # of the file's bytes, or of the arrays for an in-memory mesh
+    path: str
+    removed_degenerate: int
+    sha256: str
 
 
 def load_mesh(path, *, max_faces: int = 5_000_000) -> LoadedMesh:
-    """Read and validate the mesh file at ``path`` (see the module docstring)."""
+    """Read and validate the mesh file at ``path`` (see the module docstring).
+
+    Raises :class:`~bake.errors.MeshError` naming the file and the problem for any file
+    that is missing, unreadable, unsafe or holds no usable triangles.
+    """
+    _check_max_faces(max_faces)
     path = Path(path)
     where = str(path)
     if not path.is_file():
@@ -74,35 +101,49 @@ def load_mesh(path, *, max_faces: int = 5_000_000) -> LoadedMesh:
         raise MeshError(where, "file is empty")
 
     sha256 = hashlib.sha256(data).hexdigest()
-    if kind == "obj":
+    if kind in ("gltf", "glb"):
+        _check_gltf_uris(_gltf_json(data, kind, where), path)
+    try:
+        with np.errstate(over="raise"):  # a float32 field overflowing to inf
+            parts = _read(data, kind, path)
+    except MeshError:
+        raise
+    except FloatingPointError:
+        raise MeshError(where, f"a number overflows when read: coordinates must lie within float32 range (|x| <= {FLOAT32_MAX:.3g})") from None
+    except Exception as exc:  # the parsers raise many kinds on corrupt input
+        raise MeshError(where, f"cannot parse {kind.upper()} file: {_short(exc)}") from None
+    return _validate(parts, path.stem, where, sha256, max_faces)
+
+
+def _read(data: bytes, kind: str, path: Path) -> list:
+    """Parse checked file bytes into ``(vertices, faces, uv or None)`` parts."""
+    if kind == "obj":  # our own reader: trimesh 5.2 resolves relative indices wrongly
         def check(name, what):
             _check_reference(name, path, what)
             _check_mtl(path.parent / name, path)
 
-        return _validate([read_obj(data, path, check)], path.stem, where, sha256, max_faces)
-    if kind in ("gltf", "glb"):
-        _check_gltf_uris(_gltf_json(data, kind, where), path)
+        return [read_obj(data, path, check)]
 
     import trimesh  # pip install trimesh
 
-    try:
-        loaded = trimesh.load(
-            io.BytesIO(data),
-            file_type=kind,
-            resolver=trimesh.resolvers.FilePathResolver(str(path.parent)),
-            process=False,
-        )
-    except MeshError:
-        raise
-    except Exception as exc:  # trimesh raises many kinds on corrupt input
-        raise MeshError(where, f"cannot parse {kind.upper()} file: {_short(exc)}") from None
-    return _validate(_parts(loaded), path.stem, where, sha256, max_faces)
+    loaded = trimesh.load(
+        io.BytesIO(data),
+        file_type=kind,
+        resolver=trimesh.resolvers.FilePathResolver(str(path.parent)),
+        process=False,
+    )
+    return _parts(loaded)
 
 
 def mesh_from_trimesh(mesh, *, name: str = "mesh", max_faces: int = 5_000_000) -> LoadedMesh:
-    """Validate an in-memory ``trimesh.Trimesh`` or ``trimesh.Scene``."""
+    """Validate an in-memory ``trimesh.Trimesh`` or ``trimesh.Scene``.
+
+    The same checks as :func:`load_mesh`; errors name the file ``"<mesh>"``. The input is
+    not modified.
+    """
     import trimesh
 
+    _check_max_faces(max_faces)
     if not isinstance(mesh, (trimesh.Trimesh, trimesh.Scene)):
         raise TypeError(f"expected trimesh.Trimesh or trimesh.Scene, got {type(mesh).__name__}")
     h = hashlib.sha256()
@@ -111,6 +152,11 @@ def mesh_from_trimesh(mesh, *, name: str = "mesh", max_faces: int = 5_000_000) -
             h.update(np.ascontiguousarray(g.vertices, dtype=np.float64).tobytes())
             h.update(np.ascontiguousarray(g.faces, dtype=np.int64).tobytes())
     return _validate(_parts(mesh), name, "<mesh>", h.hexdigest(), max_faces)
+
+
+def _check_max_faces(max_faces) -> None:
+    if isinstance(max_faces, bool) or not isinstance(max_faces, (int, np.integer)) or max_faces < 1:
+        raise ParameterError("max_faces", f"expected a positive integer, got {max_faces!r}")
 
 
 def _short(exc: Exception) -> str:
@@ -129,6 +175,13 @@ def _check_reference(ref: str, path: Path, what: str) -> None:
     parts = PurePosixPath(ref.replace("\\", "/"))
     if parts.is_absolute() or re.match(r"^[a-zA-Z]:[\\/]", ref) or ".." in parts.parts:
         raise MeshError(str(path), f"{what} {ref!r} leaves the mesh's folder")
+    folder = path.parent.resolve()
+    try:
+        target = (folder / parts).resolve()
+    except (OSError, RuntimeError, ValueError):  # a symlink loop, a NUL byte
+        raise MeshError(str(path), f"{what} {ref!r} cannot be resolved") from None
+    if not target.is_relative_to(folder):  # a symbolic link out of the folder
+        raise MeshError(str(path), f"{what} {ref!r} leaves the mesh's folder (through a link)")
 
 
 _MTL_MAPS = re.compile(r"^\s*(map_\w+|bump|disp|decal|refl|norm)\s+(.*)$", re.M | re.I)
@@ -137,7 +190,11 @@ _MTL_MAPS = re.compile(r"^\s*(map_\w+|bump|disp|decal|refl|norm)\s+(.*)$", re.M 
 def _check_mtl(mtl: Path, path: Path) -> None:
     if not mtl.is_file():
         return  # a missing MTL only loses materials
-    for _, args in _MTL_MAPS.findall(mtl.read_text(errors="replace")):
+    try:
+        text = mtl.read_text(errors="replace")
+    except OSError as exc:
+        raise MeshError(str(path), f"cannot read {mtl.name}: {exc.strerror}") from None
+    for _, args in _MTL_MAPS.findall(text):
         words = args.split()
         if words:  # the file name is the last word; options come before it
             _check_reference(words[-1], path, f"texture in {mtl.name}")
@@ -150,15 +207,22 @@ def _gltf_json(data: bytes, kind: str, where: str) -> dict:
             chunk_length, chunk_type = struct.unpack_from("<I4s", data, 12)
             if magic != b"glTF" or chunk_type != b"JSON" or chunk_length > len(data) - 20:
                 raise ValueError("not a GLB file")
-            return json.loads(data[20 : 20 + chunk_length])
-        return json.loads(data)
-    except (ValueError, struct.error) as exc:
+            doc = json.loads(data[20 : 20 + chunk_length])
+        else:
+            doc = json.loads(data)
+    except (ValueError, struct.error, RecursionError) as exc:
         raise MeshError(where, f"cannot parse {kind.upper()} header: {_short(exc)}") from None
+    if not isinstance(doc, dict):
+        raise MeshError(where, f"cannot parse {kind.upper()} header: the JSON is a {type(doc).__name__}, not an object")
+    return doc
 
 
 def _check_gltf_uris(doc: dict, path: Path) -> None:
     for section in ("buffers", "images"):
-        for item in doc.get(section) or []:
+        items = doc.get(section) or []
+        if not isinstance(items, list):
+            raise MeshError(str(path), f"glTF {section!r} must be a list, got {type(items).__name__}")
+        for item in items:
             uri = item.get("uri") if isinstance(item, dict) else None
             if isinstance(uri, str) and not uri.startswith("data:"):
                 from urllib.parse import unquote
@@ -184,7 +248,10 @@ def _parts(loaded):
         if isinstance(g, trimesh.Trimesh):
             v = np.asarray(g.vertices, dtype=np.float64)
             v = v @ transform[:3, :3].T + transform[:3, 3]
-            parts.append((v, g.faces, _uv(g)))
+            f = np.asarray(g.faces)
+            if np.linalg.det(transform[:3, :3]) < 0:  # a mirroring node: keep faces outward
+                f = f[:, ::-1]
+            parts.append((v, f, _uv(g)))
     return parts
 
 
@@ -256,5 +323,5 @@ def _validate(parts, name: str, where: str, sha256: str, max_faces: int) -> Load
     diag = float(np.linalg.norm(vertices.max(axis=0) - vertices.min(axis=0)))
     keep = area2 > 1e-30 * diag * diag
     if not keep.any():
-        raise MeshError(where, f"all {len(faces)} faces are degenerate (zero area)")
+        raise MeshError(where, f"all {len(faces)} faces are degenerate (zero area at the scale of the bounding-box diagonal {diag:.3g})")
     return LoadedMesh(vertices, faces[keep], uv, name, where, int((~keep).sum()), sha256)

@@ -91,7 +91,7 @@ def _corner_indices(corners: list[str], where: str) -> tuple[np.ndarray, np.ndar
         columns = 1 if slashes == 0 else (2 if slashes == 1 or double else 3)
         try:
             flat = np.array(joined.replace("//", " ").replace("/", " ").split(), dtype=np.int64)
-        except ValueError:
+        except (ValueError, OverflowError):
             flat = None
         if flat is not None and flat.size == columns * len(corners):
             flat = flat.reshape(-1, columns)
@@ -101,16 +101,17 @@ def _corner_indices(corners: list[str], where: str) -> tuple[np.ndarray, np.ndar
         fields = [c.split("/") for c in corners]
         vi = np.array([f[0] for f in fields], dtype=np.int64)
         ti = np.array([int(f[1]) if len(f) > 1 and f[1] else 0 for f in fields], dtype=np.int64)
-    except ValueError:
-        bad = next(c for c in corners if not _is_index(c))
+    except (ValueError, OverflowError):
+        bad = next((c for c in corners if not _is_index(c)), corners[0])
         raise MeshError(where, f"bad face index {bad!r}") from None
     return vi, ti
 
 
 def _is_index(corner: str) -> bool:
+    """A corner whose fields are whole numbers within int64, the first one present."""
+    fields = corner.split("/")
     try:
-        [int(x) for x in corner.split("/") if x]
-        return True
+        return bool(fields[0]) and all(abs(int(x)) < 2**62 for x in fields if x)
     except ValueError:
         return False
 

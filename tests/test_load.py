@@ -2,16 +2,24 @@
 
 import bz2
 import gzip
+import hashlib
 import io
 import json
+import lzma
+import os
 import struct
+import tarfile
+import tempfile
 import zipfile
+from pathlib import Path
 
 import numpy as np
 import pytest
 import trimesh
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
-from bake.errors import MeshError
+from bake.errors import MeshError, ParameterError
 from bake.load import load_mesh, mesh_from_trimesh
 
 # faces, has UVs (from ../shared/meshes/SOURCES.md)
@@ -56,15 +64,20 @@ def test_scene_node_transforms_are_applied(meshes):
 
 def test_negative_indices_shared_file(meshes):
     m = load_mesh(meshes / "negative_indices.obj")
-    # the file's faces written with absolute indices: quads of the unit cube
+    # Resolved by hand: every v and vt line comes before the faces, so index -k is
+    # element count - k; each quad is split as a fan (0, 1, 2), (0, 2, 3).
     text = (meshes / "negative_indices.obj").read_text().splitlines()
-    v = np.array([list(map(float, l.split()[1:4])) for l in text if l.startswith("v ")])
-    quads = [[len(v) + int(t.split("/")[0]) for t in l.split()[1:]] for l in text if l.startswith("f ")]
-    expect = {frozenset(map(tuple, v[q])) for q in quads}
-    # every loaded triangle lies within one of the expected quads
-    for tri in m.vertices[m.faces]:
-        assert any(set(map(tuple, tri)) <= quad for quad in expect)
-    assert np.allclose(np.abs(m.vertices), 1)
+    v = np.array([l.split()[1:4] for l in text if l.startswith("v ")], float)
+    vt = np.array([l.split()[1:3] for l in text if l.startswith("vt ")], float)
+    corners = [[t.split("/") for t in l.split()[1:]] for l in text if l.startswith("f ")]
+    pos = [[v[len(v) + int(c[0])] for c in q] for q in corners]
+    tex = [[vt[len(vt) + int(c[1])] for c in q] for q in corners]
+    fan = lambda q: [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]
+    expect_pos = np.array([t for q in pos for t in fan(q)])
+    expect_uv = np.array([t for q in tex for t in fan(q)])
+    assert m.removed_degenerate == 0 and len(m.faces) == 12
+    assert np.array_equal(m.vertices[m.faces], expect_pos)
+    assert np.array_equal(m.uv[m.faces], expect_uv)
 
 
 def test_negative_indices_interleaved(tmp_path):
@@ -77,6 +90,73 @@ def test_negative_indices_interleaved(tmp_path):
     m = load_mesh(obj)
     tris = sorted(tuple(map(tuple, m.vertices[f])) for f in m.faces)
     assert tris == [((0, 0, 0), (1, 0, 0), (0, 1, 0)), ((5, 5, 5), (6, 5, 5), (5, 6, 5))]
+
+
+def test_negative_texcoord_indices_interleaved(tmp_path):
+    obj = tmp_path / "inter_vt.obj"
+    obj.write_text(
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf -3/-3 -2/-2 -1/-1\n"
+        "v 5 5 5\nv 6 5 5\nv 5 6 5\nvt .5 .5\nvt .6 .5\nvt .5 .6\nf -3/-3 -2/-2 -1/-1\n"
+        "f 1/4 2/5 3/6\n"  # positive indices mix old positions with new coordinates
+    )
+    m = load_mesh(obj)
+    assert np.array_equal(m.vertices[m.faces], [[[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[5, 5, 5], [6, 5, 5], [5, 6, 5]], [[0, 0, 0], [1, 0, 0], [0, 1, 0]]])
+    assert np.allclose(m.uv[m.faces], [[[0, 0], [1, 0], [0, 1]], [[.5, .5], [.6, .5], [.5, .6]], [[.5, .5], [.6, .5], [.5, .6]]])
+    assert len(m.vertices) == 9  # same positions with other UVs stay separate (a seam)
+
+
+def test_duck_has_uvs_and_file_hash(meshes):
+    m = load_mesh(meshes / "Duck.glb")
+    assert m.uv.shape == (len(m.vertices), 2) and m.uv.dtype == np.float64
+    assert m.sha256 == hashlib.sha256((meshes / "Duck.glb").read_bytes()).hexdigest()
+    assert m.path == str(meshes / "Duck.glb")
+
+
+def test_mirroring_node_keeps_faces_outward():
+    box = trimesh.creation.box()
+    scene = trimesh.Scene()
+    scene.add_geometry(box, transform=np.diag([-1.0, 1.0, 1.0, 1.0]))
+    m = mesh_from_trimesh(scene)
+    t = m.vertices[m.faces]
+    normals = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+    outward = (normals * (t.mean(axis=1) - m.vertices.mean(axis=0))).sum(axis=1)
+    assert (outward > 0).all()
+
+
+def test_scene_parts_are_joined_and_uvs_kept_only_if_all_have_them():
+    a = trimesh.creation.box()
+    a.visual = trimesh.visual.TextureVisuals(uv=np.zeros((len(a.vertices), 2)))
+    b = trimesh.creation.box()
+    cloud = trimesh.PointCloud(np.random.default_rng(0).random((5, 3)))
+    both = trimesh.Scene([a, b.copy(), cloud])
+    m = mesh_from_trimesh(both)
+    assert len(m.faces) == 24 and m.uv is None
+    b.visual = trimesh.visual.TextureVisuals(uv=np.ones((len(b.vertices), 2)))
+    m = mesh_from_trimesh(trimesh.Scene([a, b]))
+    assert m.uv is not None and len(m.uv) == len(m.vertices)
+    with pytest.raises(MeshError, match="<mesh>: no faces"):
+        mesh_from_trimesh(trimesh.Scene([cloud]))
+
+
+def test_gltf_with_sibling_buffers_and_with_data_uris(meshes, tmp_path):
+    scene = trimesh.load(meshes / "BoxTextured.glb")
+    for folder, embed in [("files", False), ("embedded", True)]:
+        (tmp_path / folder).mkdir()
+        for name, data in trimesh.exchange.gltf.export_gltf(scene, embed_buffers=embed).items():
+            (tmp_path / folder / name).write_bytes(data)
+        m = load_mesh(tmp_path / folder / "model.gltf")
+        assert len(m.faces) == 12 and m.uv is not None
+
+
+def test_degenerate_faces_removed_and_counted(tmp_path):
+    obj = tmp_path / "some_flat.obj"
+    obj.write_text(
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\n"
+        "f 1 2 3\nf 1 2 4\nf 1 1 3\nf 3 2 1\n"  # collinear, repeated corner
+    )
+    m = load_mesh(obj)
+    assert m.removed_degenerate == 2 and len(m.faces) == 2
+    assert np.array_equal(m.vertices[m.faces[:, 0]], [[0, 0, 0], [0, 1, 0]])
 
 
 def test_ascii_and_binary_stl_and_off(tmp_path):
@@ -92,6 +172,21 @@ def test_ascii_and_binary_stl_and_off(tmp_path):
 def test_in_memory_mesh():
     m = mesh_from_trimesh(trimesh.creation.icosphere(2), name="ball")
     assert m.path == "<mesh>" and len(m.faces) == 320 and m.name == "ball"
+
+
+PLY = (
+    "ply\nformat ascii 1.0\nelement vertex 3\nproperty {t} x\nproperty {t} y\nproperty {t} z\n"
+    "element face 1\nproperty list uchar int vertex_indices\nend_header\n{v}\n{f}\n"
+)
+
+
+def tarred():
+    buf = io.BytesIO()
+    with tarfile.open(fileobj=buf, mode="w") as t:
+        info = tarfile.TarInfo("a.obj")
+        info.size = 8
+        t.addfile(info, io.BytesIO(b"v 0 0 0\n"))
+    return buf.getvalue()
 
 
 def write(tmp_path, name, data):
@@ -128,6 +223,27 @@ def glb_with_image_uri(uri):
         ("nan.obj", "v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "non-finite"),
         ("inf.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 inf\n0 1 0\n3 0 1 2\n", "non-finite"),
         ("huge.obj", "v 0 0 1e39\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "float32"),
+        ("huge_double.ply", PLY.format(t="double", v="0 0 0\n1 0 1e39\n0 1 0", f="3 0 1 2"), "float32"),
+        ("huge_float.ply", PLY.format(t="float", v="0 0 0\n1 0 -1e39\n0 1 0", f="3 0 1 2"), "float32"),
+        ("nan.ply", PLY.format(t="float", v="0 0 0\n1 nan 0\n0 1 0", f="3 0 1 2"), "non-finite"),
+        ("zero.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", "out of range"),
+        ("behind.obj", "v 0 0 0\nv 1 0 0\nf -3 -2 -1\nv 0 1 0\n", "out of range"),
+        ("negative.ply", PLY.format(t="float", v="0 0 0\n1 0 0\n0 1 0", f="3 0 1 -1"), "out of range"),
+        ("range.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n", "range"),
+        ("gzipped.obj", gzip.compress(b"v 0 0 0\n"), "archive"),
+        ("xz.ply", lzma.compress(b"ply\n"), "archive"),
+        ("seven.stl", b"7z\xbc\xaf\x27\x1c" + bytes(40), "archive"),
+        ("rar.off", b"Rar!\x1a\x07\x01\x00" + bytes(40), "archive"),
+        ("tarred.obj", tarred(), "archive"),
+        ("archive.zip", zipped(), "archive"),
+        ("url.obj", "mtllib http://example.com/m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "URL"),
+        ("list.gltf", "[]", "not an object"),
+        ("notjson.gltf", "{ nope", "gltf header"),
+        ("badglb.glb", b"glTF" + bytes(30), "glb"),
+        ("nomesh.gltf", json.dumps({"asset": {"version": "2.0"}}), "no faces"),
+        ("corner.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 /3\n", "obj"),
+        ("bigindex.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999999999999999999\n", "obj"),
+        ("binary.stl", b"\x00" * 80 + struct.pack("<I", 5) + bytes(20), "stl"),
         ("range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "out of range"),
         ("range.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", "out of range"),
         ("zipped.obj", zipped(), "archive"),
@@ -149,13 +265,90 @@ def test_rejections_name_the_file_and_the_problem(tmp_path, name, data, words):
         load_mesh(path)
     message = str(info.value)
     assert name in message and words.lower() in message.lower(), message
+    assert "\n" not in message
 
 
-def test_mtl_texture_outside_the_folder(tmp_path):
-    write(tmp_path, "m.mtl", "newmtl a\nmap_Kd -s 1 1 1 ../../etc/passwd\n")
+@pytest.mark.parametrize(
+    "line",
+    ["map_Kd /etc/passwd", "map_Kd -s 1 1 1 ../../etc/passwd", "bump sub/../../x.png", "norm C:\\x.png",
+     "disp file:///etc/passwd", "map_Bump http://example.com/x.png"],
+)
+def test_mtl_texture_outside_the_folder(tmp_path, line):
+    write(tmp_path, "m.mtl", f"newmtl a\n{line}\n")
     path = write(tmp_path, "m.obj", "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
-    with pytest.raises(MeshError, match="m.obj.*leaves"):
+    with pytest.raises(MeshError, match=r"m\.obj: .*(leaves|URL)"):
         load_mesh(path)
+
+
+def test_references_inside_the_folder_are_fine(tmp_path):
+    (tmp_path / "tex").mkdir()
+    write(tmp_path, "m.mtl", "newmtl a\nmap_Kd -o 0 0 tex/a.png\nbump tex/./b.png\n")
+    path = write(tmp_path, "m.obj", "mtllib m.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    assert len(load_mesh(path).faces) == 1
+
+
+@pytest.mark.skipif(not hasattr(os, "symlink"), reason="needs symbolic links")
+def test_symbolic_link_out_of_the_folder(tmp_path):
+    (tmp_path / "mesh").mkdir()
+    write(tmp_path, "outside.mtl", "newmtl a\n")
+    os.symlink(tmp_path / "outside.mtl", tmp_path / "mesh" / "m.mtl")
+    path = write(tmp_path / "mesh", "m.obj", "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    with pytest.raises(MeshError, match=r"m\.obj: mtllib 'm\.mtl' leaves .*link"):
+        load_mesh(path)
+
+
+def test_gltf_uri_escapes_and_percent_encoding(tmp_path):
+    for uri, words in [("..%2Fx.bin", "leaves"), ("/abs/x.bin", "leaves"), ("file:x.bin", "URL")]:
+        path = write(tmp_path, "b.gltf", gltf_with(uri_buffer=uri))
+        with pytest.raises(MeshError, match=rf"b\.gltf: .*{words}"):
+            load_mesh(path)
+
+
+def test_not_a_file_and_bad_limit(tmp_path):
+    (tmp_path / "dir.obj").mkdir()
+    with pytest.raises(MeshError, match="dir.obj: not a file"):
+        load_mesh(tmp_path / "dir.obj")
+    for bad in (0, -5, 2.5, "10", True):
+        with pytest.raises(ParameterError, match="max_faces"):
+            load_mesh(tmp_path / "dir.obj", max_faces=bad)
+
+
+def test_in_memory_limit_and_hash():
+    ball = trimesh.creation.icosphere(1)
+    a, b = mesh_from_trimesh(ball), mesh_from_trimesh(ball.copy())
+    assert a.sha256 == b.sha256 and a.name == "mesh"
+    with pytest.raises(MeshError, match="<mesh>: 80 faces is more than the limit of 79"):
+        mesh_from_trimesh(ball, max_faces=79)
+    ball.vertices[0] = np.nan
+    with pytest.raises(MeshError, match="<mesh>: 1 vertices have non-finite"):
+        mesh_from_trimesh(ball)
+
+
+_SEEDS = {name: (Path(__file__).resolve().parents[1].parent / "shared" / "meshes" / name) for name in
+          ("negative_indices.obj", "BoxTextured.glb", "soup.stl", "suzanne.ply")}
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    name=st.sampled_from(sorted(_SEEDS)),
+    cut=st.floats(0, 1),
+    edits=st.lists(st.tuples(st.floats(0, 1), st.binary(min_size=1, max_size=6)), max_size=6),
+)
+def test_corrupt_files_raise_only_mesh_errors(name, cut, edits):
+    data = bytearray(_SEEDS[name].read_bytes())
+    for where, junk in edits:
+        i = int(where * len(data))
+        data[i : i + len(junk)] = junk
+    data = bytes(data[: max(1, int(cut * len(data))) if cut < 0.5 else len(data)])
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / name
+        path.write_bytes(data)
+        try:
+            m = load_mesh(path)
+        except MeshError as exc:
+            assert str(exc).startswith(str(path) + ": ") and "\n" not in str(exc)
+        else:
+            assert np.isfinite(m.vertices).all() and m.faces.min() >= 0 and m.faces.max() < len(m.vertices)
 
 
 def test_missing_file_and_face_limit(meshes, tmp_path):

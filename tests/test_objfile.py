@@ -40,6 +40,8 @@ def test_seams_split_vertices_by_texcoord():
     "text, words",
     [("v 0 0 0\nf 1 2 3\n", "out of range"), ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", "out of range"),
      ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 -2 -1\n", "out of range"), ("v 0 0 0\nf 1 x 3\n", "bad face index"),
+     ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf /3 1 2\n", "bad face index"),
+     ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 99999999999999999999 1 2\n", "bad face index"),
      ("v 0 0\nf 1 1 1\n", "x, y and z"), ("v 0 0 zero\n", "bad coordinate"), ("v 0 0 0\nf 1 1\n", "at least 3")],
 )
 def test_bad_files(text, words):

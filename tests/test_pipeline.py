@@ -129,3 +129,19 @@ def test_samples_and_report(meshes, tmp_path):
 def test_bad_parameters_are_named(kwargs, name):
     with pytest.raises(ParameterError, match=name):
         bake.bake_mesh(trimesh.creation.box(), "checker", **kwargs)
+
+
+def test_lit_normal_and_frames(meshes, tmp_path):
+    result = bake.bake_mesh(meshes / "suzanne.ply", "marble", size=64, shading="ambient-diffuse", bump="turbulence")
+    assert set(result.images) == {"albedo", "lit", "normal"}
+    cov = result.coverage
+    assert (result.images["lit"][cov] <= result.images["albedo"][cov] + 1e-6).all()  # ka + kd <= 1
+    n = result.images["normal"][cov] * 2 - 1
+    assert np.allclose(np.linalg.norm(n, axis=1), 1, atol=1e-5) and (n[:, 2] > 0).all()
+    frames = bake.bake_mesh(meshes / "suzanne.ply", "flame", size=32, frames=[0, 0.5, 1])
+    assert frames.images["flipbook"].shape == (64, 64, 3)
+    assert not np.allclose(frames.images["albedo_0000"], frames.images["albedo_0002"])
+    frames.save(tmp_path)
+    assert (tmp_path / "flipbook.png").exists() and (tmp_path / "albedo_0002.png").exists()
+    with pytest.raises(ParameterError, match="frames"):
+        bake.bake_mesh(meshes / "suzanne.ply", "marble", size=32, frames=[0, 1])
