@@ -14,6 +14,7 @@ from multiprocessing import get_context
 from pathlib import Path
 from typing import Optional
 
+import numpy as np
 import typer
 
 from .errors import BakeError
@@ -38,9 +39,30 @@ def _bake_one(mesh: str, out: str, settings: dict) -> dict:
     return result.report
 
 
-def _settings(texture, sets, size, samples, margin, uv, source, cage, texture_space, max_faces, deadline, fmt, bits, obj, workers=2):
+def _floats(text: str | None, name: str, count: int | None = None) -> list[float] | None:
+    """``"a,b,c"`` as floats, or ``"start:stop:n"`` as n evenly spaced values."""
+    if text is None:
+        return None
+    try:
+        if ":" in text:
+            start, stop, n = text.split(":")
+            values = [float(x) for x in np.linspace(float(start), float(stop), int(n))]
+        else:
+            values = [float(x) for x in text.split(",")]
+    except ValueError:
+        _fail(f"parameter {name!r}: expected numbers like 'a,b,c' or 'start:stop:count', got {text!r}")
+    if count is not None and len(values) != count:
+        _fail(f"parameter {name!r}: expected {count} numbers, got {len(values)}")
+    return values
+
+
+def _settings(texture, sets, size, samples, margin, uv, source, cage, texture_space, max_faces, deadline, fmt, bits, obj,
+              workers=2, shading="decal", light=None, bump=None, bump_strength=1.0, frames=None):
+    extra = {"shading": shading, "bump": bump, "bump_strength": bump_strength, "frames": _floats(frames, "frames")}
+    if light is not None:
+        extra["light"] = tuple(_floats(light, "light", 3))
     return {
-        "texture": texture, "set": list(sets or []), "size": size, "samples": samples, "margin": margin, "uv": uv,
+        **extra, "texture": texture, "set": list(sets or []), "size": size, "samples": samples, "margin": margin, "uv": uv,
         "source": source, "cage": cage, "texture_space": texture_space, "max_faces": max_faces,
         "unwrap_deadline": deadline, "fmt": fmt, "bits": bits, "obj": obj, "workers": workers,
     }
@@ -60,6 +82,11 @@ _DEADLINE = typer.Option(120.0, "--unwrap-deadline", help="seconds xatlas may ru
 _FMT = typer.Option("png", "--format", "-f", help="png | exr | tif")
 _BITS = typer.Option(None, "--bits", help="png/tif 8 or 16; exr 16 (half) or 32; tif 32 (float)")
 _OBJ = typer.Option(False, "--obj", help="also write OBJ + MTL")
+_SHADING = typer.Option("decal", "--shading", help="decal (albedo only) | ambient-diffuse | full: also bake a lit map")
+_LIGHT = typer.Option(None, "--light", help="light direction x,y,z for lit maps")
+_BUMP = typer.Option(None, "--bump", help="texture whose luminance is bumped into a tangent-space normal map")
+_BUMP_STRENGTH = typer.Option(1.0, "--bump-strength", help="scale of the bump")
+_FRAMES = typer.Option(None, "--frames", help="times to bake an animated texture (flame): 't0,t1,...' or 'start:stop:count'")
 
 
 @app.command()
@@ -69,10 +96,13 @@ def bake(
     texture: str = _TEXTURE, set_: Optional[list[str]] = _SET, size: int = _SIZE, samples: int = _SAMPLES, margin: int = _MARGIN,
     uv: str = _UV, source: Optional[str] = _SOURCE, cage: Optional[float] = _CAGE,
     texture_space: str = _SPACE, max_faces: int = _FACES, unwrap_deadline: float = _DEADLINE,
-    fmt: str = _FMT, bits: Optional[int] = _BITS, obj: bool = _OBJ,
+    fmt: str = _FMT, bits: Optional[int] = _BITS, obj: bool = _OBJ, shading: str = _SHADING,
+    light: Optional[str] = _LIGHT, bump: Optional[str] = _BUMP, bump_strength: float = _BUMP_STRENGTH,
+    frames: Optional[str] = _FRAMES,
 ):
     """Bake one mesh: writes DIR/albedo.<format>, DIR/<mesh>.glb and DIR/report.json."""
-    settings = _settings(texture, set_, size, samples, margin, uv, source, cage, texture_space, max_faces, unwrap_deadline, fmt, bits, obj)
+    settings = _settings(texture, set_, size, samples, margin, uv, source, cage, texture_space, max_faces, unwrap_deadline,
+                         fmt, bits, obj, shading=shading, light=light, bump=bump, bump_strength=bump_strength, frames=frames)
     start = time.perf_counter()
     try:
         report = _bake_one(mesh, str(out), settings)

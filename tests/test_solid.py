@@ -110,3 +110,15 @@ def test_seed_changes_the_pattern_and_only_the_seed():
     a = evaluate({"name": "turbulence", "seed": 1}, p)
     assert np.array_equal(a, evaluate({"name": "turbulence", "seed": 1}, p))
     assert not np.allclose(a, evaluate({"name": "turbulence", "seed": 2}, p))
+
+
+def test_object_space_field_moves_with_the_object_world_space_does_not():
+    p = RNG.random((300, 3))
+    moved = {"translate": [0.3, -0.2, 0.1], "rotate": [0, 0, 30]}
+    obj = [evaluate({"name": "marble", "model": m}, p) for m in ({}, moved)]
+    world = [evaluate({"name": "marble", "space": "world", "model": m}, p) for m in ({}, moved)]
+    assert np.array_equal(obj[0], obj[1])  # carved from the block: stays on the surface
+    assert np.array_equal(world[0], obj[0]) and not np.allclose(world[0], world[1])
+    # world space equals evaluating the plain field at the world points
+    m = parse_spec({"name": "marble", "model": moved}).model.object_from_texture()
+    assert np.allclose(world[1], evaluate("marble", p @ m[:3, :3].T + m[:3, 3]))

@@ -73,6 +73,11 @@ def evaluate(spec, points, footprint=None, *, bounds=None) -> np.ndarray:
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     f = None if footprint is None else np.asarray(footprint, dtype=np.float64).reshape(-1, 2, 3)
     dpdx, dpdy = (None, None) if f is None else (f[:, 0], f[:, 1])
+    if spec.space == "world" and spec.model != Transform():  # the object moves through the field
+        m = spec.model.object_from_texture()
+        p = p @ m[:3, :3].T + m[:3, 3]
+        if f is not None:
+            dpdx, dpdy = dpdx @ m[:3, :3].T, dpdy @ m[:3, :3].T
     q = p
     if spec.transform != Transform():  # the identity costs nothing
         m = spec.transform.texture_from_object()

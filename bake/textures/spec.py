@@ -56,6 +56,12 @@ class _Texture(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     transform: Transform = Transform()
+    space: Literal["object", "world"] = Field(
+        "object",
+        description="object: the field moves with the object; world: the field stays put "
+        "and the object, placed by `model`, moves through it",
+    )
+    model: Transform = Field(Transform(), description="modelling transform: object to world")
     channels: ClassVar[int] = 3  # of the colour it gives
 
 
