@@ -149,7 +149,7 @@ def fade_factor(limit, k):
     return keep * keep * (3.0 - 2.0 * keep)
 
 @nb.njit(cache=True, parallel=True, nogil=True, fastmath={"nsz", "arcp", "contract", "afn", "reassoc"})
-def octave_kernel(points, width, noise, index, basis, interp, count, lacunarity, gain, signed, out):
+def octave_kernel(points, width, noise, index, noise_perm, basis, interp, count, lacunarity, gain, signed, out):
     """Sum of ``count`` octaves ``gain^k * n(lacunarity^k * p)``, cut by the footprint.
 
     ``n`` is the basis in [0, 1] (``signed``: ``2n - 1``). Octave ``k`` is kept while
@@ -200,14 +200,14 @@ def octave_kernel(points, width, noise, index, basis, interp, count, lacunarity,
                     p10 = index[(iy + 1 + pz0) & 255] + ix
                     p01 = index[(iy + pz1) & 255] + ix
                     p11 = index[(iy + 1 + pz1) & 255] + ix
-                    d000 = noise[index[p00 & 255]]
-                    d100 = noise[index[(p00 + 1) & 255]]
-                    d010 = noise[index[p10 & 255]]
-                    d110 = noise[index[(p10 + 1) & 255]]
-                    d001 = noise[index[p01 & 255]]
-                    d101 = noise[index[(p01 + 1) & 255]]
-                    d011 = noise[index[p11 & 255]]
-                    d111 = noise[index[(p11 + 1) & 255]]
+                    d000 = noise_perm[p00 & 255]
+                    d100 = noise_perm[(p00 + 1) & 255]
+                    d010 = noise_perm[p10 & 255]
+                    d110 = noise_perm[(p10 + 1) & 255]
+                    d001 = noise_perm[p01 & 255]
+                    d101 = noise_perm[(p01 + 1) & 255]
+                    d011 = noise_perm[p11 & 255]
+                    d111 = noise_perm[(p11 + 1) & 255]
                     x0 = d000 + tx * (d100 - d000)
                     x1 = d010 + tx * (d110 - d010)
                     x2 = d001 + tx * (d101 - d001)
@@ -251,7 +251,7 @@ def octave_sum(
     w = np.zeros(len(p)) if width is None else np.ascontiguousarray(width, dtype=np.float64).reshape(-1)
     noise_table, index_table = tables(seed)
     out = np.empty(len(p))
-    octave_kernel(p, w, noise_table, index_table, BASES.index(basis), INTERPOLATIONS.index(interpolation),
+    octave_kernel(p, w, noise_table, index_table, noise_table[index_table], BASES.index(basis), INTERPOLATIONS.index(interpolation),
                int(octaves), float(lacunarity), float(gain), bool(signed), out)
     return out
 
