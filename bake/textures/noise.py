@@ -30,6 +30,14 @@ BASES = ("value", "perlin")
 
 
 @functools.cache
+def _derived_tables(seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """``noise[index]`` (256,) and ``PERM(j + PERM(k))`` at ``j * 256 + k`` (65536,) int32 (cache-sized)."""
+    noise, index = tables(seed)
+    j, k = np.divmod(np.arange(65536), 256)
+    return noise[index], index[(j + index[k]) & 255].astype(np.int32)
+
+
+@functools.cache
 def tables(seed: int) -> tuple[np.ndarray, np.ndarray]:
     """``(noiseTable (256,) float64 in [0, 1], indexTable (256,) int64 permutation)``."""
     rng = np.random.default_rng(seed)
@@ -149,7 +157,7 @@ def fade_factor(limit, k):
     return keep * keep * (3.0 - 2.0 * keep)
 
 @nb.njit(cache=True, parallel=True, nogil=True, fastmath={"nsz", "arcp", "contract", "afn", "reassoc"})
-def octave_kernel(points, width, noise, index, noise_perm, basis, interp, count, lacunarity, gain, signed, out):
+def octave_kernel(points, width, noise, index, noise_perm, perm_yz, basis, interp, count, lacunarity, gain, signed, out):
     """Sum of ``count`` octaves ``gain^k * n(lacunarity^k * p)``, cut by the footprint.
 
     ``n`` is the basis in [0, 1] (``signed``: ``2n - 1``). Octave ``k`` is kept while
@@ -194,12 +202,12 @@ def octave_kernel(points, width, noise, index, noise_perm, basis, interp, count,
                         tx = tx * tx * (3.0 - 2.0 * tx)
                         ty = ty * ty * (3.0 - 2.0 * ty)
                         tz = tz * tz * (3.0 - 2.0 * tz)
-                    pz0 = index[iz]
-                    pz1 = index[(iz + 1) & 255]
-                    p00 = index[(iy + pz0) & 255] + ix
-                    p10 = index[(iy + 1 + pz0) & 255] + ix
-                    p01 = index[(iy + pz1) & 255] + ix
-                    p11 = index[(iy + 1 + pz1) & 255] + ix
+                    iy1 = (iy + 1) & 255
+                    iz1 = (iz + 1) & 255
+                    p00 = perm_yz[iy * 256 + iz] + ix
+                    p10 = perm_yz[iy1 * 256 + iz] + ix
+                    p01 = perm_yz[iy * 256 + iz1] + ix
+                    p11 = perm_yz[iy1 * 256 + iz1] + ix
                     d000 = noise_perm[p00 & 255]
                     d100 = noise_perm[(p00 + 1) & 255]
                     d010 = noise_perm[p10 & 255]
@@ -251,7 +259,8 @@ def octave_sum(
     w = np.zeros(len(p)) if width is None else np.ascontiguousarray(width, dtype=np.float64).reshape(-1)
     noise_table, index_table = tables(seed)
     out = np.empty(len(p))
-    octave_kernel(p, w, noise_table, index_table, noise_table[index_table], BASES.index(basis), INTERPOLATIONS.index(interpolation),
+    noise_perm, perm_yz = _derived_tables(seed)
+    octave_kernel(p, w, noise_table, index_table, noise_perm, perm_yz, BASES.index(basis), INTERPOLATIONS.index(interpolation),
                int(octaves), float(lacunarity), float(gain), bool(signed), out)
     return out
 
