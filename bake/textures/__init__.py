@@ -7,8 +7,6 @@ there. It reads nothing but its arguments.
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 
 from . import basic
@@ -20,27 +18,10 @@ from .spec import (
 __all__ = ["evaluate", "parse_spec", "TextureSpec", "Transform", "TEXTURES"]
 
 
-_TABLE = 4096  # colour-map samples: the spline is looked up, not evaluated per point
-
-
-@functools.lru_cache(maxsize=64)
-def _colour_table(colormap: ColourMap) -> np.ndarray:
-    from .solid import spline
-
-    knots = np.asarray(colormap.knots)
-    t = np.linspace(knots[0], knots[-1], _TABLE)
-    return spline(t, knots, np.asarray(colormap.colours, dtype=np.float64))
-
-
 def _colours(colormap: ColourMap, t: np.ndarray) -> np.ndarray:
-    """``(n, 3)`` colours of ``(n,)`` values: the spline tabulated, linearly interpolated
-    (error below 1e-6 for the smooth curves colour maps are)."""
-    table = _colour_table(colormap)
-    k0, k1 = colormap.knots[0], colormap.knots[-1]
-    x = np.clip((t - k0) * ((_TABLE - 1) / (k1 - k0)), 0.0, _TABLE - 1) if k1 > k0 else np.zeros_like(t)
-    i = np.minimum(x.astype(np.intp), _TABLE - 2)
-    f = (x - i)[:, None]
-    return table[i] * (1.0 - f) + table[i + 1] * f
+    from .colour import colours
+
+    return colours(colormap.knots, colormap.colours, t)
 
 
 def _width(dpdx, dpdy) -> np.ndarray | None:
