@@ -262,7 +262,11 @@ def bake_mesh(
         with timer.stage("accumulate"):
             rows = tile.stop - tile.start
             texel = texels[np.flatnonzero(hit) // samples]
-            count = np.bincount(texel, minlength=rows * width)
+            if samples == 1:  # one sample a texel: a hit is a count of one
+                count = np.zeros(rows * width, dtype=hits.dtype)
+                count[texel] = 1
+            else:
+                count = np.bincount(texel, minlength=rows * width)
             for name, v in values.items():
                 if samples == 1:
                     block = np.zeros((rows * width, 3), dtype=np.float32)

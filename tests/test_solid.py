@@ -122,3 +122,26 @@ def test_object_space_field_moves_with_the_object_world_space_does_not():
     # world space equals evaluating the plain field at the world points
     m = parse_spec({"name": "marble", "model": moved}).model.object_from_texture()
     assert np.allclose(world[1], evaluate("marble", p @ m[:3, :3].T + m[:3, 3]))
+
+
+VEC = st.tuples(*[st.floats(-5, 5)] * 3)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.sampled_from(["turbulence", "marble", "wood", "fbm"]), st.floats(0.2, 5), VEC, VEC)
+def test_property_object_and_field_move_together(name, scale, rotate, translate):
+    t = {"scale": scale, "rotate": [r * 30 for r in rotate], "translate": list(translate)}
+    spec = parse_spec({"name": name, "transform": t})
+    m = spec.transform.object_from_texture()
+    p = RNG.random((64, 3))
+    assert np.allclose(evaluate(spec, p @ m[:3, :3].T + m[:3, 3]), evaluate(name, p), atol=1e-9)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.sampled_from(["noise", "turbulence", "fbm", "marble"]), VEC, st.integers(0, 2))
+def test_property_continuous(name, point, axis):
+    # a step of 1e-9 changes the colour by less than 1e-6 (no jumps anywhere)
+    p = np.array([point, point], dtype=float)
+    p[1, axis] += 1e-9
+    v = evaluate(name, p)
+    assert np.abs(v[0] - v[1]).max() < 1e-6
