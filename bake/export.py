@@ -17,11 +17,11 @@ from __future__ import annotations
 import json
 import os
 import struct
-import uuid
 from pathlib import Path
 
 import numpy as np
 
+from .atomic import write_bytes
 from .errors import OutputError, ParameterError
 
 # glTF constants
@@ -30,31 +30,6 @@ _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
 _LINEAR, _LINEAR_MIPMAP_LINEAR, _CLAMP = 9729, 9987, 33071
 _TRIANGLES = 4
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-
-
-def _atomic_write(path: Path, data: bytes) -> None:
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}")
-    try:
-        with open(tmp, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        if tmp.stat().st_size != len(data):
-            raise OutputError(f"{path}: short write (disk full?)")
-        os.replace(tmp, path)
-    except OSError as exc:
-        _remove(tmp)
-        raise OutputError(f"{path}: {exc.strerror or exc}") from None
-    except BaseException:
-        _remove(tmp)
-        raise
-
-
-def _remove(path: Path) -> None:
-    try:
-        path.unlink(missing_ok=True)
-    except OSError:
-        pass
 
 
 def _pad(data: bytes, fill: bytes) -> bytes:
@@ -170,7 +145,7 @@ def write_glb(path, vertices, faces, uv, texture, *, normals=None, name: str = "
         struct.pack("<I4s", len(chunk_json), b"JSON"), chunk_json,
         struct.pack("<I4s", len(binary), b"BIN\0"), binary,
     ])
-    _atomic_write(path, glb)
+    write_bytes(path, glb)
     return {"path": str(path), "bytes": len(glb), "vertices": len(positions), "faces": len(indices) // 3}
 
 
@@ -191,7 +166,7 @@ def write_obj(path, vertices, faces, uv, image_filename, *, normals=None) -> dic
         raise ParameterError("image_filename", "must not contain line breaks")
     mtl = path.with_suffix(".mtl")
     material = f"{path.stem}_baked".replace(" ", "_")
-    _atomic_write(mtl, f"newmtl {material}\nKa 0 0 0\nKd 1 1 1\nKs 0 0 0\nillum 1\nmap_Kd {image_ref}\n".encode())
+    write_bytes(mtl, f"newmtl {material}\nKa 0 0 0\nKd 1 1 1\nKs 0 0 0\nillum 1\nmap_Kd {image_ref}\n".encode())
     lines = ["# texbake", f"mtllib {mtl.name}", f"usemtl {material}"]
     lines += [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in v]
     lines += [f"vt {a:.9g} {b:.9g}" for a, b in t]
@@ -202,5 +177,5 @@ def write_obj(path, vertices, faces, uv, image_filename, *, normals=None) -> dic
     else:
         lines += [f"f {a}/{a} {b}/{b} {c}/{c}" for a, b, c in f1]
     data = ("\n".join(lines) + "\n").encode()
-    _atomic_write(path, data)
+    write_bytes(path, data)
     return {"path": str(path), "bytes": len(data), "mtl": mtl.name, "vertices": len(v), "faces": len(f)}

@@ -35,15 +35,15 @@ name.
 from __future__ import annotations
 
 import functools
-import os
 import struct
 import tempfile
-import uuid
 import zlib
 from pathlib import Path
 
 import numpy as np
 
+from .atomic import replacing
+from .atomic import sync as _sync  # a module global: tests put a failure in it
 from .errors import OutputError, ParameterError
 
 SRGB = "srgb_rec709_scene"
@@ -169,8 +169,7 @@ def write_image(path, pixels, *, fmt: str | None = None, bits: int | None = None
     data, stored = _encode(pixels, fmt, bits, given)
     h, w, c = data.shape
 
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}{_EXTENSION[fmt]}")
-    try:
+    with replacing(path, _EXTENSION[fmt]) as tmp:
         spec = oiio.ImageSpec(w, h, c, _typedesc(data.dtype))
         spec.attribute("oiio:ColorSpace", "Raw" if stored == DATA else stored)
         spec.attribute("Software", "texbake")
@@ -198,18 +197,6 @@ def write_image(path, pixels, *, fmt: str | None = None, bits: int | None = None
             raise OutputError(f"{path}: write failed: {error or 'unknown OpenImageIO error'}")
         _sync(tmp)
         _verify(tmp, data, fmt)
-        os.replace(tmp, path)
-    except OutputError as exc:
-        _remove(tmp)
-        if str(path) not in str(exc):
-            raise OutputError(f"{path}: {exc}") from None
-        raise
-    except OSError as exc:
-        _remove(tmp)
-        raise OutputError(f"{path}: {exc.strerror or exc}") from None
-    except BaseException:
-        _remove(tmp)
-        raise
     return {
         "path": str(path), "format": fmt, "bits": bits, "colorspace": stored,
         "width": w, "height": h, "channels": c, "bytes": path.stat().st_size,
@@ -222,22 +209,6 @@ def encode_png_bytes(pixels, bits: int = 8, *, colorspace: str = "linear") -> by
         target = Path(folder) / "image.png"
         write_image(target, pixels, fmt="png", bits=bits, colorspace=colorspace)
         return target.read_bytes()
-
-
-def _remove(path: Path) -> None:
-    try:
-        path.unlink(missing_ok=True)
-    except OSError:
-        pass
-
-
-def _sync(path: Path) -> None:
-    """Flush a written file to the disk: a full disk may only show here (delayed allocation)."""
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
 
 
 def _verify(tmp: Path, data: np.ndarray, fmt: str) -> None:

@@ -13,7 +13,6 @@ Prints, side by side with their targets and references:
 from __future__ import annotations
 
 import argparse
-import resource
 import statistics
 import subprocess
 import sys

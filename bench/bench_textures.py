@@ -12,7 +12,6 @@ of a second process that loads them from the cache.
 from __future__ import annotations
 
 import argparse
-import shutil
 import statistics
 import subprocess
 import sys

@@ -10,12 +10,9 @@ from bake.textures import noise as N
 RNG = np.random.default_rng(11)
 
 
-def reference_value_noise(p, seed=0):
-    """The lecture's noise(), written plainly in float64 numpy with floor (not (int))."""
+def trilinear(i, t, seed=0):
+    """The lecture's 8 lattice values at cells ``i`` and their lerps at fractions ``t``."""
     table, index = N.tables(seed)
-    f = np.floor(p)
-    i = f.astype(np.int64)
-    t = p - f
 
     def lattice(a, b, c):  # INDEX(i, j, k) = PERM(i + PERM(j + PERM(k)))
         return table[index[(a + index[(b + index[c & 255]) & 255]) & 255]]
@@ -29,23 +26,17 @@ def reference_value_noise(p, seed=0):
     return lerp(tz, lerp(ty, x0, x1), lerp(ty, x2, x3))
 
 
+def reference_value_noise(p, seed=0):
+    """The lecture's noise(), written plainly in float64 numpy with floor (not (int))."""
+    f = np.floor(p)
+    return trilinear(f.astype(np.int64), p - f, seed)
+
+
 def lecture_noise_float32(p, seed=0):
     """The lecture's sample code as written: float, +10000, (int) truncation."""
-    table, index = N.tables(seed)
     pp = p.astype(np.float32) + np.float32(10000)
     i = pp.astype(np.int64)  # (int) truncates towards zero
-    t = (pp - i.astype(np.float32)).astype(np.float64)
-
-    def lattice(a, b, c):
-        return table[index[(a + index[(b + index[c & 255]) & 255]) & 255]]
-
-    (ix, iy, iz), (tx, ty, tz) = i.T, t.T
-    lerp = lambda f, a, b: a + f * (b - a)  # noqa: E731
-    x0 = lerp(tx, lattice(ix, iy, iz), lattice(ix + 1, iy, iz))
-    x1 = lerp(tx, lattice(ix, iy + 1, iz), lattice(ix + 1, iy + 1, iz))
-    x2 = lerp(tx, lattice(ix, iy, iz + 1), lattice(ix + 1, iy, iz + 1))
-    x3 = lerp(tx, lattice(ix, iy + 1, iz + 1), lattice(ix + 1, iy + 1, iz + 1))
-    return lerp(tz, lerp(ty, x0, x1), lerp(ty, x2, x3))
+    return trilinear(i, (pp - i.astype(np.float32)).astype(np.float64), seed)
 
 
 def test_tables_are_the_lectures():

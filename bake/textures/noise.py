@@ -60,6 +60,18 @@ def wrap(x):
 def lattice(noise, index, i, j, k):
     return noise[perm(index, i + perm(index, j + perm(index, k)))]
 
+@jit(inline="always")
+def trilinear(tx, ty, tz, d000, d100, d010, d110, d001, d101, d011, d111):
+    """The lecture's lerps: along x, then y, then z."""
+    x0 = d000 + tx * (d100 - d000)
+    x1 = d010 + tx * (d110 - d010)
+    x2 = d001 + tx * (d101 - d001)
+    x3 = d011 + tx * (d111 - d011)
+    y0 = x0 + ty * (x1 - x0)
+    y1 = x2 + ty * (x3 - x2)
+    return y0 + tz * (y1 - y0)
+
+
 @jit
 def catmull_rom(t, a, b, c, d):
     return 0.5 * ((2.0 * b) + (c - a) * t + (2.0 * a - 5.0 * b + 4.0 * c - d) * t * t + (3.0 * b - a - 3.0 * c + d) * t * t * t)
@@ -103,13 +115,7 @@ def value_noise(noise, index, x, y, z, interp):
     d101 = noise[perm(index, p01 + 1)]
     d011 = noise[perm(index, p11)]
     d111 = noise[perm(index, p11 + 1)]
-    x0 = d000 + tx * (d100 - d000)
-    x1 = d010 + tx * (d110 - d010)
-    x2 = d001 + tx * (d101 - d001)
-    x3 = d011 + tx * (d111 - d011)
-    y0 = x0 + ty * (x1 - x0)
-    y1 = x2 + ty * (x3 - x2)
-    return y0 + tz * (y1 - y0)
+    return trilinear(tx, ty, tz, d000, d100, d010, d110, d001, d101, d011, d111)
 
 @jit
 def grad(h, x, y, z):
@@ -216,13 +222,8 @@ def octave_kernel(points, width, noise, index, noise_perm, perm_yz, basis, inter
                     d101 = noise_perm[(p01 + 1) & 255]
                     d011 = noise_perm[p11 & 255]
                     d111 = noise_perm[(p11 + 1) & 255]
-                    x0 = d000 + tx * (d100 - d000)
-                    x1 = d010 + tx * (d110 - d010)
-                    x2 = d001 + tx * (d101 - d001)
-                    x3 = d011 + tx * (d111 - d011)
-                    y0 = x0 + ty * (x1 - x0)
-                    y1 = x2 + ty * (x3 - x2)
-                    v = scale * (y0 + tz * (y1 - y0)) - (scale - 1.0)
+                    v = trilinear(tx, ty, tz, d000, d100, d010, d110, d001, d101, d011, d111)
+                    v = scale * v - (scale - 1.0)
                     f = fade_factor(limit[i], k)
                     acc[i] += amp * (f * v + (1.0 - f) * mean)
             else:

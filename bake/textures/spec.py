@@ -86,6 +86,13 @@ class Checker(_Texture):
     filtered: bool = Field(True, description="box-filter over the texel footprint")
 
 
+def _check_knots(knots, values) -> None:
+    if len(knots) != len(values) or not knots:
+        raise ValueError(f"{len(knots)} knots for {len(values)} values")
+    if any(b <= a for a, b in zip(knots, knots[1:])):
+        raise ValueError(f"knots must increase, got {knots}")
+
+
 class ColourMap(BaseModel):
     """A spline colour curve: colours at increasing knots, Catmull-Rom in between."""
 
@@ -96,10 +103,7 @@ class ColourMap(BaseModel):
 
     @model_validator(mode="after")
     def _check(self):
-        if len(self.knots) != len(self.colours) or not self.knots:
-            raise ValueError(f"{len(self.knots)} knots for {len(self.colours)} colours")
-        if any(b <= a for a, b in zip(self.knots, self.knots[1:])):
-            raise ValueError(f"knots must increase, got {self.knots}")
+        _check_knots(self.knots, self.colours)
         return self
 
 
@@ -113,10 +117,7 @@ class Curve(BaseModel):
 
     @model_validator(mode="after")
     def _check(self):
-        if len(self.knots) != len(self.values) or not self.knots:
-            raise ValueError(f"{len(self.knots)} knots for {len(self.values)} values")
-        if any(b <= a for a, b in zip(self.knots, self.knots[1:])):
-            raise ValueError(f"knots must increase, got {self.knots}")
+        _check_knots(self.knots, self.values)
         return self
 
 
