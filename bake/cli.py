@@ -225,6 +225,37 @@ def textures(as_json: bool = typer.Option(False, "--json", help="print the JSON 
         console.print(table)
 
 
+@app.command()
+def serve(
+    host: str = typer.Option("127.0.0.1", help="address to listen on"),
+    port: int = typer.Option(8000, help="port to listen on"),
+    workers: Optional[int] = typer.Option(None, help="embedded bake workers (default BAKE_WORKERS, 2)"),
+):
+    """Run the HTTP API with an embedded worker pool (SQLite queue and jobs by default)."""
+    import atexit
+    import subprocess
+
+    import uvicorn
+
+    command = [sys.executable, "-m", "bake.cli", "worker"] + ([] if workers is None else ["--workers", str(workers)])
+    pool = subprocess.Popen(command)
+    atexit.register(lambda: (pool.terminate(), pool.wait(30)))
+    from service.main import create_app
+
+    uvicorn.run(create_app(), host=host, port=port, log_level="warning")
+
+
+@app.command()
+def worker(workers: Optional[int] = typer.Option(None, help="bakes at a time (default BAKE_WORKERS, 2)")):
+    """Run bake workers alone (for more machines: point BAKE_REDIS_URL and BAKE_DATABASE_URL at shared servers)."""
+    from service.settings import get_settings
+    from service.tasks import huey
+
+    count = workers or get_settings().workers
+    # threads are enough: each bake runs in its own child process
+    huey.create_consumer(workers=count, worker_type="thread", periodic=True).run()
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point: usage errors print one line and exit 2, like bake errors."""
     argv = sys.argv[1:] if argv is None else argv

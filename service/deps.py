@@ -1,0 +1,44 @@
+"""Dependencies shared by the routes (FastAPI ``Annotated`` aliases)."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import Depends, Header, HTTPException, Request
+from sqlalchemy.orm import Session
+
+from . import db
+from .settings import Settings, get_settings
+
+SettingsDep = Annotated[Settings, Depends(get_settings)]
+
+
+def get_session(settings: SettingsDep):
+    with db.sessions(settings.database)() as session:
+        yield session
+
+
+SessionDep = Annotated[Session, Depends(get_session)]
+
+
+def client_id(request: Request, settings: SettingsDep, authorization: Annotated[str | None, Header()] = None) -> str:
+    """Who is asking: the API key when keys are configured (then required), else the host."""
+    if settings.api_keys:
+        token = (authorization or "").removeprefix("Bearer ").strip()
+        if token not in settings.api_keys:
+            raise HTTPException(401, detail="missing or unknown API key (Authorization: Bearer KEY)")
+        return f"key:{settings.api_keys.index(token)}"
+    return request.client.host if request.client else "local"
+
+
+ClientDep = Annotated[str, Depends(client_id)]
+
+
+def get_job_or_404(job_id: str, session: SessionDep, client: ClientDep) -> db.Job:
+    job = session.get(db.Job, job_id)
+    if job is None:
+        raise HTTPException(404, detail=f"no job {job_id!r}")
+    return job
+
+
+JobDep = Annotated[db.Job, Depends(get_job_or_404)]

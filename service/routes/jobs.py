@@ -1,0 +1,163 @@
+"""/v1/jobs: upload a mesh with bake settings, follow the job, download its outputs."""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import shutil
+import uuid
+import zipfile
+from pathlib import Path
+from typing import Annotated
+
+from fastapi import APIRouter, File, Form, HTTPException, Request, Response, UploadFile
+from fastapi.responses import FileResponse, StreamingResponse
+from pydantic import ValidationError
+from sqlalchemy import func, select
+
+from bake.errors import TextureError
+from bake.load import FORMATS
+from bake.textures import parse_spec
+
+from .. import db
+from ..deps import ClientDep, JobDep, SessionDep, SettingsDep
+from ..schemas import BakeSettings, JobOut, JobPage
+
+router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
+_CHUNK = 1 << 20
+
+
+def _out(job: db.Job, request: Request) -> JobOut:
+    from ..tasks import job_dir
+
+    out = job_dir(job.id) / "out"
+    files = sorted(p.name for p in out.iterdir()) if job.state == "done" and out.is_dir() else []
+    return JobOut(url=str(request.url_for("get_job", job_id=job.id)), files=files, **job.as_dict())
+
+
+def _safe_stem(filename: str | None) -> str:
+    """The upload's name without folders or odd characters (it names the outputs)."""
+    stem = Path((filename or "mesh").replace("\\", "/")).stem
+    return "".join(c if c.isalnum() or c in "-_" else "_" for c in stem)[:64] or "mesh"
+
+
+def _bake_settings(raw: str, settings) -> dict:
+    try:
+        parsed = BakeSettings.model_validate_json(raw or "{}")
+    except ValidationError as exc:
+        problems = "; ".join(f"{'.'.join(map(str, e['loc'])) or 'settings'}: {e['msg']}" for e in exc.errors())
+        raise HTTPException(422, detail=f"settings: {problems}") from None
+    try:
+        spec = parse_spec(parsed.texture)
+    except TextureError as exc:
+        raise HTTPException(422, detail=f"settings.texture: {exc}") from None
+    if parsed.size > settings.max_size:
+        raise HTTPException(422, detail=f"settings.size: {parsed.size} is over this server's limit of {settings.max_size}")
+    if parsed.samples > settings.max_samples:
+        raise HTTPException(422, detail=f"settings.samples: {parsed.samples} is over this server's limit of {settings.max_samples}")
+    out = parsed.model_dump()
+    out["texture"] = spec.model_dump(mode="json")
+    out["max_faces"] = settings.max_faces
+    return out
+
+
+@router.post("", status_code=202, response_model=JobOut)
+async def create_job(
+    request: Request, response: Response, session: SessionDep, settings: SettingsDep, client: ClientDep,
+    mesh: Annotated[UploadFile, File(description="OBJ, PLY, STL, OFF, glTF or GLB")],
+    bake_settings: Annotated[str, Form(alias="settings", description="JSON of BakeSettings")] = "{}",
+):
+    """Upload a mesh and its bake settings; the bake is queued (202). The same upload with
+    the same settings returns the existing job (200) instead of baking twice."""
+    suffix = Path(mesh.filename or "").suffix.lower()
+    if suffix not in FORMATS or suffix == ".gltf":  # a glTF's buffers would be separate files
+        raise HTTPException(422, detail=f"mesh: {mesh.filename!r} is not a single-file mesh (.obj .ply .stl .off .glb)")
+    options = _bake_settings(bake_settings, settings)
+    unfinished = session.scalar(select(func.count()).select_from(db.Job).where(db.Job.client == client, db.Job.state.in_(("queued", "running"))))
+    if unfinished >= settings.jobs_per_client:
+        raise HTTPException(429, detail=f"{unfinished} unfinished jobs: the limit per client is {settings.jobs_per_client}")
+
+    uploads = settings.data_dir / "uploads"
+    uploads.mkdir(parents=True, exist_ok=True)
+    tmp = uploads / f"{uuid.uuid4().hex}{suffix}"
+    digest, size = hashlib.sha256(), 0
+    try:
+        with open(tmp, "wb") as f:  # streamed to disk, stopped at the limit
+            while chunk := await mesh.read(_CHUNK):
+                size += len(chunk)
+                if size > settings.max_upload_bytes:
+                    raise HTTPException(413, detail=f"mesh: larger than the limit of {settings.max_upload_bytes} bytes")
+                digest.update(chunk)
+                f.write(chunk)
+        if size == 0:
+            raise HTTPException(422, detail="mesh: the file is empty")
+        digest.update(json.dumps(options, sort_keys=True).encode())
+        job, created = db.create_job(session, key=digest.hexdigest(), client=client, mesh_name=mesh.filename, settings=options)
+        if created:
+            from ..tasks import job_dir, run_bake
+
+            folder = job_dir(job.id)
+            folder.mkdir(parents=True)
+            name = _safe_stem(mesh.filename) + suffix  # outputs are named after it
+            shutil.move(tmp, folder / name)
+            (folder / "job.json").write_text(json.dumps({"mesh": name, "settings": options}))
+            run_bake(job.id)
+        else:
+            response.status_code = 200
+    finally:
+        tmp.unlink(missing_ok=True)
+    response.headers["Location"] = str(request.url_for("get_job", job_id=job.id))
+    return _out(job, request)
+
+
+@router.get("", response_model=JobPage)
+def list_jobs(request: Request, session: SessionDep, offset: int = 0, limit: int = 50):
+    limit = max(1, min(limit, 200))
+    total = session.scalar(select(func.count()).select_from(db.Job))
+    jobs = session.scalars(select(db.Job).order_by(db.Job.created.desc()).offset(max(0, offset)).limit(limit)).all()
+    return JobPage(jobs=[_out(j, request) for j in jobs], total=total, offset=offset, limit=limit)
+
+
+@router.get("/{job_id}", response_model=JobOut, name="get_job")
+def get_job(job: JobDep, request: Request):
+    return _out(job, request)
+
+
+@router.delete("/{job_id}", response_model=JobOut)
+def cancel_job(job: JobDep, session: SessionDep, request: Request):
+    """Cancel a queued or running job (a running bake is stopped within a heartbeat)."""
+    if not db.cancel(session, job.id):
+        raise HTTPException(409, detail=f"job {job.id} is {job.state}: nothing to cancel")
+    session.refresh(job)
+    return _out(job, request)
+
+
+def _outputs(job: db.Job) -> Path:
+    from ..tasks import job_dir
+
+    out = job_dir(job.id) / "out"
+    if job.state != "done" or not out.is_dir():
+        raise HTTPException(409, detail=f"job {job.id} is {job.state}: no outputs yet")
+    return out
+
+
+@router.get("/{job_id}/files/{name}")
+def get_file(job: JobDep, name: str):
+    out = _outputs(job)
+    files = {p.name: p for p in out.iterdir() if p.is_file()}
+    if name not in files:  # names are matched, never joined: no path traversal
+        raise HTTPException(404, detail=f"job {job.id} has no file {name!r} (has: {', '.join(sorted(files))})")
+    return FileResponse(files[name], filename=name)
+
+
+@router.get("/{job_id}/result.zip")
+def get_zip(job: JobDep):
+    out = _outputs(job)
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED) as z:
+        for p in sorted(out.iterdir()):
+            z.write(p, p.name)
+    buffer.seek(0)
+    headers = {"Content-Disposition": f'attachment; filename="{job.id}.zip"'}
+    return StreamingResponse(buffer, media_type="application/zip", headers=headers)

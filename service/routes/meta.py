@@ -1,0 +1,36 @@
+"""The texture catalogue, health and readiness."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter, HTTPException
+from sqlalchemy import text
+
+from bake.textures.spec import catalogue, json_schema
+
+from .. import db
+from ..deps import SettingsDep
+
+router = APIRouter(tags=["meta"])
+
+
+@router.get("/v1/textures")
+def textures():
+    return {"textures": catalogue(), "schema": json_schema()}
+
+
+@router.get("/healthz")
+def healthz():
+    return {"ok": True}
+
+
+@router.get("/readyz")
+def readyz(settings: SettingsDep):
+    from ..tasks import huey
+
+    try:
+        with db.sessions(settings.database)() as session:
+            session.execute(text("SELECT 1"))
+        queued = huey.pending_count()
+    except Exception as exc:  # the answer is the check's result
+        raise HTTPException(503, detail=f"not ready: {type(exc).__name__}: {exc}") from None
+    return {"ok": True, "queue": queued}

@@ -1,0 +1,43 @@
+"""Service settings, from the environment (prefix ``BAKE_``) or a ``.env`` file.
+
+Read through :func:`get_settings` (cached), never at import time, so tests can override.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+
+from pydantic import Field
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+
+class Settings(BaseSettings):
+    model_config = SettingsConfigDict(env_prefix="BAKE_", env_file=".env", extra="ignore")
+
+    data_dir: Path = Field(Path.home() / ".texbake", description="uploads, outputs, SQLite queue and jobs")
+    redis_url: str | None = Field(None, description="Redis for the queue (default: SQLite in data_dir)")
+    database_url: str | None = Field(None, description="SQLAlchemy URL of the jobs table (default: SQLite)")
+    api_keys: list[str] = Field(default_factory=list, description="bearer tokens; empty: no authentication")
+    max_upload_bytes: int = 256 * 1024 * 1024
+    max_faces: int = 2_000_000
+    max_size: int = 8192
+    max_samples: int = 64
+    jobs_per_client: int = 50  # unfinished jobs a client may have
+    workers: int = 2
+    job_seconds: float = 900.0  # deadline of one bake
+    job_memory_mb: int = 6144  # address-space limit of one bake
+    heartbeat_seconds: float = 2.0
+    stale_seconds: float = 30.0  # a running job without heartbeat for this long is re-queued
+    max_attempts: int = 3
+
+    @property
+    def database(self) -> str:
+        return self.database_url or f"sqlite:///{self.data_dir / 'jobs.db'}"
+
+
+@lru_cache
+def get_settings() -> Settings:
+    settings = Settings()
+    settings.data_dir.mkdir(parents=True, exist_ok=True)
+    return settings

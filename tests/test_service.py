@@ -1,0 +1,141 @@
+"""The bake service, through a real uvicorn process with its real worker processes
+(SQLite queue and jobs table in a temporary data folder)."""
+
+import io
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+import zipfile
+
+import httpx
+import numpy as np
+import pytest
+
+from bake.imageio import read_image
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    data = tmp_path_factory.mktemp("data")
+    port = free_port()
+    env = {**os.environ, "BAKE_DATA_DIR": str(data), "BAKE_MAX_UPLOAD_BYTES": "2000000", "BAKE_HEARTBEAT_SECONDS": "0.5"}
+    log = open(data / "server.log", "wb")
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "bake.cli", "serve", "--port", str(port), "--workers", "2"],
+        cwd=ROOT, env=env, start_new_session=True, stdout=log, stderr=subprocess.STDOUT,
+    )
+    url = f"http://127.0.0.1:{port}"
+    for _ in range(100):
+        try:
+            if httpx.get(f"{url}/healthz", timeout=1).status_code == 200:
+                break
+        except httpx.HTTPError:
+            time.sleep(0.2)
+    else:
+        os.killpg(proc.pid, signal.SIGKILL)
+        log.close()
+        pytest.fail(f"server did not start: {(data / 'server.log').read_text()[-2000:]}")
+    yield url, data
+    os.killpg(proc.pid, signal.SIGTERM)
+    try:
+        proc.wait(20)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+    log.close()
+
+
+def upload(url, path, settings, name=None):
+    with open(path, "rb") as f:
+        return httpx.post(f"{url}/v1/jobs", files={"mesh": (name or path.name, f)}, data={"settings": json.dumps(settings)}, timeout=30)
+
+
+def wait(url, job_id, states=("done", "failed", "cancelled"), timeout=120):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        job = httpx.get(f"{url}/v1/jobs/{job_id}", timeout=10).json()
+        if job["state"] in states:
+            return job
+        time.sleep(0.3)
+    pytest.fail(f"job {job_id} still {job['state']} after {timeout} s")
+
+
+def test_upload_bake_download(server, meshes, tmp_path):
+    url, _ = server
+    r = upload(url, meshes / "bunny.ply", {"texture": "marble", "size": 256})
+    assert r.status_code == 202, r.text
+    job = wait(url, r.json()["id"])
+    assert job["state"] == "done", job["error"]
+    assert {"albedo.png", "bunny.glb", "report.json", "coverage.png"} <= set(job["files"])
+    png = httpx.get(f"{url}/v1/jobs/{job['id']}/files/albedo.png", timeout=30)
+    (tmp_path / "a.png").write_bytes(png.content)
+    image = read_image(tmp_path / "a.png")
+    assert image.shape == (256, 256, 3) and image.max() > 0.3
+    glb = httpx.get(f"{url}/v1/jobs/{job['id']}/files/bunny.glb", timeout=30).content
+    assert glb[:4] == b"glTF"
+    z = zipfile.ZipFile(io.BytesIO(httpx.get(f"{url}/v1/jobs/{job['id']}/result.zip", timeout=30).content))
+    assert set(job["files"]) == set(z.namelist())
+    assert job["report"]["texels"]["covered"] > 1000
+    # the same upload with the same settings is the same job
+    again = upload(url, meshes / "bunny.ply", {"texture": "marble", "size": 256})
+    assert again.status_code == 200 and again.json()["id"] == job["id"]
+
+
+def test_bad_input_gets_4xx_with_a_reason(server, meshes, tmp_path):
+    url, _ = server
+    r = upload(url, meshes / "bunny.ply", {"texture": {"name": "marble", "frequncy": 3}})
+    assert r.status_code == 422 and "frequncy" in r.json()["detail"]
+    r = upload(url, meshes / "bunny.ply", {"size": 100000})
+    assert r.status_code == 422 and "size" in r.json()["detail"]
+    r = upload(url, meshes / "bunny.ply", {"colour": "red"})
+    assert r.status_code == 422 and "colour" in r.json()["detail"]
+    (tmp_path / "x.txt").write_text("hello")
+    r = upload(url, tmp_path / "x.txt", {})
+    assert r.status_code == 422 and "x.txt" in r.json()["detail"]
+    big = tmp_path / "big.obj"
+    big.write_bytes(b"v 0 0 0\n" * 400_000)  # 3.2 MB, over this server's 2 MB limit
+    r = upload(url, big, {})
+    assert r.status_code == 413
+    assert httpx.get(f"{url}/v1/jobs/nope", timeout=10).status_code == 404
+    assert httpx.get(f"{url}/healthz", timeout=10).status_code == 200
+
+
+def test_broken_mesh_fails_its_job_with_the_reason(server, tmp_path):
+    url, _ = server
+    bad = tmp_path / "nan.obj"
+    bad.write_text("v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    r = upload(url, bad, {})
+    assert r.status_code == 202
+    job = wait(url, r.json()["id"])
+    assert job["state"] == "failed" and "non-finite" in job["error"]
+
+
+def test_cancel_a_running_bake(server, meshes):
+    url, _ = server
+    r = upload(url, meshes / "bunny.ply", {"texture": "marble", "size": 8192, "samples": 16})
+    job_id = r.json()["id"]
+    wait(url, job_id, states=("running",), timeout=60)
+    assert httpx.delete(f"{url}/v1/jobs/{job_id}", timeout=10).json()["state"] == "cancelled"
+    time.sleep(2)
+    assert httpx.get(f"{url}/v1/jobs/{job_id}", timeout=10).json()["state"] == "cancelled"
+    assert httpx.delete(f"{url}/v1/jobs/{job_id}", timeout=10).status_code == 409
+
+
+def test_catalogue_and_docs(server):
+    url, _ = server
+    cat = httpx.get(f"{url}/v1/textures", timeout=10).json()
+    assert {t["name"] for t in cat["textures"]} >= {"checker", "marble", "wood", "flame"}
+    assert httpx.get(f"{url}/openapi.json", timeout=10).status_code == 200
+    assert httpx.get(f"{url}/readyz", timeout=10).json()["ok"]
