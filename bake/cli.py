@@ -248,12 +248,18 @@ def serve(
 @app.command()
 def worker(workers: Optional[int] = typer.Option(None, help="bakes at a time (default BAKE_WORKERS, 2)")):
     """Run bake workers alone (for more machines: point BAKE_REDIS_URL and BAKE_DATABASE_URL at shared servers)."""
+    import threading
+
     from service.settings import get_settings
-    from service.tasks import huey
+    from service.tasks import huey, reap_forever
 
     count = workers or get_settings().workers
-    # threads are enough: each bake runs in its own child process
-    huey.create_consumer(workers=count, worker_type="thread", periodic=True).run()
+    stop = threading.Event()
+    threading.Thread(target=reap_forever, args=(stop,), daemon=True).start()  # re-queue dead workers' jobs
+    try:  # threads are enough: each bake runs in its own child process
+        huey.create_consumer(workers=count, worker_type="thread", periodic=True).run()
+    finally:
+        stop.set()
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -8,8 +8,10 @@ outputs into place only when the bake is complete.
 
 from __future__ import annotations
 
+import ctypes
 import json
 import resource
+import signal
 import shutil
 import subprocess
 import sys
@@ -30,10 +32,16 @@ def job_dir(job_id: str) -> Path:
     return get_settings().data_dir / "jobs" / job_id
 
 
-def _limit_memory(megabytes: int):
+def _child_setup(megabytes: int):
+    """In the bake's child: cap its address space, and die with the worker (Linux)."""
+
     def apply():
         limit = megabytes * 1024 * 1024
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+        try:
+            ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+        except OSError:
+            pass
 
     return apply
 
@@ -52,7 +60,7 @@ def run_bake(job_id: str) -> str:
     child = subprocess.Popen(
         [sys.executable, "-m", "service.bakejob", str(folder)],
         stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-        preexec_fn=_limit_memory(s.job_memory_mb), start_new_session=True,
+        preexec_fn=_child_setup(s.job_memory_mb), start_new_session=True,
     )
     end = time.monotonic() + s.job_seconds
     state = "running"
@@ -93,6 +101,16 @@ def run_bake(job_id: str) -> str:
                 error = f"the bake ran out of its {s.job_memory_mb} MB memory limit"
         db.finish(session, job_id, "failed", error=error)
         return "failed"
+
+
+def reap_forever(stop) -> None:
+    """Reap every half ``stale_seconds`` until ``stop`` (a threading.Event) is set."""
+    interval = max(0.5, get_settings().stale_seconds / 2)
+    while not stop.wait(interval):
+        try:
+            reap_once()
+        except Exception:  # a database hiccup: try again next time
+            pass
 
 
 def reap_once() -> tuple[list[str], list[str]]:

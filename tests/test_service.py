@@ -139,3 +139,71 @@ def test_catalogue_and_docs(server):
     assert {t["name"] for t in cat["textures"]} >= {"checker", "marble", "wood", "flame"}
     assert httpx.get(f"{url}/openapi.json", timeout=10).status_code == 200
     assert httpx.get(f"{url}/readyz", timeout=10).json()["ok"]
+
+
+def start(args, data, extra_env=None, port=None):
+    env = {**os.environ, "BAKE_DATA_DIR": str(data), "BAKE_HEARTBEAT_SECONDS": "0.5", "BAKE_STALE_SECONDS": "3", **(extra_env or {})}
+    log = open(data / f"{args[0]}-{time.monotonic_ns()}.log", "wb")
+    proc = subprocess.Popen([sys.executable, "-m", "bake.cli", *args], cwd=ROOT, env=env, start_new_session=True, stdout=log, stderr=subprocess.STDOUT)
+    proc.log = log
+    if port:
+        for _ in range(100):
+            try:
+                httpx.get(f"http://127.0.0.1:{port}/healthz", timeout=1)
+                break
+            except httpx.HTTPError:
+                time.sleep(0.2)
+    return proc
+
+
+def stop(proc, sig=signal.SIGTERM):
+    try:
+        os.killpg(proc.pid, sig)
+        proc.wait(20)
+    except (ProcessLookupError, subprocess.TimeoutExpired):
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+    proc.log.close()
+
+
+def test_killed_worker_job_is_requeued_and_done_once(tmp_path, meshes):
+    data = tmp_path
+    port = free_port()
+    api = start(["serve", "--port", str(port), "--workers", "1"], data, port=port)
+    url = f"http://127.0.0.1:{port}"
+    try:
+        # serve's embedded pool is one worker process; find and kill it mid-bake with SIGKILL
+        job_id = upload(url, meshes / "bunny.ply", {"texture": "marble", "size": 2048, "samples": 16}).json()["id"]
+        wait(url, job_id, states=("running",), timeout=60)
+        pool = [p for p in psutil_children(api.pid) if "worker" in " ".join(p["cmd"])]
+        assert pool, "no worker process"
+        os.kill(pool[0]["pid"], signal.SIGKILL)
+        time.sleep(0.5)
+        replacement = start(["worker", "--workers", "1"], data)  # another worker takes over
+        try:
+            job = wait(url, job_id, timeout=180)
+        finally:
+            stop(replacement)
+        assert job["state"] == "done" and job["attempts"] == 2, job
+    finally:
+        stop(api)
+
+
+def test_restart_loses_no_queued_job(tmp_path, meshes):
+    data = tmp_path
+    port = free_port()
+    api = start(["serve", "--port", str(port), "--workers", "1"], data, port=port)
+    url = f"http://127.0.0.1:{port}"
+    ids = [upload(url, meshes / name, {"size": 128}).json()["id"] for name in ("suzanne.ply", "fandisk.obj", "ico4uv.obj")]
+    stop(api)  # with jobs still queued (or running)
+    api = start(["serve", "--port", str(port), "--workers", "2"], data, port=port)
+    try:
+        assert [wait(url, i, timeout=120)["state"] for i in ids] == ["done"] * 3
+    finally:
+        stop(api)
+
+
+def psutil_children(pid):
+    import psutil
+
+    return [{"pid": c.pid, "cmd": c.cmdline()} for c in psutil.Process(pid).children(recursive=True)]
