@@ -229,7 +229,7 @@ def textures(as_json: bool = typer.Option(False, "--json", help="print the JSON 
 def serve(
     host: str = typer.Option("127.0.0.1", help="address to listen on"),
     port: int = typer.Option(8000, help="port to listen on"),
-    workers: Optional[int] = typer.Option(None, help="embedded bake workers (default BAKE_WORKERS, 2)"),
+    workers: Optional[int] = typer.Option(None, help="embedded bake workers (default BAKE_WORKERS, 2; 0: none, API only)"),
 ):
     """Run the HTTP API with an embedded worker pool (SQLite queue and jobs by default)."""
     import atexit
@@ -237,9 +237,10 @@ def serve(
 
     import uvicorn
 
-    command = [sys.executable, "-m", "bake.cli", "worker"] + ([] if workers is None else ["--workers", str(workers)])
-    pool = subprocess.Popen(command)
-    atexit.register(lambda: (pool.terminate(), pool.wait(30)))
+    if workers != 0:
+        command = [sys.executable, "-m", "bake.cli", "worker"] + ([] if workers is None else ["--workers", str(workers)])
+        pool = subprocess.Popen(command)
+        atexit.register(lambda: (pool.terminate(), pool.wait(30)))
     from service.main import create_app
 
     uvicorn.run(create_app(), host=host, port=port, log_level="warning")

@@ -207,3 +207,46 @@ def psutil_children(pid):
     import psutil
 
     return [{"pid": c.pid, "cmd": c.cmdline()} for c in psutil.Process(pid).children(recursive=True)]
+
+
+def shared_servers():
+    """Redis and PostgreSQL on localhost, or the reason they cannot be used."""
+    try:
+        import psycopg
+        import redis
+
+        redis.Redis(host="127.0.0.1", port=6379, socket_connect_timeout=2).ping()
+        with psycopg.connect("host=127.0.0.1 port=5432 user=postgres dbname=postgres", connect_timeout=3, autocommit=True) as conn:
+            name = f"texbake_test_{os.getpid()}_{time.monotonic_ns() % 10**6}"
+            conn.execute(f'CREATE DATABASE "{name}"')
+        return name, None
+    except Exception as exc:  # any reason at all: report it
+        return None, f"Redis 127.0.0.1:6379 and PostgreSQL 127.0.0.1:5432 needed: {type(exc).__name__}: {exc}"
+
+
+def test_with_redis_and_postgresql(tmp_path, meshes):
+    database, why = shared_servers()
+    if why:
+        if os.environ.get("TEXBAKE_REQUIRE_SERVICES"):
+            pytest.fail(why)
+        pytest.skip(why)
+    env = {
+        "BAKE_REDIS_URL": "redis://127.0.0.1:6379/15",
+        "BAKE_DATABASE_URL": f"postgresql+psycopg://postgres@127.0.0.1:5432/{database}",
+    }
+    port = free_port()
+    api = start(["serve", "--port", str(port), "--workers", "1"], tmp_path, env, port=port)
+    extra = start(["worker", "--workers", "1"], tmp_path, env)  # a second machine, as it were
+    url = f"http://127.0.0.1:{port}"
+    try:
+        ids = [upload(url, meshes / name, {"size": 256, "texture": "wood"}).json()["id"] for name in ("bunny.ply", "suzanne.ply")]
+        jobs = [wait(url, i, timeout=120) for i in ids]
+        assert [j["state"] for j in jobs] == ["done", "done"], jobs
+        assert httpx.get(f"{url}/readyz", timeout=10).json()["ok"]
+    finally:
+        stop(extra)
+        stop(api)
+        import psycopg
+
+        with psycopg.connect("host=127.0.0.1 port=5432 user=postgres dbname=postgres", autocommit=True) as conn:
+            conn.execute(f'DROP DATABASE IF EXISTS "{database}" WITH (FORCE)')
