@@ -102,7 +102,11 @@ def load_mesh(path, *, max_faces: int = 5_000_000) -> LoadedMesh:
 
     sha256 = hashlib.sha256(data).hexdigest()
     if kind in ("gltf", "glb"):
-        _check_gltf_uris(_gltf_json(data, kind, where), path)
+        doc = _gltf_json(data, kind, where)
+        _check_gltf_uris(doc, path)
+        _check_gltf_accessors(doc, where)
+    elif kind == "stl":
+        _check_stl_header(data, where)
     try:
         with np.errstate(over="raise"):  # a float32 field overflowing to inf
             parts = _read(data, kind, path)
@@ -228,6 +232,38 @@ def _check_gltf_uris(doc: dict, path: Path) -> None:
                 from urllib.parse import unquote
 
                 _check_reference(unquote(uri), path, f"{section[:-1]} uri")
+
+
+_COMPONENT_BYTES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
+_TYPE_COMPONENTS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+
+
+def _check_gltf_accessors(doc: dict, where: str) -> None:
+    """Every accessor must fit in its buffer view (a lying count would allocate it all)."""
+    views = doc.get("bufferViews") or []
+    for i, acc in enumerate(doc.get("accessors") or []):
+        try:
+            count = int(acc.get("count", 0))
+            item = _COMPONENT_BYTES[acc["componentType"]] * _TYPE_COMPONENTS[acc["type"]]
+            if "bufferView" not in acc:
+                continue  # all zeros (or sparse): nothing is read
+            view = views[acc["bufferView"]]
+            stride = int(view.get("byteStride") or item)
+            need = int(acc.get("byteOffset", 0)) + (count - 1) * stride + item if count > 0 else 0
+            have = int(view["byteLength"])
+        except (KeyError, IndexError, TypeError, ValueError, AttributeError):
+            raise MeshError(where, f"glTF accessor {i} is malformed") from None
+        if count < 0 or need > have:
+            raise MeshError(where, f"glTF accessor {i} asks for {count} items ({need:,} bytes) but its buffer view holds {have:,} bytes")
+
+
+def _check_stl_header(data: bytes, where: str) -> None:
+    """A binary STL's triangle count must match the file's length."""
+    if len(data) < 84 or (data.lstrip()[:5].lower() == b"solid" and b"facet" in data[:1024]):
+        return  # ASCII STL (or too short to be binary: the parser says why)
+    count = struct.unpack_from("<I", data, 80)[0]
+    if 84 + 50 * count != len(data):
+        raise MeshError(where, f"binary STL header says {count:,} triangles ({84 + 50 * count:,} bytes) but the file has {len(data):,} bytes")
 
 
 # -- geometry ----------------------------------------------------------------------

@@ -215,6 +215,20 @@ def glb_with_image_uri(uri):
     return struct.pack("<4sII", b"glTF", 2, 20 + len(doc)) + struct.pack("<I4s", len(doc), b"JSON") + doc
 
 
+def glb_with_accessor(count):
+    """A GLB whose position accessor claims ``count`` items of a 36-byte buffer view."""
+    doc = {"asset": {"version": "2.0"}, "buffers": [{"byteLength": 44}],
+           "bufferViews": [{"buffer": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 6}],
+           "accessors": [{"bufferView": 0, "componentType": 5126, "count": count, "type": "VEC3"},
+                         {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}],
+           "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}], "nodes": [{"mesh": 0}]}
+    j = json.dumps(doc).encode()
+    j += b" " * (-len(j) % 4)
+    binary = bytes(44)
+    body = struct.pack("<I4s", len(j), b"JSON") + j + struct.pack("<I4s", len(binary), b"BIN\x00") + binary
+    return struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body
+
+
 @pytest.mark.parametrize(
     "name, data, words",
     [
@@ -244,6 +258,9 @@ def glb_with_image_uri(uri):
         ("corner.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 /3\n", "obj"),
         ("bigindex.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999999999999999999\n", "obj"),
         ("binary.stl", b"\x00" * 80 + struct.pack("<I", 5) + bytes(20), "stl"),
+        ("lying.stl", b"\x00" * 80 + struct.pack("<I", 2**32 - 1) + bytes(150), "header says 4,294,967,295 triangles"),
+        ("huge.glb", glb_with_accessor(1_900_000_000), "asks for 1900000000 items (22,800,000,000 bytes)"),
+        ("badaccessor.glb", glb_with_accessor("many"), "accessor 0 is malformed"),
         ("range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "out of range"),
         ("range.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", "out of range"),
         ("zipped.obj", zipped(), "archive"),
