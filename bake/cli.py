@@ -237,6 +237,10 @@ def serve(
 
     import uvicorn
 
+    from service.settings import get_settings
+
+    if host not in ("127.0.0.1", "localhost", "::1") and not get_settings().api_keys:
+        print(f"texbake serve: listening on {host} with no API keys: anyone who can reach it can bake (set BAKE_API_KEYS)", file=sys.stderr)
     if workers != 0:
         command = [sys.executable, "-m", "bake.cli", "worker"] + ([] if workers is None else ["--workers", str(workers)])
         pool = subprocess.Popen(command)

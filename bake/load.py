@@ -83,30 +83,12 @@ def load_mesh(path, *, max_faces: int = 5_000_000) -> LoadedMesh:
     _check_max_faces(max_faces)
     path = Path(path)
     where = str(path)
-    if not path.is_file():
-        raise MeshError(where, "no such file" if not path.exists() else "not a file")
+    kind = check_file(path)
     try:
         data = path.read_bytes()
     except OSError as exc:
         raise MeshError(where, f"cannot read: {exc.strerror}") from None
-    for magic, kind in _ARCHIVES.items():
-        if data.startswith(magic):
-            raise MeshError(where, f"is a {kind} archive; archives are not accepted")
-    if path.name.lower().endswith(".tar") or (len(data) > 262 and data[257:262] == b"ustar"):
-        raise MeshError(where, "is a tar archive; archives are not accepted")
-    kind = FORMATS.get(path.suffix.lower())
-    if kind is None:
-        raise MeshError(where, f"unknown mesh format {path.suffix!r} (expected one of {', '.join(FORMATS)})")
-    if not data.strip():
-        raise MeshError(where, "file is empty")
-
     sha256 = hashlib.sha256(data).hexdigest()
-    if kind in ("gltf", "glb"):
-        doc = _gltf_json(data, kind, where)
-        _check_gltf_uris(doc, path)
-        _check_gltf_accessors(doc, where)
-    elif kind == "stl":
-        _check_stl_header(data, where)
     try:
         with np.errstate(over="raise"):  # a float32 field overflowing to inf
             parts = _read(data, kind, path)
@@ -117,6 +99,43 @@ def load_mesh(path, *, max_faces: int = 5_000_000) -> LoadedMesh:
     except Exception as exc:  # the parsers raise many kinds on corrupt input
         raise MeshError(where, f"cannot parse {kind.upper()} file: {_short(exc)}") from None
     return _validate(parts, path.stem, where, sha256, max_faces)
+
+
+def check_file(path) -> str:
+    """Check a mesh file as far as can be done without parsing it; return its format.
+
+    Reads only the first bytes (and a glTF's JSON): the file must be a file, not an
+    archive, of a known format and not empty; a binary STL's triangle count must match
+    its length; a glTF's URIs must stay in its folder and its accessors fit their buffer
+    views. Raises :class:`~bake.errors.MeshError` naming the file and the problem.
+    """
+    path = Path(path)
+    where = str(path)
+    if not path.is_file():
+        raise MeshError(where, "no such file" if not path.exists() else "not a file")
+    try:
+        size = path.stat().st_size
+        with open(path, "rb") as f:
+            head = f.read(1024)
+    except OSError as exc:
+        raise MeshError(where, f"cannot read: {exc.strerror}") from None
+    for magic, kind in _ARCHIVES.items():
+        if head.startswith(magic):
+            raise MeshError(where, f"is a {kind} archive; archives are not accepted")
+    if path.name.lower().endswith(".tar") or (len(head) > 262 and head[257:262] == b"ustar"):
+        raise MeshError(where, "is a tar archive; archives are not accepted")
+    kind = FORMATS.get(path.suffix.lower())
+    if kind is None:
+        raise MeshError(where, f"unknown mesh format {path.suffix!r} (expected one of {', '.join(FORMATS)})")
+    if size <= len(head) and not head.strip():
+        raise MeshError(where, "file is empty")
+    if kind == "stl":
+        _check_stl_header(head, size, where)
+    elif kind in ("gltf", "glb"):
+        doc = _gltf_json(path, kind, where)
+        _check_gltf_uris(doc, path)
+        _check_gltf_accessors(doc, where)
+    return kind
 
 
 def _read(data: bytes, kind: str, path: Path) -> list:
@@ -204,16 +223,18 @@ def _check_mtl(mtl: Path, path: Path) -> None:
             _check_reference(words[-1], path, f"texture in {mtl.name}")
 
 
-def _gltf_json(data: bytes, kind: str, where: str) -> dict:
+def _gltf_json(path: Path, kind: str, where: str) -> dict:
+    """The JSON of a glTF file, or of a GLB's first chunk (read alone)."""
     try:
-        if kind == "glb":
-            magic, _, length = struct.unpack_from("<4sII", data, 0)
-            chunk_length, chunk_type = struct.unpack_from("<I4s", data, 12)
-            if magic != b"glTF" or chunk_type != b"JSON" or chunk_length > len(data) - 20:
-                raise ValueError("not a GLB file")
-            doc = json.loads(data[20 : 20 + chunk_length])
-        else:
-            doc = json.loads(data)
+        with open(path, "rb") as f:
+            if kind == "glb":
+                magic, _, length = struct.unpack("<4sII", f.read(12))
+                chunk_length, chunk_type = struct.unpack("<I4s", f.read(8))
+                if magic != b"glTF" or chunk_type != b"JSON" or chunk_length > path.stat().st_size - 20:
+                    raise ValueError("not a GLB file")
+                doc = json.loads(f.read(chunk_length))
+            else:
+                doc = json.loads(f.read())
     except (ValueError, struct.error, RecursionError) as exc:
         raise MeshError(where, f"cannot parse {kind.upper()} header: {_short(exc)}") from None
     if not isinstance(doc, dict):
@@ -257,13 +278,13 @@ def _check_gltf_accessors(doc: dict, where: str) -> None:
             raise MeshError(where, f"glTF accessor {i} asks for {count} items ({need:,} bytes) but its buffer view holds {have:,} bytes")
 
 
-def _check_stl_header(data: bytes, where: str) -> None:
-    """A binary STL's triangle count must match the file's length."""
-    if len(data) < 84 or (data.lstrip()[:5].lower() == b"solid" and b"facet" in data[:1024]):
+def _check_stl_header(head: bytes, size: int, where: str) -> None:
+    """A binary STL's triangle count must match the file's length (``size`` bytes)."""
+    if size < 84 or (head.lstrip()[:5].lower() == b"solid" and b"facet" in head):
         return  # ASCII STL (or too short to be binary: the parser says why)
-    count = struct.unpack_from("<I", data, 80)[0]
-    if 84 + 50 * count != len(data):
-        raise MeshError(where, f"binary STL header says {count:,} triangles ({84 + 50 * count:,} bytes) but the file has {len(data):,} bytes")
+    count = struct.unpack_from("<I", head, 80)[0]
+    if 84 + 50 * count != size:
+        raise MeshError(where, f"binary STL header says {count:,} triangles ({84 + 50 * count:,} bytes) but the file has {size:,} bytes")
 
 
 # -- geometry ----------------------------------------------------------------------

@@ -9,6 +9,7 @@ The parent (``service.tasks``) sets the deadline and the memory limit.
 from __future__ import annotations
 
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -16,16 +17,17 @@ from pathlib import Path
 def main(job_dir: Path) -> int:
     from bake import BakeError, bake_mesh
 
-    job = json.loads((job_dir / "job.json").read_text())
+    os.chdir(job_dir)  # errors name the mesh as uploaded, not the server's folders
+    job = json.loads(Path("job.json").read_text())
     settings = dict(job["settings"])
     save = {k: settings.pop(k) for k in ("fmt", "bits") if k in settings}
     try:
-        result = bake_mesh(job_dir / job["mesh"], settings.pop("texture"), **settings)
-        result.save(job_dir / "out.tmp", **save)
+        result = bake_mesh(Path(job["mesh"]), settings.pop("texture"), **settings)
+        result.save(Path("out.tmp"), **save)
     except BakeError as exc:
-        (job_dir / "outcome.json").write_text(json.dumps({"ok": False, "error": str(exc)}))
+        Path("outcome.json").write_text(json.dumps({"ok": False, "error": str(exc)}))
         return 2
-    (job_dir / "outcome.json").write_text(json.dumps({"ok": True}))
+    Path("outcome.json").write_text(json.dumps({"ok": True}))
     return 0
 
 

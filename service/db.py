@@ -8,11 +8,13 @@ stale is re-queued (a bounded number of times) by :func:`reap`.
 from __future__ import annotations
 
 import json
+import time
 import uuid
 from datetime import datetime, timedelta, timezone
 from functools import lru_cache
 
 from sqlalchemy import DateTime, Integer, String, Text, create_engine, event, select, update
+from sqlalchemy.exc import DBAPIError
 from sqlalchemy.orm import DeclarativeBase, Mapped, Session, mapped_column, sessionmaker
 
 STATES = ("queued", "running", "done", "failed", "cancelled")
@@ -62,7 +64,14 @@ def sessions(url: str) -> sessionmaker:
         def _sqlite(conn, _):  # many readers, one writer, waiting rather than failing
             conn.execute("PRAGMA journal_mode=WAL")
             conn.execute("PRAGMA busy_timeout=10000")
-    Base.metadata.create_all(engine)
+    for attempt in range(5):  # the API and workers start together: another may create them first
+        try:
+            Base.metadata.create_all(engine)
+            break
+        except DBAPIError:
+            if attempt == 4:
+                raise
+            time.sleep(0.2 * (attempt + 1))
     return sessionmaker(engine, expire_on_commit=False)
 
 
@@ -125,10 +134,12 @@ def reap(db: Session, stale_seconds: float, max_attempts: int) -> tuple[list[str
     for job in stale:
         if job.attempts >= max_attempts:
             reason = f"the worker stopped answering {job.attempts} times (last heartbeat {job.heartbeat.isoformat()})"
-            moved = db.execute(update(Job).where(Job.id == job.id, Job.state == "running").values(state="failed", error=reason))
+            moved = db.execute(update(Job).where(Job.id == job.id, Job.state == "running", Job.heartbeat < cutoff)
+                               .values(state="failed", error=reason).execution_options(synchronize_session=False))
             (failed if moved.rowcount else []).append(job.id)
         else:
-            moved = db.execute(update(Job).where(Job.id == job.id, Job.state == "running").values(state="queued", heartbeat=None))
+            moved = db.execute(update(Job).where(Job.id == job.id, Job.state == "running", Job.heartbeat < cutoff)
+                               .values(state="queued", heartbeat=None).execution_options(synchronize_session=False))
             (requeued if moved.rowcount else []).append(job.id)
     db.commit()
     return requeued, failed

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import hashlib
+import hmac
 from typing import Annotated
 
 from fastapi import Depends, Header, HTTPException, Request
@@ -25,18 +27,20 @@ def client_id(request: Request, settings: SettingsDep, authorization: Annotated[
     """Who is asking: the API key when keys are configured (then required), else the host."""
     if settings.api_keys:
         token = (authorization or "").removeprefix("Bearer ").strip()
-        if token not in settings.api_keys:
-            raise HTTPException(401, detail="missing or unknown API key (Authorization: Bearer KEY)")
-        return f"key:{settings.api_keys.index(token)}"
+        if not any(hmac.compare_digest(token.encode(), key.encode()) for key in settings.api_keys):
+            raise HTTPException(401, detail="missing or unknown API key (Authorization: Bearer KEY)",
+                                headers={"WWW-Authenticate": "Bearer"})
+        return "key:" + hashlib.sha256(token.encode()).hexdigest()[:16]
     return request.client.host if request.client else "local"
 
 
 ClientDep = Annotated[str, Depends(client_id)]
 
 
-def get_job_or_404(job_id: str, session: SessionDep, client: ClientDep) -> db.Job:
+def get_job_or_404(job_id: str, session: SessionDep, client: ClientDep, settings: SettingsDep) -> db.Job:
+    """The job; with API keys, only the key that created it sees it."""
     job = session.get(db.Job, job_id)
-    if job is None:
+    if job is None or (settings.api_keys and job.client != client):
         raise HTTPException(404, detail=f"no job {job_id!r}")
     return job
 

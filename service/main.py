@@ -4,12 +4,45 @@ from __future__ import annotations
 
 from contextlib import asynccontextmanager
 
-from fastapi import FastAPI, Request
+from fastapi import FastAPI, HTTPException, Request
 from fastapi.responses import JSONResponse
 
 from bake.errors import BakeError
 
 from .routes import jobs, meta
+
+
+class BodyLimit:
+    """Stop request bodies at ``limit`` bytes while they arrive: 413 with a JSON reason.
+
+    Starlette spools a whole multipart upload to disk before the route runs, so the
+    route's own limit comes too late for a huge body. A declared Content-Length over the
+    limit is refused before anything is read; a chunked body is stopped where it passes
+    the limit (an HTTPException, which the route's error handling turns into JSON).
+    Starlette's own ``max_body_size`` answers in plain text, hence this.
+    """
+
+    def __init__(self, app, limit: int):
+        self.app, self.limit = app, limit
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http":
+            return await self.app(scope, receive, send)
+        too_large = HTTPException(413, detail=f"request body: larger than the limit of {self.limit} bytes")
+        declared = dict(scope["headers"]).get(b"content-length", b"")
+        if declared.isdigit() and int(declared) > self.limit:
+            return await JSONResponse({"detail": too_large.detail}, status_code=413)(scope, receive, send)
+        total = 0
+
+        async def limited():
+            nonlocal total
+            message = await receive()
+            total += len(message.get("body", b""))
+            if total > self.limit:
+                raise too_large
+            return message
+
+        await self.app(scope, limited, send)
 
 
 @asynccontextmanager
@@ -21,8 +54,11 @@ async def lifespan(app: FastAPI):
 
 
 def create_app() -> FastAPI:
+    from .settings import get_settings
+
     app = FastAPI(title="texbake", version="0.1.0", lifespan=lifespan,
                   description="Upload a mesh and a texture spec; get baked maps and a textured GLB.")
+    app.add_middleware(BodyLimit, limit=get_settings().max_upload_bytes + 1024 * 1024)  # room for the form
     app.include_router(jobs.router)
     app.include_router(meta.router)
 

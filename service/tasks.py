@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import ctypes
 import json
+import logging
 import resource
 import signal
 import shutil
@@ -24,6 +25,7 @@ from huey import crontab
 from .queue import make_huey
 from .settings import get_settings
 
+logger = logging.getLogger("texbake.service")
 settings = get_settings()
 huey = make_huey(settings)  # huey registers tasks on the instance: made once, here
 
@@ -109,8 +111,8 @@ def reap_forever(stop) -> None:
     while not stop.wait(interval):
         try:
             reap_once()
-        except Exception:  # a database hiccup: try again next time
-            pass
+        except Exception:  # a database hiccup: say so, and try again next time
+            logger.exception("reaping stale jobs failed")
 
 
 def reap_once() -> tuple[list[str], list[str]]:

@@ -11,13 +11,13 @@ import zipfile
 from pathlib import Path
 from typing import Annotated
 
-from fastapi import APIRouter, File, Form, HTTPException, Request, Response, UploadFile
+from fastapi import APIRouter, File, Form, HTTPException, Query, Request, Response, UploadFile
 from fastapi.responses import FileResponse, StreamingResponse
 from pydantic import ValidationError
-from sqlalchemy import func, select
+from sqlalchemy import func, select, true
 
-from bake.errors import TextureError
-from bake.load import FORMATS
+from bake.errors import MeshError, TextureError
+from bake.load import FORMATS, check_file
 from bake.textures import parse_spec
 
 from .. import db
@@ -90,9 +90,13 @@ async def create_job(
                     raise HTTPException(413, detail=f"mesh: larger than the limit of {settings.max_upload_bytes} bytes")
                 digest.update(chunk)
                 f.write(chunk)
-        if size == 0:
-            raise HTTPException(422, detail="mesh: the file is empty")
+        try:  # what can be told without parsing; the bake's child parses it
+            check_file(tmp)
+        except MeshError as exc:
+            raise HTTPException(422, detail=f"mesh {mesh.filename!r}: {exc.problem}") from None
         digest.update(json.dumps(options, sort_keys=True).encode())
+        if settings.api_keys:  # with keys, each client has its own jobs
+            digest.update(client.encode())
         job, created = db.create_job(session, key=digest.hexdigest(), client=client, mesh_name=mesh.filename, settings=options)
         if created:
             from ..tasks import job_dir, run_bake
@@ -112,10 +116,12 @@ async def create_job(
 
 
 @router.get("", response_model=JobPage)
-def list_jobs(request: Request, session: SessionDep, offset: int = 0, limit: int = 50):
-    limit = max(1, min(limit, 200))
-    total = session.scalar(select(func.count()).select_from(db.Job))
-    jobs = session.scalars(select(db.Job).order_by(db.Job.created.desc()).offset(max(0, offset)).limit(limit)).all()
+def list_jobs(request: Request, session: SessionDep, settings: SettingsDep, client: ClientDep,
+              offset: Annotated[int, Query(ge=0, le=2**31 - 1)] = 0, limit: Annotated[int, Query(ge=1, le=200)] = 50):
+    """A page of jobs, newest first (with API keys: the caller's own)."""
+    mine = db.Job.client == client if settings.api_keys else true()
+    total = session.scalar(select(func.count()).select_from(db.Job).where(mine))
+    jobs = session.scalars(select(db.Job).where(mine).order_by(db.Job.created.desc()).offset(offset).limit(limit)).all()
     return JobPage(jobs=[_out(j, request) for j in jobs], total=total, offset=offset, limit=limit)
 
 
