@@ -1,35 +1,59 @@
-"""One bake in its own process: ``python -m service.bakejob JOB_DIR``.
+"""One bake in its own process, forked from a warm fork server (``service.tasks``).
 
-Reads ``JOB_DIR/job.json`` (mesh file name and bake settings), bakes into
-``JOB_DIR/out.tmp``, and writes ``JOB_DIR/outcome.json``: ``{"ok": true}`` or
-``{"ok": false, "error": ...}``. Exit code 0, or 2 for a bad mesh or settings.
-The parent (``service.tasks``) sets the deadline and the memory limit.
+:func:`run` reads ``JOB_DIR/job.json`` (mesh file name and bake settings), bakes into
+``JOB_DIR/out.tmp`` and writes ``JOB_DIR/outcome.json``: ``{"ok": true}`` or ``{"ok":
+false, "error": ...}``. It first caps its own address space and asks to die with its
+parent. This module imports the baking core, so the fork server that preloads it hands
+every bake a process with its libraries loaded. (It does not call the compiled texture
+kernels: their OpenMP threads would make every later fork abort.)
 """
 
 from __future__ import annotations
 
+import ctypes
 import json
 import os
+import resource
+import signal
 import sys
+import traceback
 from pathlib import Path
 
+from bake import BakeError, bake_mesh
 
-def main(job_dir: Path) -> int:
-    from bake import BakeError, bake_mesh
 
+def _limit(megabytes: int) -> None:
+    limit = megabytes * 1024 * 1024
+    resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+    try:
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG (Linux)
+    except OSError:
+        pass
+
+
+def _outcome(ok: bool, error: str | None = None) -> None:
+    Path("outcome.json").write_text(json.dumps({"ok": True} if ok else {"ok": False, "error": error}))
+
+
+def run(job_dir: str, memory_mb: int) -> None:
+    """Bake the job in ``job_dir`` (the process's exit code is 0, or 2 for a failed bake)."""
+    _limit(memory_mb)
     os.chdir(job_dir)  # errors name the mesh as uploaded, not the server's folders
     job = json.loads(Path("job.json").read_text())
     settings = dict(job["settings"])
     save = {k: settings.pop(k) for k in ("fmt", "bits") if k in settings}
     try:
-        result = bake_mesh(Path(job["mesh"]), settings.pop("texture"), **settings)
+        # one core per bake: the service runs as many bakes at a time as it has workers
+        result = bake_mesh(Path(job["mesh"]), settings.pop("texture"), workers=1, **settings)
         result.save(Path("out.tmp"), **save)
     except BakeError as exc:
-        Path("outcome.json").write_text(json.dumps({"ok": False, "error": str(exc)}))
-        return 2
-    Path("outcome.json").write_text(json.dumps({"ok": True}))
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main(Path(sys.argv[1])))
+        _outcome(False, str(exc))
+        sys.exit(2)
+    except MemoryError:
+        _outcome(False, f"the bake ran out of its {memory_mb} MB memory limit")
+        sys.exit(2)
+    except Exception as exc:  # a bug: keep the trace in the worker's log, the reason in the job
+        traceback.print_exc()
+        _outcome(False, f"internal error: {type(exc).__name__}: {exc}")
+        sys.exit(2)
+    _outcome(True)

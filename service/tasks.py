@@ -1,21 +1,19 @@
 """The bake task, as the workers run it (``texbake worker`` loads this module).
 
 A task claims its job in the jobs table, runs the bake in a child process with a
-deadline and a memory limit (a hang or a crash in native code fails that job only), beats
+deadline and a memory limit (a hang or a crash in native code fails that job only),
+forked from a fork server that has the baking core loaded already (a fresh interpreter
+would spend a second or more importing it for every job), beats
 the job's heartbeat meanwhile, stops the child when the job is cancelled, and moves the
 outputs into place only when the bake is complete.
 """
 
 from __future__ import annotations
 
-import ctypes
 import json
 import logging
-import resource
-import signal
+import multiprocessing
 import shutil
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -34,18 +32,16 @@ def job_dir(job_id: str) -> Path:
     return get_settings().data_dir / "jobs" / job_id
 
 
-def _child_setup(megabytes: int):
-    """In the bake's child: cap its address space, and die with the worker (Linux)."""
+_forkserver = None
 
-    def apply():
-        limit = megabytes * 1024 * 1024
-        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
-        try:
-            ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-        except OSError:
-            pass
 
-    return apply
+def _bakes():
+    """The multiprocessing context whose fork server has the baking core loaded."""
+    global _forkserver
+    if _forkserver is None:
+        _forkserver = multiprocessing.get_context("forkserver")
+        _forkserver.set_forkserver_preload(["service.bakejob"])
+    return _forkserver
 
 
 @huey.task()
@@ -59,33 +55,30 @@ def run_bake(job_id: str) -> str:
     folder = job_dir(job_id)
     shutil.rmtree(folder / "out.tmp", ignore_errors=True)
     (folder / "outcome.json").unlink(missing_ok=True)
-    child = subprocess.Popen(
-        [sys.executable, "-m", "service.bakejob", str(folder)],
-        stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-        preexec_fn=_child_setup(s.job_memory_mb), start_new_session=True,
-    )
+    from . import bakejob  # noqa: F401  (imported here only to be pickled by name)
+
+    child = _bakes().Process(target=bakejob.run, args=(str(folder), s.job_memory_mb), daemon=True)
+    child.start()
     end = time.monotonic() + s.job_seconds
     state = "running"
-    while child.poll() is None:
-        time.sleep(min(s.heartbeat_seconds, 0.5))
+    while child.is_alive():
+        child.join(min(s.heartbeat_seconds, 0.5))
         with Session() as session:
             state = db.beat(session, job_id)
-        if state != "running" or time.monotonic() > end:
+        if child.is_alive() and (state != "running" or time.monotonic() > end):
             child.kill()
-            child.wait()
+            child.join()
             break
-    stderr = child.stderr.read().decode(errors="replace") if child.stderr else ""
+    code = child.exitcode
     with Session() as session:
-        if state == "cancelled":
-            return "cancelled"
         if state != "running":
-            return state
-        if time.monotonic() > end and child.returncode != 0:
+            return state  # cancelled (or taken from us by the reaper)
+        if time.monotonic() > end and code != 0:
             db.finish(session, job_id, "failed", error=f"the bake took longer than {s.job_seconds:g} s")
             return "failed"
         outcome = folder / "outcome.json"
         result = json.loads(outcome.read_text()) if outcome.exists() else None
-        if child.returncode == 0 and result and result.get("ok"):
+        if code == 0 and result and result.get("ok"):
             final = folder / "out"
             shutil.rmtree(final, ignore_errors=True)
             (folder / "out.tmp").rename(final)  # complete: all files at once
@@ -94,13 +87,10 @@ def run_bake(job_id: str) -> str:
             return "done"
         if result and not result.get("ok"):
             error = result["error"]
-        elif child.returncode and child.returncode < 0:
-            error = f"the bake crashed (signal {-child.returncode})"
+        elif code is not None and code < 0:
+            error = f"the bake crashed (signal {-code})"
         else:
-            last = [line for line in stderr.splitlines() if line.strip()]
-            error = f"the bake failed (exit code {child.returncode}): {last[-1] if last else 'no message'}"
-            if "MemoryError" in stderr:
-                error = f"the bake ran out of its {s.job_memory_mb} MB memory limit"
+            error = f"the bake stopped with exit code {code} and no outcome"
         db.finish(session, job_id, "failed", error=error)
         return "failed"
 

@@ -63,13 +63,16 @@ def _bake_settings(raw: str, settings) -> dict:
 
 
 @router.post("", status_code=202, response_model=JobOut)
-async def create_job(
+def create_job(
     request: Request, response: Response, session: SessionDep, settings: SettingsDep, client: ClientDep,
     mesh: Annotated[UploadFile, File(description="OBJ, PLY, STL, OFF, glTF or GLB")],
     bake_settings: Annotated[str, Form(alias="settings", description="JSON of BakeSettings")] = "{}",
 ):
     """Upload a mesh and its bake settings; the bake is queued (202). The same upload with
-    the same settings returns the existing job (200) instead of baking twice."""
+    the same settings returns the existing job (200) instead of baking twice.
+
+    A plain function: FastAPI runs it in its thread pool, so the copying, hashing and
+    database work of one upload never holds up the event loop (or ``/healthz``)."""
     suffix = Path(mesh.filename or "").suffix.lower()
     if suffix not in FORMATS or suffix == ".gltf":  # a glTF's buffers would be separate files
         raise HTTPException(422, detail=f"mesh: {mesh.filename!r} is not a single-file mesh (.obj .ply .stl .off .glb)")
@@ -84,7 +87,7 @@ async def create_job(
     digest, size = hashlib.sha256(), 0
     try:
         with open(tmp, "wb") as f:  # streamed to disk, stopped at the limit
-            while chunk := await mesh.read(_CHUNK):
+            while chunk := mesh.file.read(_CHUNK):
                 size += len(chunk)
                 if size > settings.max_upload_bytes:
                     raise HTTPException(413, detail=f"mesh: larger than the limit of {settings.max_upload_bytes} bytes")

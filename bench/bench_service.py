@@ -1,0 +1,132 @@
+"""Service benchmark: throughput of N small bakes through the service against `texbake batch`,
+and enqueue latency under 20 concurrent uploads.
+
+    scripts/run python bench/bench_service.py [--jobs 50] [--size 512] [--uploads 20]
+
+Both sides bake the same N jobs: ``../shared/meshes/bunny.ply`` with marble at SIZE x SIZE,
+each with its own marble frequency (so the service cannot answer one from another).
+
+1. ``texbake batch`` with ``--jobs 2`` (one process per core) on a ``.jsonl`` manifest:
+   wall time from start to exit.
+2. ``texbake serve --workers 2`` on the SQLite defaults in a temporary data folder: the N
+   jobs uploaded one after another, wall time from the first upload to the last job done.
+   Target: the service reaches at least 80% of batch's throughput.
+3. On the same server, UPLOADS concurrent uploads (each its own settings): the latency of
+   each ``POST /v1/jobs`` until its 202, p50 and p99 (workers busy meanwhile).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import httpx
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+MESH = ROOT.parent / "shared" / "meshes" / "bunny.ply"
+TEXBAKE = [sys.executable, "-m", "bake.cli"]
+
+
+def settings(i: int, size: int) -> dict:
+    return {"texture": {"name": "marble", "frequency": 10.0 + 0.01 * i}, "size": size}
+
+
+def run_batch(jobs: int, size: int, work: Path) -> float:
+    manifest = work / "jobs.jsonl"
+    manifest.write_text("".join(json.dumps({"mesh": str(MESH), **settings(i, size)}) + "\n" for i in range(jobs)))
+    start = time.perf_counter()
+    subprocess.run([*TEXBAKE, "batch", str(manifest), "--out", str(work / "batch"), "--jobs", "2"],
+                   cwd=ROOT, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return time.perf_counter() - start
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def upload(url: str, s: dict) -> tuple[float, str]:
+    t0 = time.perf_counter()
+    with open(MESH, "rb") as f:
+        r = httpx.post(f"{url}/v1/jobs", files={"mesh": (MESH.name, f)}, data={"settings": json.dumps(s)}, timeout=120)
+    r.raise_for_status()
+    return time.perf_counter() - t0, r.json()["id"]
+
+
+def wait_all(url: str, ids: list[str]) -> None:
+    pending = set(ids)
+    while pending:
+        for job_id in list(pending):
+            job = httpx.get(f"{url}/v1/jobs/{job_id}", timeout=30).json()
+            if job["state"] in ("done", "failed", "cancelled"):
+                if job["state"] != "done":
+                    raise SystemExit(f"job {job_id} {job['state']}: {job['error']}")
+                pending.discard(job_id)
+        time.sleep(0.2)
+
+
+def run_service(jobs: int, size: int, uploads: int, work: Path) -> tuple[float, list[float]]:
+    data = work / "service"
+    port = free_port()
+    env = {**os.environ, "BAKE_DATA_DIR": str(data), "BAKE_JOBS_PER_CLIENT": str(jobs + uploads)}
+    log = open(work / "serve.log", "wb")
+    proc = subprocess.Popen([*TEXBAKE, "serve", "--port", str(port), "--workers", "2"], cwd=ROOT, env=env,
+                            stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    url = f"http://127.0.0.1:{port}"
+    try:
+        for _ in range(300):
+            try:
+                httpx.get(f"{url}/healthz", timeout=1)
+                break
+            except httpx.HTTPError:
+                time.sleep(0.1)
+        start = time.perf_counter()
+        ids = [upload(url, settings(i, size))[1] for i in range(jobs)]
+        wait_all(url, ids)
+        seconds = time.perf_counter() - start
+        with ThreadPoolExecutor(uploads) as pool:
+            latencies = [t for t, _ in pool.map(lambda i: upload(url, settings(jobs + i, size)), range(uploads))]
+    finally:
+        os.killpg(proc.pid, signal.SIGTERM)
+        proc.wait(60)
+        log.close()
+    return seconds, latencies
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--jobs", type=int, default=50)
+    parser.add_argument("--size", type=int, default=512)
+    parser.add_argument("--uploads", type=int, default=20)
+    args = parser.parse_args()
+    work = Path(tempfile.mkdtemp(prefix="texbake-bench-service-"))
+    try:
+        batch = run_batch(args.jobs, args.size, work)
+        service, latencies = run_service(args.jobs, args.size, args.uploads, work)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    ratio = batch / service
+    p50, p99 = np.percentile(latencies, [50, 99])
+    print(f"{args.jobs} bakes of bunny.ply (marble, {args.size}x{args.size}) on {os.cpu_count()} cores")
+    print(f"{'':34} {'seconds':>8} {'jobs/min':>9}")
+    print(f"{'texbake batch --jobs 2 (reference)':34} {batch:8.1f} {60 * args.jobs / batch:9.1f}")
+    print(f"{'service, serve --workers 2':34} {service:8.1f} {60 * args.jobs / service:9.1f}")
+    print(f"service throughput / batch: {ratio:.0%} (target >= 80%: {'met' if ratio >= 0.8 else 'NOT met'})")
+    print(f"enqueue latency, {args.uploads} concurrent uploads of {MESH.stat().st_size / 1e6:.1f} MB: "
+          f"p50 {1e3 * p50:.0f} ms, p99 {1e3 * p99:.0f} ms")
+
+
+if __name__ == "__main__":
+    main()
