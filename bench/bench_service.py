@@ -32,6 +32,7 @@ from pathlib import Path
 
 import httpx
 import numpy as np
+from _rows import emit
 
 ROOT = Path(__file__).resolve().parents[1]
 MESH = ROOT.parent / "shared" / "meshes" / "bunny.ply"
@@ -110,6 +111,7 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=50)
     parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--uploads", type=int, default=20)
+    parser.add_argument("--markdown", action="store_true", help="print only markdown table rows")
     args = parser.parse_args()
     work = Path(tempfile.mkdtemp(prefix="texbake-bench-service-"))
     try:
@@ -119,13 +121,14 @@ def main() -> None:
         shutil.rmtree(work, ignore_errors=True)
     ratio = batch / service
     p50, p99 = np.percentile(latencies, [50, 99])
-    print(f"{args.jobs} bakes of bunny.ply (marble, {args.size}x{args.size}) on {os.cpu_count()} cores")
-    print(f"{'':34} {'seconds':>8} {'jobs/min':>9}")
-    print(f"{'texbake batch --jobs 2 (reference)':34} {batch:8.1f} {60 * args.jobs / batch:9.1f}")
-    print(f"{'service, serve --workers 2':34} {service:8.1f} {60 * args.jobs / service:9.1f}")
-    print(f"service throughput / batch: {ratio:.0%} (target >= 80%: {'met' if ratio >= 0.8 else 'NOT met'})")
-    print(f"enqueue latency, {args.uploads} concurrent uploads of {MESH.stat().st_size / 1e6:.1f} MB: "
-          f"p50 {1e3 * p50:.0f} ms, p99 {1e3 * p99:.0f} ms")
+    rows = [
+        (f"service throughput, {args.jobs} bakes of bunny.ply at {args.size}² (serve --workers 2)",
+         f"{60 * args.jobs / service:.1f} jobs/min ({ratio:.0%} of batch)",
+         f"target >= 80% of `texbake batch --jobs 2` on the same jobs: {60 * args.jobs / batch:.1f} jobs/min"),
+        (f"enqueue latency, {args.uploads} concurrent uploads of bunny.ply ({MESH.stat().st_size / 1e6:.1f} MB), workers busy",
+         f"p50 {1e3 * p50:.0f} ms, p99 {1e3 * p99:.0f} ms", ""),
+    ]
+    emit(rows, args.markdown)
 
 
 if __name__ == "__main__":

@@ -19,6 +19,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _rows import emit
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -51,6 +52,7 @@ def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--points", type=int, default=4_000_000)
     parser.add_argument("--runs", type=int, default=5)
+    parser.add_argument("--markdown", action="store_true", help="print only markdown table rows")
     args = parser.parse_args()
     from pyfastnoiselite.pyfastnoiselite import FastNoiseLite, FractalType, NoiseType
 
@@ -68,16 +70,16 @@ def main():
 
     compile_s = first_call_seconds(clear_cache=True)
     cached_s = first_call_seconds(clear_cache=False)
+    turbulence = rate(lambda: octave_sum(points, None, octaves=8), n, args.runs)
+    marble = rate(lambda: evaluate("marble", points), n, args.runs)
+    reference = rate(lambda: fnl.gen_from_coords(coords), n, args.runs)
     rows = [
-        ("texbake turbulence, 8 octaves (value noise)", rate(lambda: octave_sum(points, None, octaves=8), n, args.runs)),
-        ("texbake marble texture (turbulence + colour map)", rate(lambda: evaluate("marble", points), n, args.runs)),
-        ("pyfastnoiselite value fBm, 8 octaves (reference)", rate(lambda: fnl.gen_from_coords(coords), n, args.runs)),
+        (f"8-octave turbulence (value noise), {n / 1e6:g} M points, median", f"{turbulence:.1f} M samples/s",
+         f"target > 50; pyfastnoiselite value fBm, 8 octaves: {reference:.1f} M samples/s"),
+        ("marble texture (turbulence + colour map), median", f"{marble:.1f} M samples/s", "target > 50 M samples/s"),
+        ("noise kernels: compile / first call in a second process", f"{compile_s:.1f} s / {cached_s:.1f} s", "cached on disk by numba"),
     ]
-    print(f"{n} points, medians of {args.runs} runs; target: 50 M samples/s on 2 cores")
-    for name, r in rows:
-        print(f"{name:<52} {r:8.1f} M samples/s")
-    print(f"{'kernel compile, first call with the cache cleared':<52} {compile_s:8.2f} s")
-    print(f"{'first call in a second process (cache loaded)':<52} {cached_s:8.2f} s")
+    emit(rows, args.markdown)
 
 
 if __name__ == "__main__":

@@ -202,7 +202,9 @@ def test_catalogue_and_docs(server):
     url, *_ = server
     cat = httpx.get(f"{url}/v1/textures", timeout=10).json()
     assert {t["name"] for t in cat["textures"]} >= {"checker", "marble", "wood", "flame"}
-    assert httpx.get(f"{url}/openapi.json", timeout=10).status_code == 200
+    assert httpx.get(f"{url}/openapi.json", timeout=10).json()["paths"].keys() >= {"/v1/jobs", "/v1/jobs/{job_id}", "/v1/textures"}
+    docs = httpx.get(f"{url}/docs", timeout=10)
+    assert docs.status_code == 200 and "swagger-ui" in docs.text
     assert httpx.get(f"{url}/readyz", timeout=10).json()["ok"]
 
 
