@@ -1,0 +1,70 @@
+"""The API in-process through FastAPI's TestClient (SQLite queue and jobs table in a
+temporary data folder; no worker runs, so jobs stay queued)."""
+
+import importlib
+import json
+
+import pytest
+from fastapi.testclient import TestClient
+
+
+@pytest.fixture(scope="module")
+def client(tmp_path_factory):
+    data = tmp_path_factory.mktemp("data")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("BAKE_DATA_DIR", str(data))
+        mp.setenv("BAKE_MAX_SIZE", "2048")
+        from service import settings, tasks
+
+        settings.get_settings.cache_clear()
+        importlib.reload(tasks)  # its huey queue lives in this data folder
+        from service.main import create_app
+
+        with TestClient(create_app()) as c:
+            yield c
+        settings.get_settings.cache_clear()
+
+
+def post(client, path, settings, name=None):
+    with open(path, "rb") as f:
+        return client.post("/v1/jobs", files={"mesh": (name or path.name, f)}, data={"settings": json.dumps(settings)})
+
+
+def test_upload_is_queued_once(client, meshes):
+    r = post(client, meshes / "suzanne.ply", {"texture": "wood", "size": 256})
+    assert r.status_code == 202 and r.headers["Location"] == r.json()["url"]
+    job = r.json()
+    assert job["state"] == "queued" and job["mesh"] == "suzanne.ply" and job["settings"]["texture"]["name"] == "wood"
+    assert post(client, meshes / "suzanne.ply", {"texture": "wood", "size": 256}).json()["id"] == job["id"]
+    assert post(client, meshes / "suzanne.ply", {"texture": "wood", "size": 128}).json()["id"] != job["id"]
+    page = client.get("/v1/jobs", params={"limit": 1}).json()
+    assert page["total"] == 2 and len(page["jobs"]) == 1
+    assert client.get(f"/v1/jobs/{job['id']}/files/albedo.png").status_code == 409  # not baked yet
+    assert client.delete(f"/v1/jobs/{job['id']}").json()["state"] == "cancelled"
+    assert client.delete(f"/v1/jobs/{job['id']}").status_code == 409
+
+
+@pytest.mark.parametrize("settings, field", [
+    ({"texture": {"name": "wood", "rings": "many"}}, "rings"),
+    ({"texture": "plaid"}, "plaid"),
+    ({"size": 4096}, "size: 4096 is over this server's limit of 2048"),
+    ({"size": 0}, "size"),
+    ({"uv": "sideways"}, "uv"),
+    ({"sampels": 4}, "sampels"),
+])
+def test_bad_settings_name_the_field(client, meshes, settings, field):
+    r = post(client, meshes / "suzanne.ply", settings)
+    assert r.status_code == 422 and field in r.json()["detail"], r.text
+
+
+def test_not_json_settings_and_unknown_routes(client, meshes):
+    with open(meshes / "suzanne.ply", "rb") as f:
+        r = client.post("/v1/jobs", files={"mesh": ("suzanne.ply", f)}, data={"settings": "{size: 3"})
+    assert r.status_code == 422 and r.json()["detail"].startswith("settings")
+    assert client.get("/v1/jobs/0123/result.zip").json()["detail"] == "no job '0123'"
+    assert client.get("/v2/anything").status_code == 404
+
+
+def test_readiness_checks_queue_and_database(client):
+    ready = client.get("/readyz").json()
+    assert ready["ok"] and ready["queue"] >= 1  # the jobs queued above, no worker to take them
