@@ -145,3 +145,12 @@ def test_property_continuous(name, point, axis):
     p[1, axis] += 1e-9
     v = evaluate(name, p)
     assert np.abs(v[0] - v[1]).max() < 1e-6
+
+
+def test_wood_at_the_axis_ignores_the_sign_of_zero():
+    # atan2(0, -0.0) is pi, not 0: with a wobble that moved the point at r = 0 across
+    # the ring boundary, so (0, -0.0, 0) and (0, 0, 0) got different rings.
+    points = [[x, y, 0.0] for x in (0.0, -0.0) for y in (0.0, -0.0)]
+    for footprint in (None, np.full((4, 2, 3), 1e-3)):
+        v = evaluate("wood", points, footprint)
+        assert np.array_equal(v, np.repeat(v[:1], 4, axis=0))

@@ -74,7 +74,7 @@ def wood(points, width, *, ring_width=0.1, wobble=0.0, wobbles=4.0, twist=0.0) -
     """
     p = np.asarray(points, dtype=np.float64)
     r = np.hypot(p[:, 0], p[:, 1])
-    theta = np.arctan2(p[:, 0], p[:, 1])
+    theta = np.where(r > 0, np.arctan2(p[:, 0], p[:, 1]), 0.0)  # atan2(0, -0.0) is pi
     s = r / ring_width + wobble * np.sin(wobbles * theta + twist * p[:, 2])
     if width is None:
         return np.floor(s) - 2.0 * np.floor(0.5 * s)
