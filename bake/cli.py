@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import glob
 import json
+import math
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -250,7 +251,9 @@ def stability(
     seconds = time.perf_counter() - start
     failed = [r for r in results if not r.passed]
     if as_json:
-        rows = [{k: (None if isinstance(v, float) and v != v else v) for k, v in asdict(r).items()} for r in results]
+        # JSON has no NaN or infinity: figures not measured (or not finite) are null
+        rows = [{k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in asdict(r).items()}
+                for r in results]
         typer.echo(json.dumps(rows, indent=2))
     else:
         ran = sum(not r.skipped for r in results)

@@ -49,7 +49,7 @@ def test_failures_and_exceptions_are_results(broken):
 
 def test_quick_skips_slow_cases_and_select_filters():
     slow = [c.name for c in stability.CASES.values() if c.slow]
-    assert {"image-16384", "xatlas-crash-fallback"} <= set(slow)
+    assert slow == ["image-16384"]
     results = stability.run_cases(quick=True, select=slow + ["signed-zero"])
     skipped = [r.case for r in results if r.skipped]
     assert skipped == slow and all(r.passed for r in results)
