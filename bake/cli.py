@@ -1,4 +1,4 @@
-"""The ``texbake`` command line: ``bake`` one mesh, ``batch`` many.
+"""The ``texbake`` command line: ``bake`` one mesh, ``batch`` many, ``stability`` checks.
 
 User errors (bad file, bad parameter) print one line and exit with code 2.
 """
@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import glob
 import json
+import math
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -223,6 +224,52 @@ def textures(as_json: bool = typer.Option(False, "--json", help="print the JSON 
             limits = ", ".join(f"{k} {v}" for k, v in p["limits"].items())
             table.add_row(p["name"], json.dumps(p["default"]), limits, p["description"])
         console.print(table)
+
+
+def _number(x: float) -> str:
+    return "-" if x != x else f"{x:.3g}"
+
+
+@app.command()
+def stability(
+    quick: bool = typer.Option(False, "--quick", help="skip the slow cases (listed as skipped)"),
+    as_json: bool = typer.Option(False, "--json", help="print the results as JSON"),
+    select: Optional[list[str]] = typer.Option(None, "--case", help="run only cases whose name contains this (repeatable)"),
+):
+    """Run the numerical stability cases; prints a table, exits 1 if any case fails."""
+    from dataclasses import asdict
+
+    from rich.console import Console
+    from rich.table import Table
+
+    from .stability import run_cases, selected
+
+    if select and not selected(select):
+        _fail(f"parameter '--case': no stability case matches {', '.join(map(repr, select))}")
+    start = time.perf_counter()
+    results = run_cases(quick=quick, select=select or None)
+    seconds = time.perf_counter() - start
+    failed = [r for r in results if not r.passed]
+    if as_json:
+        # JSON has no NaN or infinity: figures not measured (or not finite) are null
+        rows = [{k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in asdict(r).items()}
+                for r in results]
+        typer.echo(json.dumps(rows, indent=2))
+    else:
+        ran = sum(not r.skipped for r in results)
+        table = Table(title=f"texbake stability: {ran} cases run, {len(results) - ran} skipped, {len(failed)} failed, {seconds:.1f} s",
+                      title_justify="left")
+        for col, justify in (("case", "left"), ("property", "left"), ("figure", "right"), ("limit", "right"),
+                             ("result", "left"), ("s", "right"), ("detail", "left")):
+            table.add_column(col, justify=justify)
+        for r in results:
+            result = "[yellow]skipped" if r.skipped else "[green]pass" if r.passed else "[red]fail"
+            limit = "-" if r.skipped else f"{r.comparison} {_number(r.limit)}"
+            table.add_row(r.case, r.property, _number(r.figure), limit, result, f"{r.seconds:.2f}", r.detail)
+        Console().print(table)
+    if failed:
+        typer.echo(f"texbake: {len(failed)} of {len(results)} stability cases failed: {', '.join(r.case for r in failed)}", err=True)
+        raise typer.Exit(1)
 
 
 @app.command()

@@ -6,37 +6,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from bake.textures import noise as N
+from bake.textures.reference import lecture_sample_code as lecture_noise_float32
+from bake.textures.reference import value_noise as reference_value_noise
 
 RNG = np.random.default_rng(11)
-
-
-def trilinear(i, t, seed=0):
-    """The lecture's 8 lattice values at cells ``i`` and their lerps at fractions ``t``."""
-    table, index = N.tables(seed)
-
-    def lattice(a, b, c):  # INDEX(i, j, k) = PERM(i + PERM(j + PERM(k)))
-        return table[index[(a + index[(b + index[c & 255]) & 255]) & 255]]
-
-    (ix, iy, iz), (tx, ty, tz) = i.T, t.T
-    lerp = lambda f, a, b: a + f * (b - a)  # noqa: E731
-    x0 = lerp(tx, lattice(ix, iy, iz), lattice(ix + 1, iy, iz))
-    x1 = lerp(tx, lattice(ix, iy + 1, iz), lattice(ix + 1, iy + 1, iz))
-    x2 = lerp(tx, lattice(ix, iy, iz + 1), lattice(ix + 1, iy, iz + 1))
-    x3 = lerp(tx, lattice(ix, iy + 1, iz + 1), lattice(ix + 1, iy + 1, iz + 1))
-    return lerp(tz, lerp(ty, x0, x1), lerp(ty, x2, x3))
-
-
-def reference_value_noise(p, seed=0):
-    """The lecture's noise(), written plainly in float64 numpy with floor (not (int))."""
-    f = np.floor(p)
-    return trilinear(f.astype(np.int64), p - f, seed)
-
-
-def lecture_noise_float32(p, seed=0):
-    """The lecture's sample code as written: float, +10000, (int) truncation."""
-    pp = p.astype(np.float32) + np.float32(10000)
-    i = pp.astype(np.int64)  # (int) truncates towards zero
-    return trilinear(i, (pp - i.astype(np.float32)).astype(np.float64), seed)
 
 
 def test_tables_are_the_lectures():
@@ -59,16 +32,16 @@ def test_far_from_the_origin_matches_float64_reference(offset):
         ours = N.noise(p, basis=basis, interpolation=interp)
         if interp == "linear":
             assert np.abs(ours - reference_value_noise(p)).max() < 1e-5
-    # the lecture's float32 "+10000" scheme does not hold there
+    # the lecture's float32 "+10000" scheme (its field is ours moved by 10000) does not hold there
     if abs(offset) >= 1e6:
-        assert np.abs(lecture_noise_float32(p) - reference_value_noise(p)).max() > 1e-2
+        assert np.abs(lecture_noise_float32(p) - reference_value_noise(p + 10000)).max() > 1e-2
 
 
 def test_lecture_scheme_breaks_below_minus_10000_and_ours_holds():
     p = RNG.random((2000, 3)) * 5 - 10010  # all coordinates below -10000
     assert np.abs(N.noise(p) - reference_value_noise(p)).max() < 1e-9
     # (int) truncates towards zero below -10000: the lattice cell is off by one
-    assert np.abs(lecture_noise_float32(p) - reference_value_noise(p)).max() > 0.05
+    assert np.abs(lecture_noise_float32(p) - reference_value_noise(p + 10000)).max() > 0.05
 
 
 @pytest.mark.parametrize("basis", ["value", "perlin"])
@@ -127,7 +100,7 @@ def test_octaves_finer_than_the_footprint_are_replaced_by_their_mean(basis):
     for ratio in (10, 100, 1000):
         filtered = N.octave_sum(p, np.full(n, float(ratio)), octaves=8, basis=basis) / norm
         spreads.append(filtered.std())
-        assert abs(filtered.mean() - 0.5) < 0.5 / ratio + 1e-12
+        assert abs(filtered.mean() - N.basis_mean(basis)) < 0.5 / ratio + 1e-12
     assert spreads[0] < 0.2 * point.std() and spreads[2] <= spreads[1] <= spreads[0]
     assert point.std() > 0.05
 
@@ -137,3 +110,15 @@ def test_fading_is_continuous_in_the_footprint():
     widths = np.geomspace(1e-4, 10, 400)
     values = np.array([N.octave_sum(p, np.full(len(p), w), octaves=12) for w in widths])
     assert np.abs(np.diff(values, axis=0)).max() < 0.05  # no jump as octaves drop out
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_dropped_octaves_add_the_true_mean_of_the_noise(seed):
+    # Value noise averages to the mean of its noiseTable (0.536 for seed 0), not to 0.5:
+    # a footprint wider than every octave must give that mean, not a shifted brightness.
+    p = RNG.random((200_000, 3)) * 256
+    sampled = N.noise(p, seed=seed).mean()  # standard error about 3e-4
+    assert abs(sampled - N.tables(seed)[0].mean()) < 2e-3
+    wide = N.octave_sum(p[:100], np.full(100, 1e3), octaves=4, seed=seed) / sum(0.5**k for k in range(4))
+    assert np.allclose(wide, N.basis_mean("value", seed), rtol=0, atol=1e-12)
+    assert abs(N.basis_mean("perlin") - N.noise(p, basis="perlin").mean()) < 2e-3

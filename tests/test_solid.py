@@ -145,3 +145,22 @@ def test_property_continuous(name, point, axis):
     p[1, axis] += 1e-9
     v = evaluate(name, p)
     assert np.abs(v[0] - v[1]).max() < 1e-6
+
+
+def test_wood_at_the_axis_ignores_the_sign_of_zero():
+    # atan2(0, -0.0) is pi, not 0: with a wobble that moved the point at r = 0 across
+    # the ring boundary, so (0, -0.0, 0) and (0, 0, 0) got different rings.
+    points = [[x, y, 0.0] for x in (0.0, -0.0) for y in (0.0, -0.0)]
+    for footprint in (None, np.full((4, 2, 3), 1e-3)):
+        v = evaluate("wood", points, footprint)
+        assert np.array_equal(v, np.repeat(v[:1], 4, axis=0))
+
+
+def test_wood_rings_stay_0_or_1_at_subnormal_radii_and_far_out():
+    # s = -3e-324: floor(s) = -1 but floor(s / 2) = floor(-0.0) = 0 (underflow): the old
+    # parity floor(s) - 2 floor(s / 2) gave -1
+    assert wood(np.array([[0.0, 0.0, -5e-324]]), None, wobble=0.3, twist=2.0).tolist() == [1.0]
+    # 2.5e10 rings out, s +- half rounds by 4e-6: the box mean must stay within [0, 1]
+    p = np.random.default_rng(0).random((2000, 3)) + [1e9, 0, 0]
+    v = wood(p, np.full(2000, 1e-3), ring_width=0.04)
+    assert v.min() >= 0 and v.max() <= 1

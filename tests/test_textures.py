@@ -83,3 +83,10 @@ def test_position_is_normalised_to_bounds():
 def test_bad_specs_name_the_problem(spec, words):
     with pytest.raises(TextureError, match=words):
         parse_spec(spec)
+
+
+def test_filtered_checker_stays_in_range_far_out():
+    # 8e9 cells out, t +- half rounds by 1e-6 of a footprint of 0.008 cells
+    p = np.random.default_rng(1).random((2000, 3)) + 1e9
+    d = np.full((2000, 3), 1e-3)
+    assert np.abs(checker_parity(p, np.full(3, 0.125), d, d)).max() <= 1.0

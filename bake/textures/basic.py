@@ -55,6 +55,7 @@ def checker_parity(
     mean = _triangle(t + half)
     mean -= _triangle(t - half)
     np.divide(mean, 2.0 * half, out=mean, where=wide)
+    np.clip(mean, -1.0, 1.0, out=mean)  # far out, t +- half round: keep the mean a mean
     if not wide.all():  # no footprint along an axis: point-sample that axis
         mean[~wide] = _sign(np.floor(t[~wide]))
     return mean.prod(axis=1)

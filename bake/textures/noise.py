@@ -44,6 +44,16 @@ def tables(seed: int) -> tuple[np.ndarray, np.ndarray]:
     return rng.random(256), rng.permutation(256).astype(np.int64)
 
 
+def basis_mean(basis: str, seed: int = 0) -> float:
+    """Mean of one octave over space: what a dropped octave is replaced by.
+
+    Value noise (any interpolation) averages to the mean of its ``noiseTable`` (each
+    entry is one lattice value per period, and the interpolation weights sum to 1),
+    not to 0.5: 0.536 for seed 0. Perlin's gradient noise averages to 0 (0.5 in [0, 1]).
+    """
+    return 0.5 if basis == "perlin" else float(tables(seed)[0].mean())
+
+
 @jit
 def perm(table, x):
     return table[x & 255]
@@ -150,7 +160,7 @@ def perlin_noise(index, x, y, z):
 
 @jit
 def basis_value(noise, index, x, y, z, basis, interp):
-    """One octave in [0, 1] (mean 0.5)."""
+    """One octave in [0, 1] (mean: see :func:`basis_mean`)."""
     if basis == 1:
         return 0.5 + 0.5 * perlin_noise(index, x, y, z)
     return value_noise(noise, index, x, y, z, interp)
@@ -163,10 +173,10 @@ def fade_factor(limit, k):
     return keep * keep * (3.0 - 2.0 * keep)
 
 @nb.njit(cache=True, parallel=True, nogil=True, fastmath={"nsz", "arcp", "contract", "afn", "reassoc"})
-def octave_kernel(points, width, noise, index, noise_perm, perm_yz, basis, interp, count, lacunarity, gain, signed, out):
+def octave_kernel(points, width, noise, index, noise_perm, perm_yz, basis, interp, count, lacunarity, gain, signed, basis_mean, out):
     """Sum of ``count`` octaves ``gain^k * n(lacunarity^k * p)``, cut by the footprint.
 
-    ``n`` is the basis in [0, 1] (``signed``: ``2n - 1``). Octave ``k`` is kept while
+    ``n`` is the basis in [0, 1] (``signed``: ``2n - 1``), ``basis_mean`` its mean. Octave ``k`` is kept while
     ``lacunarity^k * width < 1/2`` (its lattice spacing spans two footprints); the
     last one kept fades in with a smoothstep and dropped ones add their mean, so the
     sum neither aliases nor shifts in brightness. Points go in chunks, octaves in
@@ -175,7 +185,7 @@ def octave_kernel(points, width, noise, index, noise_perm, perm_yz, basis, inter
     """
     n = points.shape[0]
     chunk = 2048
-    mean = 0.0 if signed else 0.5
+    mean = 2.0 * basis_mean - 1.0 if signed else basis_mean
     scale = 2.0 if signed else 1.0
     log_lacunarity = np.log(lacunarity)
     for c in nb.prange((n + chunk - 1) // chunk):
@@ -225,13 +235,13 @@ def octave_kernel(points, width, noise, index, noise_perm, perm_yz, basis, inter
                     v = trilinear(tx, ty, tz, d000, d100, d010, d110, d001, d101, d011, d111)
                     v = scale * v - (scale - 1.0)
                     f = fade_factor(limit[i], k)
-                    acc[i] += amp * (f * v + (1.0 - f) * mean)
+                    acc[i] += amp * (v if f >= 1.0 else f * v + (1.0 - f) * mean)  # kept: v exactly
             else:
                 for i in range(m):
                     v = basis_value(noise, index, points[lo + i, 0] * freq, points[lo + i, 1] * freq, points[lo + i, 2] * freq, basis, interp)
                     v = scale * v - (scale - 1.0)
                     f = fade_factor(limit[i], k)
-                    acc[i] += amp * (f * v + (1.0 - f) * mean)
+                    acc[i] += amp * (v if f >= 1.0 else f * v + (1.0 - f) * mean)  # kept: v exactly
             amp *= gain
             freq *= lacunarity
         for i in range(m):
@@ -262,7 +272,7 @@ def octave_sum(
     out = np.empty(len(p))
     noise_perm, perm_yz = _derived_tables(seed)
     octave_kernel(p, w, noise_table, index_table, noise_perm, perm_yz, BASES.index(basis), INTERPOLATIONS.index(interpolation),
-               int(octaves), float(lacunarity), float(gain), bool(signed), out)
+               int(octaves), float(lacunarity), float(gain), bool(signed), basis_mean(basis, seed), out)
     return out
 
 

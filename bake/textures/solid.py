@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .basic import _triangle
+from .basic import _sign, _triangle
 from .noise import octave_sum
 
 
@@ -74,15 +74,16 @@ def wood(points, width, *, ring_width=0.1, wobble=0.0, wobbles=4.0, twist=0.0) -
     """
     p = np.asarray(points, dtype=np.float64)
     r = np.hypot(p[:, 0], p[:, 1])
-    theta = np.arctan2(p[:, 0], p[:, 1])
+    theta = np.where(r > 0, np.arctan2(p[:, 0], p[:, 1]), 0.0)  # atan2(0, -0.0) is pi
     s = r / ring_width + wobble * np.sin(wobbles * theta + twist * p[:, 2])
+    point = _sign(np.floor(s))  # +1 on even rings (from the whole ring number: s / 2 may underflow)
     if width is None:
-        return np.floor(s) - 2.0 * np.floor(0.5 * s)
+        return 0.5 - 0.5 * point
     half = 0.5 * np.asarray(width, dtype=np.float64) / ring_width
     wide = half > 1e-12
     # mean of the 0/1 wave = 1/2 - 1/2 * mean of the +1/-1 wave
     mean = np.divide(_triangle(s + half) - _triangle(s - half), 2.0 * half, out=np.zeros_like(s), where=wide)
-    point = 1.0 - 2.0 * (np.floor(s) - 2.0 * np.floor(0.5 * s))
+    np.clip(mean, -1.0, 1.0, out=mean)  # far out, s +- half round: keep the mean a mean
     return 0.5 - 0.5 * np.where(wide, mean, point)
 
 
