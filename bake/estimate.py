@@ -64,26 +64,52 @@ def half_means(values: np.ndarray, texel: np.ndarray, sample: np.ndarray, sample
     """Per-texel means of the two checkerboard halves of the samples.
 
     ``values``: ``(n, c)`` sample values; ``texel``: ``(n,)`` texel index in ``[0, count)``;
-    ``sample``: ``(n,)`` index of each sample within its texel's grid. Returns ``(a, b, ok)``:
-    ``(count, c)`` means and ``(count,)`` bool where both halves have samples.
+    ``sample``: ``(n,)`` index of each sample within its texel's grid. Returns
+    ``(a, b, na, nb, squares)``: ``(count, c)`` means of the halves, ``(count,)`` sample
+    counts of the halves, and ``(count, c)`` sums of the squared values.
     """
     key = 2 * texel + checker_halves(samples)[sample]  # texel t: 2t white, 2t + 1 black
     n = np.bincount(key, minlength=2 * count).reshape(count, 2)
     s = np.stack([np.bincount(key, weights=values[:, c], minlength=2 * count) for c in range(values.shape[1])], axis=1)
+    squares = np.stack([np.bincount(texel, weights=values[:, c] ** 2, minlength=count) for c in range(values.shape[1])], axis=1)
     mean = s.reshape(count, 2, -1) / np.maximum(n, 1)[:, :, None]
-    return mean[:, 1], mean[:, 0], (n > 0).all(axis=1)
+    return mean[:, 1], mean[:, 0], n[:, 1], n[:, 0], squares
 
 
-def spread_sums(values, texel, sample, samples: int, count: int) -> tuple[float, int]:
-    """``(sum over texels and channels of (A - B)^2 / 4, texels counted)`` for one tile."""
-    a, b, ok = half_means(values, texel, sample, samples, count)
-    return float(((a[ok] - b[ok]) ** 2).sum() / 4.0), int(ok.sum())
+def spread_sums(values, texel, sample, samples: int, count: int) -> np.ndarray:
+    """Sums over the texels of one tile for :func:`spread_estimate`.
+
+    Returns ``[sum of squared errors, texels, sum of per-sample variances of partial
+    texels, partial texels with 2+ samples, texels with one sample]`` (float64 (5,)).
+    Texels with samples on both checkerboard halves give ``(A - B)^2 / 4``; partly
+    covered texels with samples on one half only give the plain ``s^2 / n``.
+    """
+    a, b, na, nb, squares = half_means(values, texel, sample, samples, count)
+    n = na + nb
+    ok = (na > 0) & (nb > 0)
+    total = (na[:, None] * a + nb[:, None] * b)
+    var = (squares - total**2 / np.maximum(n, 1)[:, None]) / np.maximum(n - 1, 1)[:, None]  # per-sample s^2
+    partial = ~ok & (n >= 2)
+    return np.array([
+        ((a[ok] - b[ok]) ** 2).sum() / 4.0 + (np.maximum(var[partial], 0) / n[partial, None]).sum(),
+        (ok | partial).sum(),
+        np.maximum(var[partial], 0).sum(),
+        partial.sum(),
+        (n == 1).sum(),
+    ], dtype=np.float64)
 
 
-def spread_estimate(sum_sq: float, texels: int, channels: int = 3) -> dict:
-    """The ``spread`` estimate from the sums of :func:`spread_sums` over all tiles."""
-    rmse = float(np.sqrt(sum_sq / max(texels * channels, 1)))
-    return {"method": "spread", "rmse": rmse, "texels": int(texels)}
+def spread_estimate(sums, channels: int = 3) -> dict:
+    """The ``spread`` estimate from the sums of :func:`spread_sums` over all tiles.
+
+    Texels a single sample hit (on chart edges) show no spread: each is given the mean
+    per-sample variance of the partly covered texels that have two or more.
+    """
+    sq, texels, partial_var, partial, single = (float(x) for x in sums)
+    if single and partial:
+        sq += single * partial_var / partial
+    rmse = float(np.sqrt(sq / max((texels + single) * channels, 1)))
+    return {"method": "spread", "rmse": rmse, "texels": int(texels + single), "single_sample_texels": int(single)}
 
 
 def probe_estimate(
@@ -116,7 +142,8 @@ def probe_estimate(
     probe = sums[seen] / count[seen, None]
     baked = image.reshape(-1, image.shape[-1])[pick[seen]].astype(np.float64)
     d2 = float(np.mean((baked - probe) ** 2)) if seen.any() else 0.0
-    a, b, ok = half_means(values, texel, sample, samples, len(pick))
+    a, b, na, nb, _ = half_means(values, texel, sample, samples, len(pick))
+    ok = (na > 0) & (nb > 0)
     n2 = float(np.mean((a[ok] - b[ok]) ** 2) / 4.0) if ok.any() else 0.0
     return {
         "method": "probe",

@@ -256,8 +256,8 @@ def bake_mesh(
     def bake_tile(tile) -> int:
         """Bake the rows of one tile into ``image`` and ``hits``.
 
-        Returns ``[rays cast, transfer rays that missed, spread sum, spread texels]``
-        (the last two for the ``spread`` error estimate).
+        Returns ``[rays cast, transfer rays that missed, *spread sums]`` (the sums of
+        ``estimate.spread_sums`` for the ``spread`` error estimate, else zeros).
         """
         with timer.stage("lookup"):
             texels = lookup.candidates(tile, width, height)
@@ -312,7 +312,7 @@ def bake_mesh(
                     block[nz] /= count[nz, None]
                 images[name][tile.start : tile.stop] = block.reshape(rows, width, 3)
             hits[tile.start : tile.stop] = count.reshape(rows, width)
-        spread = (0.0, 0)
+        spread = np.zeros(5)
         if error_method == "spread":
             with timer.stage("estimate"):
                 sample = np.flatnonzero(hit) % samples
@@ -322,13 +322,13 @@ def bake_mesh(
     # Tiles run in threads: Embree holds the GIL, numpy mostly does not, so the stages
     # of two tiles overlap. Each tile writes its own rows.
     with timer.stage("tiles (wall)"), ThreadPoolExecutor(max(1, workers)) as pool:
-        cast, transfer_misses, spread_sum, spread_texels = sum(pool.map(bake_tile, tiles(height, width, samples, tile_samples)))
+        cast, transfer_misses, *spread = sum(pool.map(bake_tile, tiles(height, width, samples, tile_samples)))
     cast, transfer_misses = int(cast), int(transfer_misses)
 
     covered = hits > 0
     with timer.stage("estimate"):
         if error_method == "spread":
-            error_estimate = estimate_stage.spread_estimate(spread_sum, int(spread_texels))
+            error_estimate = estimate_stage.spread_estimate(spread)
         else:
             def reference_at(uvs):
                 """Point-sampled float64 colour, every octave, at ``(n, 2)`` UV points."""
