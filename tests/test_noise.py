@@ -137,3 +137,14 @@ def test_fading_is_continuous_in_the_footprint():
     widths = np.geomspace(1e-4, 10, 400)
     values = np.array([N.octave_sum(p, np.full(len(p), w), octaves=12) for w in widths])
     assert np.abs(np.diff(values, axis=0)).max() < 0.05  # no jump as octaves drop out
+
+
+def test_octave_cap_replaces_the_capped_octaves_by_their_mean():
+    p = np.random.default_rng(3).random((500, 3)) * 10
+    octave_sum = N.octave_sum
+    full = octave_sum(p, None, octaves=3)
+    capped = octave_sum(p, None, octaves=8, max_octaves=3)
+    assert np.allclose(capped, full + 0.5 * sum(0.5**k for k in range(3, 8)), atol=1e-12)
+    signed = octave_sum(p, None, octaves=8, max_octaves=3, signed=True)
+    assert np.allclose(signed, octave_sum(p, None, octaves=3, signed=True), atol=1e-12)  # signed octaves have mean 0
+    assert np.array_equal(octave_sum(p, None, octaves=4, max_octaves=9), octave_sum(p, None, octaves=4))
