@@ -221,15 +221,14 @@ def report(
     uv: str = _UV,
 ):
     """Error against run time: bake under a sweep of quality settings, measure each against a converged reference."""
-    from .sweep import markdown, prepare_mesh, run_sweep, write_all
+    from .sweep import markdown, run_sweep, write_all
     from .textures.spec import with_overrides
 
     if not 8 <= size <= 8192:
         _fail(f"parameter 'size': expected a whole number from 8 to 8192, got {size}")
     try:
         spec = with_overrides(texture, list(set_ or []))
-        mesh_with_atlas = prepare_mesh(mesh, size=size, uv=uv)
-        rows, info = run_sweep(mesh_with_atlas, spec, size=size, repeats=repeats, reference_samples=reference_samples,
+        rows, info = run_sweep(mesh, spec, size=size, repeats=repeats, reference_samples=reference_samples, uv=uv,
                                progress=lambda line: typer.echo(line, err=True))
         paths = write_all(rows, out, info)
     except BakeError as exc:

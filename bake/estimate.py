@@ -28,10 +28,14 @@ with a jittered 4 x 4 grid, point-sampled, float64, every octave: a small local
 reference. With ``D^2`` the mean squared difference between the bake and the probe and
 ``N^2`` the probe's own noise (its checkerboard spread, as above; the probe's jitter is
 independent of the bake's), the estimate is ``sqrt(max(D^2 - N^2, 0))``. The cost is
-fixed (16 samples on at most ``PROBE_TEXELS`` texels), a few percent of a 1-sample
-bake at 1024^2 and less at larger sizes.
+fixed (16 samples on at most ``PROBE_TEXELS`` texels): a few percent of a 1-sample
+bake at 1024^2, less at larger sizes, more than the bake itself below about 128^2.
 
-Both are statistical: over 1024 texels the probe's estimate scatters by roughly 10 %.
+Texels on chart edges that a single sample hit show no spread; the ``spread`` method
+gives them the mean per-sample variance of the other partly covered texels. Both
+methods are statistical: over 1024 texels the probe's estimate scatters by roughly
+10 %. On the sweep (``texbake report``) both came within a factor 1.3 of the measured
+RMSE at 512^2 for marble, turbulence, checker and wood.
 """
 
 from __future__ import annotations
@@ -44,6 +48,13 @@ from .texels import Tile, sample_offsets, sample_uv
 
 PROBE_TEXELS = 1024
 PROBE_GRID = 4  # the probe samples a jittered PROBE_GRID x PROBE_GRID grid per texel
+
+HOW = {
+    "spread": "RMSE against the converged texel means, linear colour, from the spread of each texel's samples: "
+              "(A - B)^2 / 4 of the means of its two checkerboard halves of strata",
+    "probe": "RMSE against the converged texel means, linear colour, from a 4x4 point-sampled float64 probe of "
+             "up to 1024 random covered texels, less the probe's own noise",
+}
 
 
 def method_for(samples: int, filtering: bool, max_octaves: int | None) -> str:
@@ -109,7 +120,8 @@ def spread_estimate(sums, channels: int = 3) -> dict:
     if single and partial:
         sq += single * partial_var / partial
     rmse = float(np.sqrt(sq / max((texels + single) * channels, 1)))
-    return {"method": "spread", "rmse": rmse, "texels": int(texels + single), "single_sample_texels": int(single)}
+    return {"method": "spread", "how": HOW["spread"], "rmse": rmse, "texels": int(texels + single),
+            "single_sample_texels": int(single)}
 
 
 def probe_estimate(
@@ -129,7 +141,7 @@ def probe_estimate(
     rng = np.random.default_rng([seed, 0x9E37])  # not the bake's own jitter
     where = np.flatnonzero(covered.ravel())
     if len(where) == 0:
-        return {"method": "probe", "rmse": 0.0, "texels": 0, "probe_rmse": 0.0, "probe_noise": 0.0}
+        return {"method": "probe", "how": HOW["probe"], "rmse": 0.0, "texels": 0, "probe_rmse": 0.0, "probe_noise": 0.0}
     pick = np.sort(rng.choice(where, size=min(texels, len(where)), replace=False))
     samples = PROBE_GRID * PROBE_GRID
     offsets = sample_offsets(samples, int(rng.integers(2**31)))
@@ -147,6 +159,7 @@ def probe_estimate(
     n2 = float(np.mean((a[ok] - b[ok]) ** 2) / 4.0) if ok.any() else 0.0
     return {
         "method": "probe",
+        "how": HOW["probe"],
         "rmse": float(np.sqrt(max(d2 - n2, 0.0))),
         "texels": int(seen.sum()),
         "probe_rmse": float(np.sqrt(d2)),  # bake against the probe, probe noise included
