@@ -1,8 +1,24 @@
 """Quality presets: samples, footprint filtering, precision and octave cap in one word.
 
 One definition for the library (``bake_mesh(quality=...)``) and the command line
-(``--quality``). The numbers were chosen from ``texbake report`` (``bake.sweep``): see the
-sweep's table for their measured error and time.
+(``--quality``). Chosen from ``texbake report`` (``bake.sweep``) on
+suzanne_blender_uv.obj (63k faces) at 1024^2, whole bake with a pre-made atlas, RMSE in
+linear colour against a 256-sample point-sampled reference (2-core machine under load;
+times vary by 30 % or more):
+
+=========  ==============================  =====================  =====================
+preset     settings                        marble                 checker
+=========  ==============================  =====================  =====================
+draft      1 sample, filtering, 5 octaves  0.44 s, RMSE 4.5e-3    0.55 s, RMSE 1.1e-2
+default    1 sample, filtering             0.49 s, RMSE 2.1e-3    0.45 s, RMSE 1.1e-2
+final      16 samples, point sampling      5.4 s, RMSE 2.1e-4     2.5 s, RMSE 8.5e-3
+=========  ==============================  =====================  =====================
+
+At one sample a texel the texel lookup and fixed costs dominate, so the octave cap of
+``draft`` saves little there (it pays off for specs with many octaves); ``final``
+point-samples because footprint filtering with several samples blurs each sample by a
+whole texel (its error stays at that of one filtered sample), while point samples
+converge to the texel mean. float32 made no measurable difference in time or error.
 """
 
 from __future__ import annotations

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import io
 import math
 import statistics
 import time
@@ -33,8 +34,10 @@ from pathlib import Path
 
 import numpy as np
 
+from .atomic import write_bytes
 from .errors import ParameterError
 from .load import LoadedMesh
+from .textures import parse_spec
 
 COLUMNS = ("setting", "seconds", "rmse", "max_abs", "estimate", "ratio", "method", "samples", "filtering", "precision",
            "max_octaves", "size", "tiles_seconds", "pareto")
@@ -153,6 +156,7 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
         raise ParameterError("repeats", f"expected a whole number from 1 to 100, got {repeats!r}")
     if not isinstance(reference_samples, int) or not 16 <= reference_samples <= 1024:
         raise ParameterError("reference_samples", f"expected a whole number from 16 to 1024, got {reference_samples!r}")
+    spec = parse_spec(spec)
     settings = default_settings(size) if settings is None else list(dict.fromkeys(settings))
     if not settings:
         raise ParameterError("settings", "expected at least one setting")
@@ -204,9 +208,6 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
 
 def write_csv(rows: list[Row], path) -> Path:
     """``path``: one row per setting, columns :data:`COLUMNS`."""
-    from .atomic import write_bytes
-    import io
-
     buf = io.StringIO()
     writer = csv.DictWriter(buf, fieldnames=COLUMNS, lineterminator="\n")
     writer.writeheader()
@@ -246,8 +247,6 @@ def markdown(rows: list[Row], info: dict | None = None) -> str:
 
 
 def write_markdown(rows: list[Row], path, info: dict | None = None) -> Path:
-    from .atomic import write_bytes
-
     write_bytes(Path(path), markdown(rows, info).encode())
     return Path(path)
 
@@ -288,9 +287,6 @@ def plot(rows: list[Row], path) -> Path:
     ax.legend(fontsize=8)
     fig.tight_layout()
     path = Path(path)
-    from .atomic import write_bytes
-    import io
-
     buf = io.BytesIO()
     fig.savefig(buf, format="png")
     write_bytes(path, buf.getvalue())
