@@ -1,4 +1,5 @@
-"""The ``texbake`` command line: ``bake`` one mesh, ``batch`` many, ``stability`` checks.
+"""The ``texbake`` command line: ``bake`` one mesh, ``batch`` many, ``report`` error against
+time, ``stability`` checks.
 
 User errors (bad file, bad parameter) print one line and exit with code 2.
 """
@@ -58,12 +59,16 @@ def _floats(text: str | None, name: str, count: int | None = None) -> list[float
 
 
 def _settings(texture, sets, size, samples, margin, uv, source, cage, texture_space, max_faces, deadline, fmt, bits, obj,
-              workers=2, shading="decal", light=None, bump=None, bump_strength=1.0, frames=None):
+              workers=2, shading="decal", light=None, bump=None, bump_strength=1.0, frames=None, quality=None):
     extra = {"shading": shading, "bump": bump, "bump_strength": bump_strength, "frames": _floats(frames, "frames")}
+    if quality is not None:
+        extra["quality"] = quality
+    if samples is not None:  # else the quality preset's
+        extra["samples"] = samples
     if light is not None:
         extra["light"] = tuple(_floats(light, "light", 3))
     return {
-        **extra, "texture": texture, "set": list(sets or []), "size": size, "samples": samples, "margin": margin, "uv": uv,
+        **extra, "texture": texture, "set": list(sets or []), "size": size, "margin": margin, "uv": uv,
         "source": source, "cage": cage, "texture_space": texture_space, "max_faces": max_faces,
         "unwrap_deadline": deadline, "fmt": fmt, "bits": bits, "obj": obj, "workers": workers,
     }
@@ -72,7 +77,8 @@ def _settings(texture, sets, size, samples, margin, uv, source, cage, texture_sp
 _TEXTURE = typer.Option("checker", "--texture", "-t", help="texture name, JSON spec, or a .json/.yaml spec file (see `texbake textures`)")
 _SET = typer.Option(None, "--set", help="override a texture parameter: key.sub=value (repeatable)")
 _SIZE = typer.Option(1024, "--size", "-s", help="image size in texels (square)")
-_SAMPLES = typer.Option(1, "--samples", help="samples per texel (stratified)")
+_SAMPLES = typer.Option(None, "--samples", help="samples per texel (stratified; default: the quality preset's, 1)")
+_QUALITY = typer.Option(None, "--quality", "-q", help="draft | default | final: samples, filtering, precision, octave cap")
 _MARGIN = typer.Option(16, "--margin", help="texels of margin filled around charts")
 _UV = typer.Option("auto", "--uv", help="auto | unwrap | keep")
 _SOURCE = typer.Option(None, "--source", help="mesh to transfer the texture from (high poly)")
@@ -94,16 +100,17 @@ _FRAMES = typer.Option(None, "--frames", help="times to bake an animated texture
 def bake(
     mesh: str = typer.Argument(..., help="mesh file: OBJ, PLY, STL, OFF, glTF, GLB"),
     out: Path = typer.Option(..., "--out", "-o", help="output folder"),
-    texture: str = _TEXTURE, set_: Optional[list[str]] = _SET, size: int = _SIZE, samples: int = _SAMPLES, margin: int = _MARGIN,
+    texture: str = _TEXTURE, set_: Optional[list[str]] = _SET, size: int = _SIZE, samples: Optional[int] = _SAMPLES, margin: int = _MARGIN,
     uv: str = _UV, source: Optional[str] = _SOURCE, cage: Optional[float] = _CAGE,
     texture_space: str = _SPACE, max_faces: int = _FACES, unwrap_deadline: float = _DEADLINE,
     fmt: str = _FMT, bits: Optional[int] = _BITS, obj: bool = _OBJ, shading: str = _SHADING,
     light: Optional[str] = _LIGHT, bump: Optional[str] = _BUMP, bump_strength: float = _BUMP_STRENGTH,
-    frames: Optional[str] = _FRAMES,
+    frames: Optional[str] = _FRAMES, quality: Optional[str] = _QUALITY,
 ):
     """Bake one mesh: writes DIR/albedo.<format>, DIR/<mesh>.glb and DIR/report.json."""
     settings = _settings(texture, set_, size, samples, margin, uv, source, cage, texture_space, max_faces, unwrap_deadline,
-                         fmt, bits, obj, shading=shading, light=light, bump=bump, bump_strength=bump_strength, frames=frames)
+                         fmt, bits, obj, shading=shading, light=light, bump=bump, bump_strength=bump_strength, frames=frames,
+                         quality=quality)
     start = time.perf_counter()
     try:
         report = _bake_one(mesh, str(out), settings)
@@ -160,16 +167,17 @@ def batch(
     inputs: list[str] = typer.Argument(..., help="mesh files, globs, or .jsonl manifests (one JSON object a line: mesh and settings)"),
     out: Path = typer.Option(..., "--out", "-o", help="output folder; one sub-folder per mesh"),
     jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="parallel processes"),
-    texture: str = _TEXTURE, set_: Optional[list[str]] = _SET, size: int = _SIZE, samples: int = _SAMPLES, margin: int = _MARGIN,
+    texture: str = _TEXTURE, set_: Optional[list[str]] = _SET, size: int = _SIZE, samples: Optional[int] = _SAMPLES, margin: int = _MARGIN,
     uv: str = _UV, texture_space: str = _SPACE, max_faces: int = _FACES, unwrap_deadline: float = _DEADLINE,
-    fmt: str = _FMT, bits: Optional[int] = _BITS, obj: bool = _OBJ,
+    fmt: str = _FMT, bits: Optional[int] = _BITS, obj: bool = _OBJ, quality: Optional[str] = _QUALITY,
 ):
     """Bake many meshes in parallel; keeps going past failures, exits 1 if any failed."""
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
     from rich.table import Table
 
-    base = _settings(texture, set_, size, samples, margin, uv, None, None, texture_space, max_faces, unwrap_deadline, fmt, bits, obj, workers=1)
+    base = _settings(texture, set_, size, samples, margin, uv, None, None, texture_space, max_faces, unwrap_deadline, fmt, bits, obj,
+                     workers=1, quality=quality)
     items = _expand(inputs)
     if not items:
         _fail("no input meshes")
@@ -202,6 +210,33 @@ def batch(
     if failed:
         typer.echo(f"texbake: {failed} of {len(rows)} failed", err=True)
         raise typer.Exit(1)
+
+
+@app.command()
+def report(
+    mesh: str = typer.Argument(..., help="mesh file: OBJ, PLY, STL, OFF, glTF, GLB"),
+    out: Path = typer.Option(..., "--out", "-o", help="output folder for error_vs_time.csv, .png and .md"),
+    texture: str = _TEXTURE, set_: Optional[list[str]] = _SET,
+    size: int = typer.Option(512, "--size", "-s", help="image size of the sweep (a few settings also at half of it)"),
+    repeats: int = typer.Option(3, "--repeats", help="timed runs per setting (the median is reported)"),
+    reference_samples: int = typer.Option(256, "--reference-samples", help="samples a texel of the converged reference"),
+    uv: str = _UV,
+):
+    """Error against run time: bake under a sweep of quality settings, measure each against a converged reference."""
+    from .sweep import markdown, run_sweep, write_all
+    from .textures.spec import with_overrides
+
+    if not 8 <= size <= 8192:
+        _fail(f"parameter 'size': expected a whole number from 8 to 8192, got {size}")
+    try:
+        spec = with_overrides(texture, list(set_ or []))
+        rows, info = run_sweep(mesh, spec, size=size, repeats=repeats, reference_samples=reference_samples, uv=uv,
+                               progress=lambda line: typer.echo(line, err=True))
+        paths = write_all(rows, out, info)
+    except BakeError as exc:
+        _fail(str(exc))
+    typer.echo(markdown(rows, info), nl=False)
+    typer.echo(f"wrote {', '.join(str(p) for p in paths.values())}")
 
 
 @app.command()

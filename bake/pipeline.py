@@ -15,12 +15,14 @@ from pathlib import Path
 
 import numpy as np
 
+from . import estimate as estimate_stage
 from . import margin as margin_stage
 from .atlas import MODES, Atlas, make_atlas
 from .errors import ParameterError
 from .load import LoadedMesh, load_mesh, mesh_from_trimesh
 from .report import library_versions
 from .bump import LUMINANCE, normal_map
+from .quality import FROM_PRESET, PRECISIONS, resolve
 from .shading import MODES as SHADING_MODES
 from .shading import lit
 from .surface import SurfaceMap
@@ -108,7 +110,7 @@ def bake_mesh(
     texture,
     *,
     size: int | tuple[int, int] = 1024,
-    samples: int = 1,
+    samples: int = FROM_PRESET,
     margin: int = 16,
     uv: str = "auto",
     source=None,
@@ -124,6 +126,10 @@ def bake_mesh(
     bump_strength: float = 1.0,
     frames=None,
     tile_samples: int = 1 << 20,
+    quality: str | None = None,
+    filtering: bool = FROM_PRESET,
+    precision: str = FROM_PRESET,
+    max_octaves: int | None = FROM_PRESET,
 ) -> BakeResult:
     """Bake a solid texture into the UV atlas of a mesh.
 
@@ -134,7 +140,7 @@ def bake_mesh(
     size : int or (width, height)
         Image size in texels.
     samples : int
-        Samples per texel (stratified); 1 samples the texel centre.
+        Samples per texel (stratified); 1 samples the texel centre. Default 1.
     margin : int
         Texels of "extend" margin around charts.
     uv : "auto" | "unwrap" | "keep"
@@ -162,10 +168,33 @@ def bake_mesh(
     frames : sequence of float, optional
         Times at which to bake a texture that has a ``time`` (the flame): maps
         ``albedo_0000``... and a ``flipbook`` of all frames in a grid.
+    quality : "draft" | "default" | "final", optional
+        A preset of ``samples``, ``filtering``, ``precision`` and ``max_octaves``
+        (``bake.quality.PRESETS``); any of them given explicitly overrides the preset.
+        None is "default": 1 sample, filtering, float64, every octave.
+    filtering : bool
+        Antialias by the texel footprint (default True): textures get each sample's
+        footprint (checker box-filters it, noise-based textures drop the octaves finer
+        than it). False point-samples the texture (footprint None).
+    precision : "float64" | "float32"
+        "float32" rounds the texture-space points and footprints to float32 before the
+        texture is evaluated (as a float32 pipeline would hold them); the texture
+        arithmetic itself stays float64. Default "float64".
+    max_octaves : int or None
+        Cap on the octaves of turbulence-based textures (turbulence, fbm, marble, flame;
+        also the bump texture): octaves above it add their mean. None: the spec's count.
+
+    The report's ``error_estimate`` estimates the RMSE of the colour map against the
+    converged texel means (see ``bake.estimate``).
     """
+    q_settings = resolve(quality, samples=samples, filtering=filtering, precision=precision, max_octaves=max_octaves)
+    samples, filtering, precision, max_octaves = (q_settings[k] for k in ("samples", "filtering", "precision", "max_octaves"))
     width, height = (size, size) if np.isscalar(size) else tuple(size)
     _check("size", size, all(isinstance(s, (int, np.integer)) and 1 <= s <= 65536 for s in (width, height)), "expected whole numbers from 1 to 65536")
     _check("samples", samples, isinstance(samples, (int, np.integer)) and 1 <= samples <= 1024, "expected a whole number from 1 to 1024")
+    _check("filtering", filtering, isinstance(filtering, (bool, np.bool_)), "expected True or False")
+    _check("precision", precision, precision in PRECISIONS, f"expected one of {PRECISIONS}")
+    _check("max_octaves", max_octaves, max_octaves is None or (isinstance(max_octaves, (int, np.integer)) and not isinstance(max_octaves, bool) and 1 <= max_octaves <= 30), "expected None or a whole number from 1 to 30")
     _check("margin", margin, isinstance(margin, (int, np.integer)) and 0 <= margin <= 4096, "expected a whole number from 0 to 4096")
     _check("texture_space", texture_space, texture_space in TEXTURE_SPACES, f"expected one of {TEXTURE_SPACES}")
     _check("uv", uv, uv in MODES, f"expected one of {MODES}")
@@ -219,6 +248,7 @@ def bake_mesh(
             reach = cage if cage is not None else 0.05 * float(np.linalg.norm(hi - lo))
 
     offsets = sample_offsets(samples, seed)
+    error_method = estimate_stage.method_for(samples, filtering, max_octaves)
     names = list(specs) + (["lit"] if shading != "decal" else []) + (["normal"] if bump_spec is not None else [])
     images = {name: np.zeros((height, width, 3), dtype=np.float32) for name in names}
     hits = np.zeros((height, width), dtype=np.uint16 if samples < 65536 else np.uint32)
@@ -226,7 +256,8 @@ def bake_mesh(
     def bake_tile(tile) -> int:
         """Bake the rows of one tile into ``image`` and ``hits``.
 
-        Returns ``[rays cast, transfer rays that missed]``.
+        Returns ``[rays cast, transfer rays that missed, *spread sums]`` (the sums of
+        ``estimate.spread_sums`` for the ``spread`` error estimate, else zeros).
         """
         with timer.stage("lookup"):
             texels = lookup.candidates(tile, width, height)
@@ -251,13 +282,15 @@ def bake_mesh(
         with timer.stage("texture"):
             q = (points - origin) * scale
             footprint = np.stack([dpdx, dpdy], axis=1) * scale
-            values = {name: evaluate(sp, q, footprint, bounds=bounds) for name, sp in specs.items()}
+            qt, ft = (q, footprint) if precision == "float64" else (q.astype(np.float32), footprint.astype(np.float32))
+            values = {name: evaluate(sp, qt, ft if filtering else None, bounds=bounds, max_octaves=max_octaves)
+                      for name, sp in specs.items()}
         if shading != "decal":
             with timer.stage("shading"):
                 values["lit"] = lit(values[colour_name], normals, mode=shading, light=light)
         if bump_spec is not None:
             with timer.stage("bump"):
-                height_of = lambda x: evaluate(bump_spec, x, bounds=bounds) @ LUMINANCE  # noqa: E731
+                height_of = lambda x: evaluate(bump_spec, x, bounds=bounds, max_octaves=max_octaves) @ LUMINANCE  # noqa: E731
                 values["normal"] = normal_map(height_of, q, footprint[:, 0], footprint[:, 1], normals, bump_strength)
         with timer.stage("accumulate"):
             rows = tile.stop - tile.start
@@ -279,14 +312,38 @@ def bake_mesh(
                     block[nz] /= count[nz, None]
                 images[name][tile.start : tile.stop] = block.reshape(rows, width, 3)
             hits[tile.start : tile.stop] = count.reshape(rows, width)
-        return np.array([len(uvs), missed])
+        spread = np.zeros(5)
+        if error_method == "spread":
+            with timer.stage("estimate"):
+                sample = np.flatnonzero(hit) % samples
+                spread = estimate_stage.spread_sums(values[colour_name], texel, sample, samples, rows * width)
+        return np.array([len(uvs), missed, *spread])
 
     # Tiles run in threads: Embree holds the GIL, numpy mostly does not, so the stages
     # of two tiles overlap. Each tile writes its own rows.
     with timer.stage("tiles (wall)"), ThreadPoolExecutor(max(1, workers)) as pool:
-        cast, transfer_misses = (int(x) for x in sum(pool.map(bake_tile, tiles(height, width, samples, tile_samples))))
+        cast, transfer_misses, *spread = sum(pool.map(bake_tile, tiles(height, width, samples, tile_samples)))
+    cast, transfer_misses = int(cast), int(transfer_misses)
 
     covered = hits > 0
+    with timer.stage("estimate"):
+        if error_method == "spread":
+            error_estimate = estimate_stage.spread_estimate(spread)
+        else:
+            def reference_at(uvs):
+                """Point-sampled float64 colour, every octave, at ``(n, 2)`` UV points."""
+                face = lookup.faces_at(uvs)
+                hit = face >= 0
+                s = surface.samples(face[hit], lookup.barycentric(uvs[hit], face[hit]))
+                points = s.points
+                if caster is not None:
+                    points, found = caster.project(points, s.normals, reach)
+                    hit[np.flatnonzero(hit)[~found]] = False
+                    points = points[found]
+                return hit, evaluate(specs[colour_name], (points - origin) * scale, bounds=bounds)
+
+            error_estimate = estimate_stage.probe_estimate(reference_at, images[colour_name], covered, seed=seed)
+        error_estimate["map"] = colour_name
     with timer.stage("margin"):
         filled = margin_stage.extend(list(images.values()), covered, margin, workers=workers)
     if frames is not None:
@@ -312,6 +369,10 @@ def bake_mesh(
             "texture": spec.model_dump(mode="json"),
             "size": [width, height],
             "samples": samples,
+            "quality": quality,
+            "filtering": filtering,
+            "precision": precision,
+            "max_octaves": max_octaves,
             "margin": margin,
             "uv": uv,
             "texture_space": texture_space,
@@ -335,6 +396,7 @@ def bake_mesh(
             "missed_inside_atlas": int(inner.sum()),
             "transfer_missed": transfer_misses,
         },
+        "error_estimate": error_estimate,
         "skipped": skipped,
         "seconds": {k: round(v, 4) for k, v in timer.seconds.items()},
         "versions": library_versions(),

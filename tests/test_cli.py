@@ -78,3 +78,37 @@ def test_spec_file_and_overrides(meshes, tmp_path):
     assert bad.returncode == 2 and "octavs" in bad.stderr and len(bad.stderr.strip().splitlines()) == 1
     bad = texbake("bake", meshes / "suzanne.ply", "--texture", "marble", "--set", "turbulence.octaves=99", "--out", tmp_path / "p")
     assert bad.returncode == 2 and "octaves" in bad.stderr
+
+
+def test_report_writes_the_sweep(meshes, tmp_path):
+    out = tmp_path / "rep"
+    r = texbake("report", meshes / "suzanne.ply", "--texture", "marble", "--size", 32, "--repeats", 1,
+                "--reference-samples", 64, "--out", out)
+    assert r.returncode == 0, r.stderr
+    assert {"error_vs_time.csv", "error_vs_time.png", "error_vs_time.md"} <= {p.name for p in out.iterdir()}
+    assert "| setting | seconds |" in r.stdout and "1spp filter f64 32" in r.stdout
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["report", "{meshes}/bunny.ply", "--size", "2"], "size"),
+        (["report", "{meshes}/bunny.ply", "--repeats", "0"], "repeats"),
+        (["report", "{meshes}/bunny.ply", "--texture", "marbel"], "marbel"),
+        (["report", "{meshes}/bunny.ply", "--size", "big"], "size"),
+        (["bake", "{meshes}/bunny.ply", "--quality", "best"], "quality"),
+    ],
+)
+def test_report_and_quality_user_errors_exit_2_with_one_line(meshes, tmp_path, args, words):
+    r = texbake(*[a.format(meshes=meshes) for a in args], "--out", tmp_path / "o")
+    assert r.returncode == 2, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in r.stderr and words in lines[0].lower()
+
+
+def test_bake_quality_preset_and_override(meshes, tmp_path):
+    r = texbake("bake", meshes / "suzanne.ply", "--texture", "marble", "--quality", "final", "--samples", 4, "--size", 32,
+                "--out", tmp_path / "o")
+    assert r.returncode == 0, r.stderr
+    p = json.loads((tmp_path / "o" / "report.json").read_text())["parameters"]
+    assert (p["quality"], p["samples"], p["filtering"]) == ("final", 4, False)

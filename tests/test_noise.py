@@ -122,3 +122,14 @@ def test_dropped_octaves_add_the_true_mean_of_the_noise(seed):
     wide = N.octave_sum(p[:100], np.full(100, 1e3), octaves=4, seed=seed) / sum(0.5**k for k in range(4))
     assert np.allclose(wide, N.basis_mean("value", seed), rtol=0, atol=1e-12)
     assert abs(N.basis_mean("perlin") - N.noise(p, basis="perlin").mean()) < 2e-3
+
+
+def test_octave_cap_replaces_the_capped_octaves_by_their_mean():
+    p = np.random.default_rng(3).random((500, 3)) * 10
+    octave_sum = N.octave_sum
+    full = octave_sum(p, None, octaves=3)
+    capped = octave_sum(p, None, octaves=8, max_octaves=3)
+    assert np.allclose(capped, full + N.basis_mean("value") * sum(0.5**k for k in range(3, 8)), atol=1e-12)
+    signed = octave_sum(p, None, octaves=8, max_octaves=3, signed=True)
+    assert np.allclose(signed, octave_sum(p, None, octaves=3, signed=True), atol=1e-12)  # signed octaves have mean 0
+    assert np.array_equal(octave_sum(p, None, octaves=4, max_octaves=9), octave_sum(p, None, octaves=4))

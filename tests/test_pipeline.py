@@ -145,3 +145,43 @@ def test_lit_normal_and_frames(meshes, tmp_path):
     assert (tmp_path / "flipbook.png").exists() and (tmp_path / "albedo_0002.png").exists()
     with pytest.raises(ParameterError, match="frames"):
         bake.bake_mesh(meshes / "suzanne.ply", "marble", size=32, frames=[0, 1])
+
+
+def test_quality_presets_and_explicit_overrides(meshes):
+    from bake.quality import PRESETS
+
+    mesh = meshes / "suzanne.ply"
+    final = bake.bake_mesh(mesh, "marble", size=32, quality="final")
+    p = final.report["parameters"]
+    assert (p["samples"], p["filtering"], p["precision"], p["max_octaves"]) == tuple(vars(PRESETS["final"]).values())
+    mixed = bake.bake_mesh(mesh, "marble", size=32, quality="final", samples=4, max_octaves=3)
+    p = mixed.report["parameters"]
+    assert (p["quality"], p["samples"], p["filtering"], p["max_octaves"]) == ("final", 4, False, 3)
+    default = bake.bake_mesh(mesh, "marble", size=32, margin=2)
+    named = bake.bake_mesh(mesh, "marble", size=32, margin=2, quality="default")
+    assert np.array_equal(default.images["albedo"], named.images["albedo"])  # "default" is bake_mesh's defaults
+    for kwargs, name in (({"quality": "best"}, "quality"), ({"precision": "float16"}, "precision"),
+                         ({"max_octaves": 0}, "max_octaves"), ({"filtering": "yes"}, "filtering")):
+        with pytest.raises(ParameterError, match=name):
+            bake.bake_mesh(mesh, "marble", size=16, **kwargs)
+
+
+def test_filtering_precision_and_octave_cap_change_only_what_they_should(meshes):
+    mesh = meshes / "suzanne.ply"
+    base = bake.bake_mesh(mesh, "marble", size=48, margin=0)
+    cov = base.coverage
+    f32 = bake.bake_mesh(mesh, "marble", size=48, margin=0, precision="float32")
+    # float32 points in unit space: rounding of ~6e-8 moves the colour far below one 8-bit level
+    assert np.abs(f32.images["albedo"][cov] - base.images["albedo"][cov]).max() < 1e-3
+    point = bake.bake_mesh(mesh, "marble", size=48, margin=0, filtering=False)
+    capped = bake.bake_mesh(mesh, "marble", size=48, margin=0, filtering=False, max_octaves=2)
+    assert not np.allclose(point.images["albedo"][cov], base.images["albedo"][cov])
+    assert not np.allclose(capped.images["albedo"][cov], point.images["albedo"][cov])
+    assert capped.report["parameters"]["max_octaves"] == 2
+
+
+def test_report_carries_an_error_estimate(meshes):
+    one = bake.bake_mesh(meshes / "suzanne.ply", "marble", size=48).report["error_estimate"]
+    assert one["method"] == "probe" and one["rmse"] > 0 and one["texels"] > 100 and one["map"] == "albedo"
+    many = bake.bake_mesh(meshes / "suzanne.ply", "marble", size=48, samples=4, filtering=False).report["error_estimate"]
+    assert many["method"] == "spread" and 0 < many["rmse"] < one["rmse"]

@@ -31,7 +31,7 @@ def _width(dpdx, dpdy) -> np.ndarray | None:
     return np.sqrt(np.maximum(np.einsum("ij,ij->i", dpdx, dpdx), np.einsum("ij,ij->i", dpdy, dpdy)))
 
 
-def evaluate(spec, points, footprint=None, *, bounds=None) -> np.ndarray:
+def evaluate(spec, points, footprint=None, *, bounds=None, max_octaves=None) -> np.ndarray:
     """Evaluate a texture at object-space points.
 
     Parameters
@@ -45,6 +45,9 @@ def evaluate(spec, points, footprint=None, *, bounds=None) -> np.ndarray:
     bounds : (2, 3) float or None
         Object-space bounding box of the mesh (used by ``position``); the unit cube if
         ``None``.
+    max_octaves : int or None
+        Cap on the octaves of turbulence-based textures (turbulence, fbm, marble, flame);
+        the capped octaves add their mean. ``None``: the spec's own count.
 
     Returns
     -------
@@ -81,11 +84,11 @@ def evaluate(spec, points, footprint=None, *, bounds=None) -> np.ndarray:
                              interpolation=spec.interpolation, seed=spec.seed)
         return _colours(spec.colormap, t)
     if isinstance(spec, (Turbulence, FBm)):
-        t = solid.turbulence(q, width, signed=isinstance(spec, FBm), **_turbulence_args(spec))
+        t = solid.turbulence(q, width, signed=isinstance(spec, FBm), max_octaves=max_octaves, **_turbulence_args(spec))
         return _colours(spec.colormap, 0.5 + 0.5 * t if isinstance(spec, FBm) else t)
     if isinstance(spec, Marble):
         t = solid.marble(q, width, axis="xyz".index(spec.axis), frequency=spec.frequency,
-                         amplitude=spec.amplitude, **_turbulence_args(spec.turbulence))
+                         amplitude=spec.amplitude, max_octaves=max_octaves, **_turbulence_args(spec.turbulence))
         return _colours(spec.colormap, t)
     if isinstance(spec, Wood):
         if any(spec.tilt):
@@ -95,7 +98,7 @@ def evaluate(spec, points, footprint=None, *, bounds=None) -> np.ndarray:
         return _colours(spec.colormap, t)
     if isinstance(spec, Flame):
         s, weight = solid.flame(q, width, half_width=spec.half_width, height=spec.height, time=spec.time,
-                                rise=spec.rise, turbulence_amount=spec.turbulence_amount,
+                                rise=spec.rise, turbulence_amount=spec.turbulence_amount, max_octaves=max_octaves,
                                 **_turbulence_args(spec.turbulence))
         rgb = [solid.spline(s, np.asarray(c.knots), np.asarray(c.values)[:, None])[:, 0] for c in (spec.red, spec.green, spec.blue)]
         return np.clip(np.column_stack(rgb), 0.0, None) * weight[:, None]

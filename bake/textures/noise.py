@@ -259,20 +259,28 @@ def octave_sum(
     gain: float = 0.5,
     signed: bool = False,
     seed: int = 0,
+    max_octaves: int | None = None,
 ) -> np.ndarray:
     """``(n,)`` float64: ``sum_k gain^k * noise(lacunarity^k * p)`` for ``k < octaves``.
 
     ``points``: ``(n, 3)`` noise-space points; ``width``: ``(n,)`` footprint width in
     noise-space units (None: point sampling, every octave). ``noise`` is the basis in
-    [0, 1], or ``2 * noise - 1`` if ``signed``.
+    [0, 1], or ``2 * noise - 1`` if ``signed``. ``max_octaves`` caps the octaves
+    evaluated (a speed/quality knob): octaves ``k >= max_octaves`` add their mean
+    (:func:`basis_mean`, or 0 if ``signed``), like octaves the footprint drops, so the brightness
+    does not shift.
     """
     p = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
     w = np.zeros(len(p)) if width is None else np.ascontiguousarray(width, dtype=np.float64).reshape(-1)
     noise_table, index_table = tables(seed)
     out = np.empty(len(p))
     noise_perm, perm_yz = _derived_tables(seed)
+    count = int(octaves) if max_octaves is None else min(int(octaves), int(max_octaves))
+    mean = basis_mean(basis, seed)
     octave_kernel(p, w, noise_table, index_table, noise_perm, perm_yz, BASES.index(basis), INTERPOLATIONS.index(interpolation),
-               int(octaves), float(lacunarity), float(gain), bool(signed), basis_mean(basis, seed), out)
+               count, float(lacunarity), float(gain), bool(signed), mean, out)
+    if count < octaves and not signed:  # the capped octaves add their mean
+        out += mean * sum(gain**k for k in range(count, int(octaves)))
     return out
 
 

@@ -33,16 +33,17 @@ def spline(t: np.ndarray, knots: np.ndarray, values: np.ndarray) -> np.ndarray:
 
 
 def turbulence(points, width, *, scale=1.0, offset=0.0, octaves=8, lacunarity=2.0, gain=0.5,
-               basis="value", interpolation="linear", signed=False, seed=0) -> np.ndarray:
+               basis="value", interpolation="linear", signed=False, seed=0, max_octaves=None) -> np.ndarray:
     """Perlin's turbulence ``sum_k gain^k noise(lacunarity^k * (s p + o))``, normalised.
 
     Unsigned (the lecture's form, noise in [0, 1]) it lies in [0, 1]; ``signed`` gives
-    fBm, ``sum_k gain^k (2 noise - 1)``, normalised into [-1, 1].
+    fBm, ``sum_k gain^k (2 noise - 1)``, normalised into [-1, 1]. ``max_octaves`` caps
+    the octaves evaluated; the rest add their mean (the normalisation is unchanged).
     """
     q = np.asarray(points, dtype=np.float64) * scale + offset
     w = None if width is None else np.asarray(width, dtype=np.float64) * abs(scale)
     total = octave_sum(q, w, octaves=octaves, basis=basis, interpolation=interpolation,
-                       lacunarity=lacunarity, gain=gain, signed=signed, seed=seed)
+                       lacunarity=lacunarity, gain=gain, signed=signed, seed=seed, max_octaves=max_octaves)
     norm = sum(gain**k for k in range(octaves))
     return total / norm
 

@@ -1,0 +1,95 @@
+"""The error-against-time sweep (bake/sweep.py) and the error estimate (bake/estimate.py)."""
+
+import csv
+
+import numpy as np
+import pytest
+
+from bake import estimate
+from bake.errors import ParameterError
+from bake.imageio import read_image
+from bake.sweep import COLUMNS, Row, Setting, pareto_front, prepare_mesh, run_sweep, write_all
+
+SETTINGS = [Setting(1, True, size=96), Setting(1, False, size=96), Setting(4, False, size=96), Setting(16, False, size=96)]
+
+
+@pytest.fixture(scope="module")
+def swept(meshes):
+    mesh = prepare_mesh(meshes / "suzanne.ply", size=96)
+    return run_sweep(mesh, "marble", settings=SETTINGS, repeats=1, reference_samples=256)
+
+
+def test_sweep_writes_one_row_per_setting(swept, tmp_path):
+    rows, info = swept
+    paths = write_all(rows, tmp_path / "rep", info)
+    with open(paths["csv"]) as f:
+        records = list(csv.DictReader(f))
+    assert tuple(records[0]) == COLUMNS and len(records) == len(SETTINGS)
+    assert [r["setting"] for r in records] == [s.name for s in SETTINGS]
+    assert all(float(r["seconds"]) > 0 and float(r["rmse"]) > 0 for r in records)
+    assert paths["png"].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    image = read_image(paths["png"])
+    assert image.ndim == 3 and image.shape[0] > 100 and image.shape[1] > 100
+    table = paths["md"].read_text()
+    assert all(s.name in table for s in SETTINGS) and "Reference 96" in table
+    assert any(r.pareto for r in rows)
+
+
+def test_error_decreases_with_samples(swept):
+    rows, info = swept
+    point = {r.setting.samples: r.rmse for r in rows if not r.setting.filtering}
+    assert point[1] > point[4] > point[16]
+    assert info[96]["check_rmse"] < point[16]  # the reference is further converged than any row
+
+
+def test_estimate_is_within_a_factor_2_of_the_measured_error(swept):
+    rows, _ = swept
+    by = {(r.setting.samples, r.setting.filtering): r for r in rows}
+    # one probe estimate (1 filtered sample) and two spread estimates; tolerance: a factor 2
+    for key, method in (((1, True), "probe"), ((4, False), "spread"), ((16, False), "spread")):
+        r = by[key]
+        assert r.method == method and 0.5 <= r.ratio <= 2.0, (key, r.estimate, r.rmse)
+
+
+def test_pareto_front_keeps_rows_nothing_beats():
+    rows = [Row(Setting(n), seconds=t, tiles_seconds=t, rmse=e, max_abs=e, estimate=e, method="probe")
+            for n, t, e in ((1, 1.0, 0.5), (4, 2.0, 0.1), (16, 3.0, 0.2), (64, 4.0, 0.01))]
+    pareto_front(rows)
+    assert [r.pareto for r in rows] == [True, True, False, True]
+
+
+def test_spread_estimate_of_independent_samples():
+    # i.i.d. uniform samples: the variance of a 16-sample mean is 1/12/16 exactly
+    rng = np.random.default_rng(1)
+    texels, samples = 20000, 16
+    values = rng.random((texels * samples, 3))
+    texel = np.repeat(np.arange(texels), samples)
+    sample = np.tile(np.arange(samples), texels)
+    sums = estimate.spread_sums(values, texel, sample, samples, texels)
+    got = estimate.spread_estimate(sums)["rmse"]
+    assert got == pytest.approx(np.sqrt(1 / 12 / 16), rel=0.03)  # 20000 texels: about 1 % scatter
+
+
+def test_spread_sees_no_error_in_a_linear_texel():
+    # a colour linear across the texel: both checkerboard halves have the same mean
+    samples = 16
+    k = 4
+    row, col = np.divmod(np.arange(samples), k)
+    values = np.stack([(col + 0.5) / k, (row + 0.5) / k, (row + col) / 8], axis=1)
+    sums = estimate.spread_sums(values, np.zeros(samples, int), np.arange(samples), samples, 1)
+    assert estimate.spread_estimate(sums)["rmse"] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_method_follows_the_settings():
+    assert estimate.method_for(16, False, None) == "spread"
+    assert estimate.method_for(1, False, None) == "probe"
+    assert estimate.method_for(16, True, None) == "probe"  # filtering blurs: a bias the spread misses
+    assert estimate.method_for(9, False, None) == "probe"  # odd grid: no checkerboard pairs
+    assert estimate.method_for(16, False, 4) == "probe"
+
+
+def test_bad_sweep_parameters_are_named(meshes):
+    with pytest.raises(ParameterError, match="repeats"):
+        run_sweep(meshes / "suzanne.ply", "marble", settings=SETTINGS, repeats=0)
+    with pytest.raises(ParameterError, match="settings"):
+        run_sweep(meshes / "suzanne.ply", "marble", settings=[])
