@@ -486,21 +486,21 @@ def _() -> Figure:
     return Figure(figure, 0.0, detail)
 
 
-@case("footprint-whole-object", "footprints of the whole object (and 1e6 times it) give a flat, finite texture")
+@case("footprint-whole-object", "footprints 10 and 1e6 times the whole object give a flat, finite texture")
 def _() -> Figure:
     p = np.random.default_rng(12).random((2000, 3))  # the unit cube: texture space "unit"
     spreads = {}
     for name in ALL:
         if name in ("position", "flame"):
             continue  # not filtered: the position is the point; the flame's shape is not a pattern
-        for size in (1.0, 1e6):
+        for size in (10.0, 1e6):  # at 1x a box filter still keeps a few % of the coarsest octaves
             fp = np.zeros((2000, 2, 3))
             fp[:, 0, 0] = fp[:, 1, 1] = size
             v = _evaluate(_spec(name), p, fp)
             spreads[f"{name} x{size:g}"] = _max(v.max(axis=0) - v.min(axis=0)) if np.isfinite(v).all() else math.inf
     figure, detail = _worst(spreads)
-    # wood: 25 rings under the footprint leave +-1/50; the rest are flat to 1e-3
-    return Figure(figure, 0.05, f"spread of values; {detail}")
+    # filtered to their means: any spread beyond rounding would be a pattern leaking through
+    return Figure(figure, 1e-3, f"spread of values; {detail}")
 
 
 # -- meshes ----------------------------------------------------------------------------
