@@ -6,6 +6,7 @@ This module wires the stages together; each stage lives in its own module.
 
 from __future__ import annotations
 
+import itertools
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -130,6 +131,7 @@ def bake_mesh(
     filtering: bool = FROM_PRESET,
     precision: str = FROM_PRESET,
     max_octaves: int | None = FROM_PRESET,
+    progress=None,
 ) -> BakeResult:
     """Bake a solid texture into the UV atlas of a mesh.
 
@@ -183,10 +185,14 @@ def bake_mesh(
     max_octaves : int or None
         Cap on the octaves of turbulence-based textures (turbulence, fbm, marble, flame;
         also the bump texture): octaves above it add their mean. None: the spec's count.
+    progress : callable, optional
+        Called with the fraction of the bake done, from 0 to 1 (after loading, the atlas,
+        each tile and the margin), from the calling thread or a tile thread.
 
     The report's ``error_estimate`` estimates the RMSE of the colour map against the
     converged texel means (see ``bake.estimate``).
     """
+    report_progress = progress or (lambda fraction: None)
     q_settings = resolve(quality, samples=samples, filtering=filtering, precision=precision, max_octaves=max_octaves)
     samples, filtering, precision, max_octaves = (q_settings[k] for k in ("samples", "filtering", "precision", "max_octaves"))
     width, height = (size, size) if np.isscalar(size) else tuple(size)
@@ -219,6 +225,7 @@ def bake_mesh(
     if src is None:
         skipped.append({"stage": "transfer", "why": "no source mesh given"})
 
+    report_progress(0.05)
     with timer.stage("atlas"):
         atlas: Atlas = make_atlas(
             mesh.vertices, mesh.faces, mesh.uv, mode=uv, size=max(width, height),
@@ -321,8 +328,17 @@ def bake_mesh(
 
     # Tiles run in threads: Embree holds the GIL, numpy mostly does not, so the stages
     # of two tiles overlap. Each tile writes its own rows.
+    report_progress(0.3)
+    tile_list = tiles(height, width, samples, tile_samples)
+    finished = itertools.count(1)
+
+    def bake_and_report(tile):
+        result = bake_tile(tile)
+        report_progress(0.3 + 0.6 * next(finished) / len(tile_list))
+        return result
+
     with timer.stage("tiles (wall)"), ThreadPoolExecutor(max(1, workers)) as pool:
-        cast, transfer_misses, *spread = sum(pool.map(bake_tile, tiles(height, width, samples, tile_samples)))
+        cast, transfer_misses, *spread = sum(pool.map(bake_and_report, tile_list))
     cast, transfer_misses = int(cast), int(transfer_misses)
 
     covered = hits > 0
@@ -346,6 +362,7 @@ def bake_mesh(
         error_estimate["map"] = colour_name
     with timer.stage("margin"):
         filled = margin_stage.extend(list(images.values()), covered, margin, workers=workers)
+    report_progress(0.95)
     if frames is not None:
         images["flipbook"] = flipbook([images[name] for name in specs])
 
@@ -402,4 +419,5 @@ def bake_mesh(
         "versions": library_versions(),
     }
     baked = BakedMesh(mesh.vertices[atlas.vmapping], atlas.faces, atlas.uv, mesh.name)
+    report_progress(1.0)
     return BakeResult(images, covered, filled, baked, report)

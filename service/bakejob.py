@@ -16,6 +16,7 @@ import os
 import resource
 import signal
 import sys
+import threading
 import traceback
 from pathlib import Path
 
@@ -35,6 +36,13 @@ def _outcome(ok: bool, error: str | None = None) -> None:
     Path("outcome.json").write_text(json.dumps({"ok": True} if ok else {"ok": False, "error": error}))
 
 
+def _write_progress(fraction: float) -> None:
+    """Leave the bake's progress in ``JOB_DIR/progress`` for the worker's heartbeat."""
+    tmp = Path(f"progress.{threading.get_ident()}.tmp")  # tiles report from their threads
+    tmp.write_text(f"{0.95 * fraction:.3f}")  # the last 5 %: saving the files
+    tmp.replace("progress")
+
+
 def run(job_dir: str, memory_mb: int) -> None:
     """Bake the job in ``job_dir`` (the process's exit code is 0, or 2 for a failed bake)."""
     _limit(memory_mb)
@@ -44,7 +52,7 @@ def run(job_dir: str, memory_mb: int) -> None:
     save = {k: settings.pop(k) for k in ("fmt", "bits") if k in settings}
     try:
         # one core per bake: the service runs as many bakes at a time as it has workers
-        result = bake_mesh(Path(job["mesh"]), settings.pop("texture"), workers=1, **settings)
+        result = bake_mesh(Path(job["mesh"]), settings.pop("texture"), workers=1, progress=_write_progress, **settings)
         result.save(Path("out.tmp"), **save)
     except BakeError as exc:
         _outcome(False, str(exc))

@@ -44,6 +44,14 @@ def _bakes():
     return _forkserver
 
 
+def _progress(folder: Path) -> float | None:
+    """The fraction the bake in ``folder`` last reported (None before its first report)."""
+    try:
+        return float((folder / "progress").read_text())
+    except (OSError, ValueError):
+        return None
+
+
 @huey.task()
 def run_bake(job_id: str) -> str:
     s = get_settings()
@@ -55,6 +63,7 @@ def run_bake(job_id: str) -> str:
     folder = job_dir(job_id)
     shutil.rmtree(folder / "out.tmp", ignore_errors=True)
     (folder / "outcome.json").unlink(missing_ok=True)
+    (folder / "progress").unlink(missing_ok=True)
     from . import bakejob  # noqa: F401  (imported here only to be pickled by name)
 
     child = _bakes().Process(target=bakejob.run, args=(str(folder), s.job_memory_mb), daemon=True)
@@ -64,7 +73,7 @@ def run_bake(job_id: str) -> str:
     while child.is_alive():
         child.join(min(s.heartbeat_seconds, 0.5))
         with Session() as session:
-            state = db.beat(session, job_id)
+            state = db.beat(session, job_id, progress=_progress(folder))
         if child.is_alive() and (state != "running" or time.monotonic() > end):
             child.kill()
             child.join()

@@ -186,3 +186,10 @@ def test_report_carries_an_error_estimate(meshes):
     point = bake.bake_mesh(meshes / "suzanne.ply", "marble", size=48, filtering=False).report["error_estimate"]
     many = bake.bake_mesh(meshes / "suzanne.ply", "marble", size=48, samples=4, filtering=False).report["error_estimate"]
     assert many["method"] == "spread" and 0 < many["rmse"] < point["rmse"]
+
+
+def test_progress_is_reported_from_start_to_end(meshes):
+    seen = []
+    bake.bake_mesh(meshes / "suzanne.ply", "marble", size=256, tile_samples=4096, progress=seen.append)
+    assert seen[0] == 0.05 and seen[-1] == 1.0 and len(seen) > 10
+    assert all(0 <= f <= 1 for f in seen) and max(seen[:-1]) < 1.0

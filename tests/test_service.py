@@ -140,6 +140,10 @@ def test_cancel_a_running_bake(server, meshes):
     r = upload(url, meshes / "bunny.ply", {"texture": "marble", "size": 8192, "samples": 16})
     job_id = r.json()["id"]
     wait(url, job_id, states=("running",), timeout=60)
+    end = time.monotonic() + 60
+    while (progress := httpx.get(f"{url}/v1/jobs/{job_id}", timeout=10).json()["progress"]) < 0.3 and time.monotonic() < end:
+        time.sleep(0.3)  # the atlas is made: tiles are being baked
+    assert 0.3 <= progress < 0.95, progress
     assert httpx.delete(f"{url}/v1/jobs/{job_id}", timeout=10).json()["state"] == "cancelled"
     time.sleep(2)
     assert httpx.get(f"{url}/v1/jobs/{job_id}", timeout=10).json()["state"] == "cancelled"
