@@ -9,13 +9,13 @@ times vary by 30 % or more):
 =========  ==============================  =====================  =====================
 preset     settings                        marble                 checker
 =========  ==============================  =====================  =====================
-draft      1 sample, filtering, 5 octaves  0.44 s, RMSE 4.5e-3    0.55 s, RMSE 1.1e-2
-default    1 sample, filtering             0.49 s, RMSE 2.1e-3    0.45 s, RMSE 1.1e-2
-final      16 samples, point sampling      5.4 s, RMSE 2.1e-4     2.5 s, RMSE 8.5e-3
+draft      1 sample, filtering, 5 octaves  0.45 s, RMSE 4.2e-3    0.45 s, RMSE 1.1e-2
+default    1 sample, filtering             0.48 s, RMSE 2.9e-4    0.44 s, RMSE 1.1e-2
+final      16 samples, point sampling      2.64 s, RMSE 2.1e-4    2.14 s, RMSE 8.5e-3
 =========  ==============================  =====================  =====================
 
-At one sample a texel the texel lookup and fixed costs dominate, so the octave cap of
-``draft`` saves little there (it pays off for specs with many octaves); ``final``
+(``scripts/run python bench/bench_error.py``, 2026-11-25.) At one sample a texel the
+texel lookup and fixed costs dominate, so the octave cap of ``draft`` saves little there (it pays off for specs with many octaves); ``final``
 point-samples because footprint filtering with several samples blurs each sample by a
 whole texel (its error stays at that of one filtered sample), while point samples
 converge to the texel mean. float32 made no measurable difference in time or error.

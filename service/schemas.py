@@ -14,7 +14,8 @@ class BakeSettings(BaseModel):
 
     texture: Any = Field("checker", description="texture spec: a name or a spec object (see GET /v1/textures)")
     size: int = Field(1024, ge=1, le=16384)
-    samples: int = Field(1, ge=1, le=1024)
+    quality: Literal["draft", "default", "final"] | None = Field(None, description="preset of samples, filtering and octave cap (default: 'default')")
+    samples: int | None = Field(None, ge=1, le=1024, description="samples per texel (default: the preset's)")
     margin: int = Field(16, ge=0, le=4096)
     uv: Literal["auto", "unwrap", "keep"] = "auto"
     texture_space: Literal["unit", "object"] = "unit"

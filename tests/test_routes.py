@@ -37,8 +37,10 @@ def test_upload_is_queued_once(client, meshes):
     assert job["state"] == "queued" and job["mesh"] == "suzanne.ply" and job["settings"]["texture"]["name"] == "wood"
     assert post(client, meshes / "suzanne.ply", {"texture": "wood", "size": 256}).json()["id"] == job["id"]
     assert post(client, meshes / "suzanne.ply", {"texture": "wood", "size": 128}).json()["id"] != job["id"]
+    final = post(client, meshes / "suzanne.ply", {"texture": "wood", "size": 128, "quality": "final"}).json()
+    assert final["settings"]["quality"] == "final" and "samples" not in final["settings"]
     page = client.get("/v1/jobs", params={"limit": 1}).json()
-    assert page["total"] == 2 and len(page["jobs"]) == 1
+    assert page["total"] == 3 and len(page["jobs"]) == 1
     assert client.get(f"/v1/jobs/{job['id']}/files/albedo.png").status_code == 409  # not baked yet
     assert client.delete(f"/v1/jobs/{job['id']}").json()["state"] == "cancelled"
     assert client.delete(f"/v1/jobs/{job['id']}").status_code == 409
@@ -51,6 +53,7 @@ def test_upload_is_queued_once(client, meshes):
     ({"size": 0}, "size"),
     ({"uv": "sideways"}, "uv"),
     ({"sampels": 4}, "sampels"),
+    ({"quality": "best"}, "quality"),
 ])
 def test_bad_settings_name_the_field(client, meshes, settings, field):
     r = post(client, meshes / "suzanne.ply", settings)

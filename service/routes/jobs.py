@@ -54,9 +54,9 @@ def _bake_settings(raw: str, settings) -> dict:
         raise HTTPException(422, detail=f"settings.texture: {exc}") from None
     if parsed.size > settings.max_size:
         raise HTTPException(422, detail=f"settings.size: {parsed.size} is over this server's limit of {settings.max_size}")
-    if parsed.samples > settings.max_samples:
+    if parsed.samples is not None and parsed.samples > settings.max_samples:
         raise HTTPException(422, detail=f"settings.samples: {parsed.samples} is over this server's limit of {settings.max_samples}")
-    out = parsed.model_dump()
+    out = parsed.model_dump(exclude_none=True)  # what is left out comes from the preset or the defaults
     out["texture"] = spec.model_dump(mode="json")
     out["max_faces"] = settings.max_faces
     return out
