@@ -357,13 +357,13 @@ def test_with_redis_and_postgresql(tmp_path, meshes):
             conn.execute(f'DROP DATABASE IF EXISTS "{database}" WITH (FORCE)')
 
 
-def test_schemathesis_finds_no_server_error(server):
+def test_schemathesis_finds_no_server_error(server, tmp_path):
     """Property-based requests from the OpenAPI schema: never a 5xx (runs last: it leaves jobs queued)."""
     url, *_ = server
     cli = os.path.join(os.path.dirname(sys.executable), "schemathesis")
     r = subprocess.run(
         [cli, "run", f"{url}/openapi.json", "--checks", "not_a_server_error", "--max-examples", "30", "--seed", "1",
          "--request-timeout", "30", "--no-color"],
-        capture_output=True, text=True, timeout=600,
+        capture_output=True, text=True, timeout=600, cwd=tmp_path,  # its cache folder goes there
     )
     assert r.returncode == 0, r.stdout[-4000:] + r.stderr[-2000:]

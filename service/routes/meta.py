@@ -19,7 +19,8 @@ def textures():
 
 
 @router.get("/healthz")
-def healthz():
+async def healthz():
+    """Liveness: answered on the event loop, never queued behind uploads in the thread pool."""
     return {"ok": True}
 
 
