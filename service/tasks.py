@@ -64,7 +64,7 @@ def run_bake(job_id: str) -> str:
     shutil.rmtree(folder / "out.tmp", ignore_errors=True)
     (folder / "outcome.json").unlink(missing_ok=True)
     (folder / "progress").unlink(missing_ok=True)
-    from . import bakejob  # noqa: F401  (imported here only to be pickled by name)
+    from . import bakejob  # the baking core: loaded by workers only, never by the API
 
     child = _bakes().Process(target=bakejob.run, args=(str(folder), s.job_memory_mb), daemon=True)
     child.start()
