@@ -11,8 +11,9 @@ each with its own marble frequency (so the service cannot answer one from anothe
 2. ``texbake serve --workers 2`` on the SQLite defaults in a temporary data folder: the N
    jobs uploaded one after another, wall time from the first upload to the last job done.
    Target: the service reaches at least 80% of batch's throughput.
-3. On the same server, UPLOADS concurrent uploads (each its own settings): the latency of
-   each ``POST /v1/jobs`` until its 202, p50 and p99 (workers busy meanwhile).
+3. On the same server, UPLOADS concurrent uploads from as many client processes (each its
+   own settings): the latency of each ``POST /v1/jobs`` until its 202, p50 and p99
+   (workers busy meanwhile).
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import httpx
@@ -97,8 +98,10 @@ def run_service(jobs: int, size: int, uploads: int, work: Path) -> tuple[float, 
         ids = [upload(url, settings(i, size))[1] for i in range(jobs)]
         wait_all(url, ids)
         seconds = time.perf_counter() - start
-        with ThreadPoolExecutor(uploads) as pool:
-            latencies = [t for t, _ in pool.map(lambda i: upload(url, settings(jobs + i, size)), range(uploads))]
+        # one client process per upload (threads in one Python process would measure its GIL)
+        with ProcessPoolExecutor(uploads) as pool:
+            list(pool.map(time.sleep, [0.5] * uploads))  # every client process started and idle
+            latencies = [t for t, _ in pool.map(upload, [url] * uploads, [settings(jobs + i, size) for i in range(uploads)])]
     finally:
         os.killpg(proc.pid, signal.SIGTERM)
         proc.wait(60)
