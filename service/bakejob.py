@@ -1,10 +1,10 @@
-"""One bake in its own process, forked from a warm fork server (``service.tasks``).
+"""One bake, in a bake process of ``service.tasks`` (one job after another).
 
 :func:`run` reads ``JOB_DIR/job.json`` (mesh file name and bake settings), bakes into
 ``JOB_DIR/out.tmp`` and writes ``JOB_DIR/outcome.json``: ``{"ok": true}`` or ``{"ok":
-false, "error": ...}``. It first caps its own address space and asks to die with its
-parent. This module imports the baking core, so the fork server that preloads it hands
-every bake a process with its libraries loaded. (It does not call the compiled texture
+false, "error": ...}``. It first caps the process's address space and asks it to die
+with its parent. This module imports the baking core, so the fork server that preloads it
+hands out processes with the libraries loaded. (It does not call the compiled texture
 kernels: their OpenMP threads would make every later fork abort.)
 """
 
@@ -15,7 +15,6 @@ import json
 import os
 import resource
 import signal
-import sys
 import threading
 import traceback
 from pathlib import Path
@@ -43,8 +42,8 @@ def _write_progress(fraction: float) -> None:
     tmp.replace("progress")
 
 
-def run(job_dir: str, memory_mb: int) -> None:
-    """Bake the job in ``job_dir`` (the process's exit code is 0, or 2 for a failed bake)."""
+def run(job_dir: str, memory_mb: int) -> bool:
+    """Bake the job in ``job_dir``; True if it is done. The process may run many jobs."""
     _limit(memory_mb)
     os.chdir(job_dir)  # errors name the mesh as uploaded, not the server's folders
     job = json.loads(Path("job.json").read_text())
@@ -56,12 +55,13 @@ def run(job_dir: str, memory_mb: int) -> None:
         result.save(Path("out.tmp"), **save)
     except BakeError as exc:
         _outcome(False, str(exc))
-        sys.exit(2)
+        return False
     except MemoryError:
         _outcome(False, f"the bake ran out of its {memory_mb} MB memory limit")
-        sys.exit(2)
+        return False
     except Exception as exc:  # a bug: keep the trace in the worker's log, the reason in the job
         traceback.print_exc()
         _outcome(False, f"internal error: {type(exc).__name__}: {exc}")
-        sys.exit(2)
+        return False
     _outcome(True)
+    return True
