@@ -37,6 +37,7 @@ import numpy as np
 from .atomic import write_bytes
 from .errors import ParameterError
 from .load import LoadedMesh
+from .quality import Quality
 from .textures import parse_spec
 
 COLUMNS = ("setting", "seconds", "rmse", "max_abs", "estimate", "ratio", "method", "samples", "filtering", "precision",
@@ -44,13 +45,9 @@ COLUMNS = ("setting", "seconds", "rmse", "max_abs", "estimate", "ratio", "method
 
 
 @dataclass(frozen=True)
-class Setting:
-    """One point of the sweep: the ``bake_mesh`` arguments it varies."""
+class Setting(Quality):
+    """One point of the sweep: the ``bake_mesh`` arguments it varies (a quality and a size)."""
 
-    samples: int = 1
-    filtering: bool = True
-    precision: str = "float64"
-    max_octaves: int | None = None
     size: int = 512
 
     @property
@@ -62,7 +59,8 @@ class Setting:
         return " ".join(parts + [str(self.size)])
 
     def kwargs(self) -> dict:
-        return {"samples": self.samples, "filtering": self.filtering, "precision": self.precision, "max_octaves": self.max_octaves}
+        """The quality settings, as ``bake_mesh`` keywords."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(Quality)}
 
 
 @dataclass
