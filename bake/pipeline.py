@@ -176,8 +176,8 @@ def bake_mesh(
         None is "default": 1 sample, filtering, float64, every octave.
     filtering : bool
         Antialias by the texel footprint (default True): textures get each sample's
-        footprint (checker box-filters it, noise-based textures drop the octaves finer
-        than it). False point-samples the texture (footprint None).
+        footprint (checker box-filters it, noise-based textures shrink each octave by
+        the share a box filter over it keeps). False point-samples the texture (footprint None).
     precision : "float64" | "float32"
         "float32" rounds the texture-space points and footprints to float32 before the
         texture is evaluated (as a float32 pipeline would hold them); the texture

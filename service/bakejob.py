@@ -1,11 +1,11 @@
-"""One bake, in a bake process of ``service.tasks`` (one job after another).
+"""Bakes in a bake process of ``service.tasks`` (one job after another).
 
-:func:`run` reads ``JOB_DIR/job.json`` (mesh file name and bake settings), bakes into
-``JOB_DIR/out.tmp`` and writes ``JOB_DIR/outcome.json``: ``{"ok": true}`` or ``{"ok":
-false, "error": ...}``. It first caps the process's address space and asks it to die
-with its parent. This module imports the baking core, so the fork server that preloads it
-hands out processes with the libraries loaded. (It does not call the compiled texture
-kernels: their OpenMP threads would make every later fork abort.)
+:func:`setup` runs once in each bake process: it caps the address space and asks the
+process to die with its parent. :func:`run` reads ``JOB_DIR/job.json`` (mesh file name and
+bake settings), bakes into ``JOB_DIR/out.tmp`` and returns None, or the reason the bake
+failed. This module imports the baking core, so the fork server that preloads it hands
+out processes with the libraries loaded. (It does not call the compiled texture kernels:
+their OpenMP threads would make every later fork abort.)
 """
 
 from __future__ import annotations
@@ -22,17 +22,19 @@ from pathlib import Path
 from bake import BakeError, bake_mesh
 
 
-def _limit(megabytes: int) -> None:
-    limit = megabytes * 1024 * 1024
+_memory_mb = 0  # this process's address-space limit, set by setup()
+
+
+def setup(memory_mb: int) -> None:
+    """Start a bake process: cap its address space, and let it die with its parent (Linux)."""
+    global _memory_mb
+    _memory_mb = memory_mb
+    limit = memory_mb * 1024 * 1024
     resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
     try:
-        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG (Linux)
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
     except OSError:
         pass
-
-
-def _outcome(ok: bool, error: str | None = None) -> None:
-    Path("outcome.json").write_text(json.dumps({"ok": True} if ok else {"ok": False, "error": error}))
 
 
 def _write_progress(fraction: float) -> None:
@@ -42,9 +44,8 @@ def _write_progress(fraction: float) -> None:
     tmp.replace("progress")
 
 
-def run(job_dir: str, memory_mb: int) -> bool:
-    """Bake the job in ``job_dir``; True if it is done. The process may run many jobs."""
-    _limit(memory_mb)
+def run(job_dir: str) -> str | None:
+    """Bake the job in ``job_dir``: None when its files are in ``out.tmp``, else why not."""
     os.chdir(job_dir)  # errors name the mesh as uploaded, not the server's folders
     job = json.loads(Path("job.json").read_text())
     settings = dict(job["settings"])
@@ -54,14 +55,10 @@ def run(job_dir: str, memory_mb: int) -> bool:
         result = bake_mesh(Path(job["mesh"]), settings.pop("texture"), workers=1, progress=_write_progress, **settings)
         result.save(Path("out.tmp"), **save)
     except BakeError as exc:
-        _outcome(False, str(exc))
-        return False
+        return str(exc)
     except MemoryError:
-        _outcome(False, f"the bake ran out of its {memory_mb} MB memory limit")
-        return False
+        return f"the bake ran out of its {_memory_mb} MB memory limit"
     except Exception as exc:  # a bug: keep the trace in the worker's log, the reason in the job
         traceback.print_exc()
-        _outcome(False, f"internal error: {type(exc).__name__}: {exc}")
-        return False
-    _outcome(True)
-    return True
+        return f"internal error: {type(exc).__name__}: {exc}"
+    return None

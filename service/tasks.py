@@ -1,8 +1,7 @@
 """The bake task, as the workers run it (``texbake worker`` loads this module).
 
 A task claims its job in the jobs table, runs the bake in a child process with a
-deadline and a memory limit (a hang or a crash in native code fails that job only),
-beats
+deadline and a memory limit (a hang or a crash in native code fails that job only), beats
 the job's heartbeat meanwhile, stops the child when the job is cancelled, and moves the
 outputs into place only when the bake is complete.
 
@@ -23,7 +22,7 @@ import shutil
 import signal
 import threading
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures import TimeoutError as FutureTimeout
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
@@ -57,16 +56,19 @@ def _bakes():
     return _forkserver
 
 
-def _bake_process() -> ProcessPoolExecutor:
-    """This worker thread's bake process: forked from the fork server, then kept warm
-    (libraries' lazy imports done, compiled kernels loaded) for the next jobs."""
+def _start_bake(folder: Path, memory_mb: int) -> Future:
+    """Bake the job in ``folder`` in this worker thread's bake process: forked from the fork
+    server, then kept warm (lazy imports done, compiled kernels loaded) for the next jobs.
+    The future's result is None when the bake is done, else the reason it failed."""
+    from . import bakejob  # the baking core: loaded by workers only, never by the API
+
     if getattr(_local, "jobs", 0) >= JOBS_PER_PROCESS:
         _drop_bake_process()
     if getattr(_local, "pool", None) is None:
-        pool = ProcessPoolExecutor(1, mp_context=_bakes())
+        pool = ProcessPoolExecutor(1, mp_context=_bakes(), initializer=bakejob.setup, initargs=(memory_mb,))
         _local.pool, _local.pid, _local.jobs = pool, pool.submit(os.getpid).result(), 0
     _local.jobs += 1
-    return _local.pool
+    return _local.pool.submit(bakejob.run, str(folder))
 
 
 def _drop_bake_process(kill: bool = False) -> None:
@@ -82,10 +84,10 @@ def _drop_bake_process(kill: bool = False) -> None:
     pool.shutdown(wait=kill, cancel_futures=True)
 
 
-def _read(path: Path, parse=str):
-    """``parse`` of the text at ``path``, or None if it is not there (yet) or not readable."""
+def _progress(folder: Path) -> float | None:
+    """The fraction the bake in ``folder`` last reported (None before its first report)."""
     try:
-        return parse(path.read_text())
+        return float((folder / "progress").read_text())
     except (OSError, ValueError):
         return None
 
@@ -100,48 +102,36 @@ def run_bake(job_id: str) -> str:
             return "not queued"
     folder = job_dir(job_id)
     shutil.rmtree(folder / "out.tmp", ignore_errors=True)
-    for name in ("outcome.json", "progress"):
-        (folder / name).unlink(missing_ok=True)
-    from . import bakejob  # the baking core: loaded by workers only, never by the API
-
-    future = _bake_process().submit(bakejob.run, str(folder), s.job_memory_mb)
+    (folder / "progress").unlink(missing_ok=True)
+    future = _start_bake(folder, s.job_memory_mb)
     end = time.monotonic() + s.job_seconds
-    state, died = "running", False
+    state, error = "running", None
     while True:
         try:
-            future.result(timeout=min(s.heartbeat_seconds, 0.5))
+            error = future.result(timeout=min(s.heartbeat_seconds, 0.5))
             break
         except FutureTimeout:
             pass
         except BrokenProcessPool:  # the bake's process died: a crash in native code, or killed
-            died = True
+            error = "the bake's process died without a word (a crash in native code, or killed)"
             _drop_bake_process()
             break
         with Session() as session:
-            state = db.beat(session, job_id, progress=_read(folder / "progress", float))
+            state = db.beat(session, job_id, progress=_progress(folder))
         if state != "running" or time.monotonic() > end:
+            error = f"the bake took longer than {s.job_seconds:g} s"
             _drop_bake_process(kill=True)
             break
     with Session() as session:
         if state != "running":
             return state  # cancelled (or taken from us by the reaper)
-        if time.monotonic() > end and not future.done():
-            db.finish(session, job_id, "failed", error=f"the bake took longer than {s.job_seconds:g} s")
-            return "failed"
-        result = _read(folder / "outcome.json", json.loads)
-        if result and result.get("ok"):
+        if error is None:
             final = folder / "out"
             shutil.rmtree(final, ignore_errors=True)
             (folder / "out.tmp").rename(final)  # complete: all files at once
             report = json.loads((final / "report.json").read_text())
             db.finish(session, job_id, "done", report=report)
             return "done"
-        if result:
-            error = result["error"]
-        elif died:
-            error = "the bake's process died without a word (a crash in native code, or killed)"
-        else:
-            error = "the bake ended without an outcome"
         db.finish(session, job_id, "failed", error=error)
         return "failed"
 

@@ -210,31 +210,27 @@ def octave_kernel(points, width, noise, index, noise_perm, perm_yz, basis, inter
     ``n`` is the basis in [0, 1] (``signed``: ``2n - 1``), ``basis_mean`` its mean. Octave ``k``
     is shrunk towards its mean by :func:`fade_factor` of ``s = lacunarity^k * width`` (the
     footprint in its lattice cells): what a box filter over the footprint keeps of it, and
-    nothing once ``s >= DROP_CELLS``; the sum neither aliases nor shifts in brightness. Points go in chunks, octaves in
-    the outer loop, so that the value-noise loop is branch-free and vectorises, and
-    a chunk skips the octaves all its points drop.
+    nothing once ``s >= DROP_CELLS``; the sum neither aliases nor shifts in brightness.
+    Points go in chunks, octaves in the outer loop, so that the value-noise loop is
+    branch-free and vectorises, and a chunk skips the octaves all its points drop.
     """
     n = points.shape[0]
     chunk = 2048
     mean = 2.0 * basis_mean - 1.0 if signed else basis_mean
     scale = 2.0 if signed else 1.0
-    log_lacunarity = np.log(lacunarity)
     for c in nb.prange((n + chunk - 1) // chunk):
         lo = c * chunk
         m = min(n, lo + chunk) - lo
-        limit = np.empty(m)
         acc = np.zeros(m)
-        top = -1e300
+        narrowest = np.inf
         big = 0.0
         for i in range(m):
-            w = width[lo + i]
-            limit[i] = (np.log(DROP_CELLS) - np.log(w)) / log_lacunarity if w > 0.0 else 1e300
-            top = max(top, limit[i])
+            narrowest = min(narrowest, width[lo + i])
             big = max(big, abs(points[lo + i, 0]), abs(points[lo + i, 1]), abs(points[lo + i, 2]))
         amp = 1.0
         freq = 1.0
         for k in range(count):
-            if top - k <= 0.0:  # every point of the chunk drops this octave
+            if narrowest * freq >= DROP_CELLS:  # every point of the chunk drops this octave
                 for i in range(m):
                     acc[i] += amp * mean
             elif basis == 0 and interp < 2 and big * freq < 4.0e18:  # no wrap needed
