@@ -249,13 +249,16 @@ def test_twenty_concurrent_uploads(server, meshes):
     assert max(health) < 1.0 and sorted(health)[len(health) // 2] < 0.1, (max(health), len(health))
 
 
-def test_a_bake_over_its_memory_limit_fails_alone(tmp_path, meshes):
+def test_a_bake_over_its_memory_limit_or_deadline_fails_alone(tmp_path, meshes):
     port = free_port()
-    api = start(["serve", "--port", str(port), "--workers", "1"], tmp_path, {"BAKE_JOB_MEMORY_MB": "1500"}, port=port)
+    limits = {"BAKE_JOB_MEMORY_MB": "1500", "BAKE_JOB_SECONDS": "10"}
+    api = start(["serve", "--port", str(port), "--workers", "1"], tmp_path, limits, port=port)
     url = f"http://127.0.0.1:{port}"
     try:
         big = wait(url, upload(url, meshes / "bunny.ply", {"size": 8192}).json()["id"], timeout=120)
         assert big["state"] == "failed" and ("1500 MB memory limit" in big["error"] or "died" in big["error"]), big["error"]
+        slow = wait(url, upload(url, meshes / "bunny.ply", {"size": 2048, "samples": 64}).json()["id"], timeout=120)
+        assert slow["state"] == "failed" and slow["error"] == "the bake took longer than 10 s", slow["error"]
         small = wait(url, upload(url, meshes / "bunny.ply", {"size": 64}).json()["id"], timeout=120)
         assert small["state"] == "done", small["error"]  # the worker and its next bake are fine
     finally:
