@@ -5,9 +5,16 @@
     result.save("out/bunny")
 """
 
+from importlib import metadata as _metadata
+
 from .errors import AtlasError, BakeError, MeshError, OutputError, ParameterError, TextureError
 
-__all__ = ["bake_mesh", "BakeResult", "BakeError", "MeshError", "ParameterError", "AtlasError", "TextureError", "OutputError"]
+try:
+    __version__ = _metadata.version("texbake")
+except _metadata.PackageNotFoundError:  # run from a source tree that was never installed
+    __version__ = "0+unknown"
+
+__all__ = ["__version__", "bake_mesh", "BakeResult", "BakeError", "MeshError", "ParameterError", "AtlasError", "TextureError", "OutputError"]
 
 
 def __getattr__(name):  # the pipeline pulls in the heavy libraries: import it on first use

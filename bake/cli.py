@@ -14,19 +14,68 @@ import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from multiprocessing import get_context
 from pathlib import Path
-from typing import Optional
 
 import numpy as np
 import typer
 
-from .errors import BakeError
+from .errors import BakeError, TextureError
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, help="Bake procedural solid textures into maps and textured meshes.")
+
+
+def _version(value: bool):
+    if value:
+        from . import __version__
+
+        typer.echo(f"texbake {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _options(version: bool = typer.Option(False, "--version", callback=_version, is_eager=True, help="print the version and exit")):
+    """Bake procedural solid textures into maps and textured meshes."""
+
+
+def _plugin_commands() -> None:
+    """Commands other packages register under the ``texbake.commands`` entry points
+    (the service's ``serve`` and ``worker``): the core never imports them itself."""
+    from importlib.metadata import entry_points
+
+    known = {command.name for command in app.registered_commands}
+    for point in entry_points(group="texbake.commands"):
+        if point.name not in known:
+            app.command(name=point.name)(point.load())
 
 
 def _fail(message: str, code: int = 2):
     typer.echo(f"texbake: error: {message}", err=True)
     raise typer.Exit(code)
+
+
+SPEC_SUFFIXES = (".json", ".yaml", ".yml")
+
+
+def read_spec(value):
+    """A texture argument as the command line takes it: a name, JSON, or a spec file.
+
+    Only the command line reads files; the library and the service take names and JSON.
+    """
+    if not isinstance(value, str) or value.lstrip().startswith("{") or Path(value).suffix.lower() not in SPEC_SUFFIXES:
+        return value
+    path = Path(value)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise TextureError(f"{path}: cannot read texture spec: {exc.strerror}") from None
+    try:
+        import yaml  # a superset of JSON
+
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise TextureError(f"{path}: not a valid spec file: {str(exc).splitlines()[0]}") from None
+    if not isinstance(data, dict):
+        raise TextureError(f"{path}: a spec file holds one mapping with a 'name', got {type(data).__name__}")
+    return data
 
 
 def _bake_one(mesh: str, out: str, settings: dict) -> dict:
@@ -35,7 +84,9 @@ def _bake_one(mesh: str, out: str, settings: dict) -> dict:
     from .textures.spec import with_overrides
 
     save = {k: settings.pop(k) for k in ("fmt", "bits", "obj") if k in settings}
-    texture = with_overrides(settings.pop("texture"), settings.pop("set", None) or [])
+    texture = with_overrides(read_spec(settings.pop("texture")), settings.pop("set", None) or [])
+    if settings.get("bump") is not None:
+        settings["bump"] = read_spec(settings["bump"])
     result = bake_mesh(mesh, texture, **settings)
     result.save(out, **save)
     return result.report
@@ -100,12 +151,12 @@ _FRAMES = typer.Option(None, "--frames", help="times to bake an animated texture
 def bake(
     mesh: str = typer.Argument(..., help="mesh file: OBJ, PLY, STL, OFF, glTF, GLB"),
     out: Path = typer.Option(..., "--out", "-o", help="output folder"),
-    texture: str = _TEXTURE, set_: Optional[list[str]] = _SET, size: int = _SIZE, samples: Optional[int] = _SAMPLES, margin: int = _MARGIN,
-    uv: str = _UV, source: Optional[str] = _SOURCE, cage: Optional[float] = _CAGE,
+    texture: str = _TEXTURE, set_: list[str] | None = _SET, size: int = _SIZE, samples: int | None = _SAMPLES, margin: int = _MARGIN,
+    uv: str = _UV, source: str | None = _SOURCE, cage: float | None = _CAGE,
     texture_space: str = _SPACE, max_faces: int = _FACES, unwrap_deadline: float = _DEADLINE,
-    fmt: str = _FMT, bits: Optional[int] = _BITS, obj: bool = _OBJ, shading: str = _SHADING,
-    light: Optional[str] = _LIGHT, bump: Optional[str] = _BUMP, bump_strength: float = _BUMP_STRENGTH,
-    frames: Optional[str] = _FRAMES, quality: Optional[str] = _QUALITY,
+    fmt: str = _FMT, bits: int | None = _BITS, obj: bool = _OBJ, shading: str = _SHADING,
+    light: str | None = _LIGHT, bump: str | None = _BUMP, bump_strength: float = _BUMP_STRENGTH,
+    frames: str | None = _FRAMES, quality: str | None = _QUALITY,
 ):
     """Bake one mesh: writes DIR/albedo.<format>, DIR/<mesh>.glb and DIR/report.json."""
     settings = _settings(texture, set_, size, samples, margin, uv, source, cage, texture_space, max_faces, unwrap_deadline,
@@ -167,9 +218,9 @@ def batch(
     inputs: list[str] = typer.Argument(..., help="mesh files, globs, or .jsonl manifests (one JSON object a line: mesh and settings)"),
     out: Path = typer.Option(..., "--out", "-o", help="output folder; one sub-folder per mesh"),
     jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="parallel processes"),
-    texture: str = _TEXTURE, set_: Optional[list[str]] = _SET, size: int = _SIZE, samples: Optional[int] = _SAMPLES, margin: int = _MARGIN,
+    texture: str = _TEXTURE, set_: list[str] | None = _SET, size: int = _SIZE, samples: int | None = _SAMPLES, margin: int = _MARGIN,
     uv: str = _UV, texture_space: str = _SPACE, max_faces: int = _FACES, unwrap_deadline: float = _DEADLINE,
-    fmt: str = _FMT, bits: Optional[int] = _BITS, obj: bool = _OBJ, quality: Optional[str] = _QUALITY,
+    fmt: str = _FMT, bits: int | None = _BITS, obj: bool = _OBJ, quality: str | None = _QUALITY,
 ):
     """Bake many meshes in parallel; keeps going past failures, exits 1 if any failed."""
     from rich.console import Console
@@ -216,7 +267,7 @@ def batch(
 def report(
     mesh: str = typer.Argument(..., help="mesh file: OBJ, PLY, STL, OFF, glTF, GLB"),
     out: Path = typer.Option(..., "--out", "-o", help="output folder for error_vs_time.csv, .png and .md"),
-    texture: str = _TEXTURE, set_: Optional[list[str]] = _SET,
+    texture: str = _TEXTURE, set_: list[str] | None = _SET,
     size: int = typer.Option(512, "--size", "-s", help="image size of the sweep (a few settings also at half of it)"),
     repeats: int = typer.Option(3, "--repeats", help="timed runs per setting (the median is reported)"),
     reference_samples: int = typer.Option(256, "--reference-samples", help="samples a texel of the converged reference"),
@@ -229,7 +280,7 @@ def report(
     if not 8 <= size <= 8192:
         _fail(f"parameter 'size': expected a whole number from 8 to 8192, got {size}")
     try:
-        spec = with_overrides(texture, list(set_ or []))
+        spec = with_overrides(read_spec(texture), list(set_ or []))
         rows, info = run_sweep(mesh, spec, size=size, repeats=repeats, reference_samples=reference_samples, uv=uv,
                                progress=lambda line: typer.echo(line, err=True))
         paths = write_all(rows, out, info)
@@ -269,7 +320,7 @@ def _number(x: float) -> str:
 def stability(
     quick: bool = typer.Option(False, "--quick", help="skip the slow cases (listed as skipped)"),
     as_json: bool = typer.Option(False, "--json", help="print the results as JSON"),
-    select: Optional[list[str]] = typer.Option(None, "--case", help="run only cases whose name contains this (repeatable)"),
+    select: list[str] | None = typer.Option(None, "--case", help="run only cases whose name contains this (repeatable)"),
 ):
     """Run the numerical stability cases; prints a table, exits 1 if any case fails."""
     from dataclasses import asdict
@@ -294,9 +345,8 @@ def stability(
         ran = sum(not r.skipped for r in results)
         table = Table(title=f"texbake stability: {ran} cases run, {len(results) - ran} skipped, {len(failed)} failed, {seconds:.1f} s",
                       title_justify="left")
-        for col, justify in (("case", "left"), ("property", "left"), ("figure", "right"), ("limit", "right"),
-                             ("result", "left"), ("s", "right"), ("detail", "left")):
-            table.add_column(col, justify=justify)
+        for col in ("case", "property", "figure", "limit", "result", "s", "detail"):
+            table.add_column(col, justify="right" if col in ("figure", "limit", "s") else "left")
         for r in results:
             result = "[yellow]skipped" if r.skipped else "[green]pass" if r.passed else "[red]fail"
             limit = "-" if r.skipped else f"{r.comparison} {_number(r.limit)}"
@@ -307,51 +357,10 @@ def stability(
         raise typer.Exit(1)
 
 
-@app.command()
-def serve(
-    host: str = typer.Option("127.0.0.1", help="address to listen on"),
-    port: int = typer.Option(8000, help="port to listen on"),
-    workers: Optional[int] = typer.Option(None, help="embedded bake workers (default BAKE_WORKERS, 2; 0: none, API only)"),
-):
-    """Run the HTTP API with an embedded worker pool (SQLite queue and jobs by default)."""
-    import atexit
-    import subprocess
-
-    import uvicorn
-
-    from service.settings import get_settings
-
-    if host not in ("127.0.0.1", "localhost", "::1") and not get_settings().api_keys:
-        print(f"texbake serve: listening on {host} with no API keys: anyone who can reach it can bake (set BAKE_API_KEYS)", file=sys.stderr)
-    if workers != 0:
-        command = [sys.executable, "-m", "bake.cli", "worker"] + ([] if workers is None else ["--workers", str(workers)])
-        pool = subprocess.Popen(command)
-        atexit.register(lambda: (pool.terminate(), pool.wait(30)))
-    from service.main import create_app
-
-    uvicorn.run(create_app(), host=host, port=port, log_level="warning")
-
-
-@app.command()
-def worker(workers: Optional[int] = typer.Option(None, help="bakes at a time (default BAKE_WORKERS, 2)")):
-    """Run bake workers alone (for more machines: point BAKE_REDIS_URL and BAKE_DATABASE_URL at shared servers)."""
-    import threading
-
-    from service.settings import get_settings
-    from service.tasks import huey, reap_forever
-
-    count = workers or get_settings().workers
-    stop = threading.Event()
-    threading.Thread(target=reap_forever, args=(stop,), daemon=True).start()  # re-queue dead workers' jobs
-    try:  # threads are enough: each bake runs in its own child process
-        huey.create_consumer(workers=count, worker_type="thread", periodic=True).run()
-    finally:
-        stop.set()
-
-
 def main(argv: list[str] | None = None) -> int:
     """Entry point: usage errors print one line and exit 2, like bake errors."""
     argv = sys.argv[1:] if argv is None else argv
+    _plugin_commands()
     command = typer.main.get_command(app)
     if not argv:
         argv = ["--help"]

@@ -21,7 +21,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-
 from _rows import emit
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -22,6 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from _rows import emit  # noqa: E402
+
 from bake.atlas import atlas_stats, make_atlas  # noqa: E402
 
 MESH = Path("/work/shared/meshes/suzanne_blender_uv.obj")

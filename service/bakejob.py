@@ -21,16 +21,17 @@ from pathlib import Path
 
 from bake import BakeError, bake_mesh
 
-
 _memory_mb = 0  # this process's address-space limit, set by setup()
 
 
 def setup(memory_mb: int) -> None:
-    """Start a bake process: cap its address space, and let it die with its parent (Linux)."""
+    """Start a bake process: cap its address space, leave Ctrl-C to the worker, and let it
+    die with its parent (Linux)."""
     global _memory_mb
     _memory_mb = memory_mb
     limit = memory_mb * 1024 * 1024
     resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group: the worker decides
     try:
         ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
     except OSError:

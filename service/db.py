@@ -116,6 +116,15 @@ def finish(db: Session, job_id: str, state: str, *, error: str | None = None, re
     db.commit()
 
 
+def release(db: Session, job_id: str) -> bool:
+    """Put a running job back in the queue uncounted (its worker is stopping); False if it
+    was not running any more."""
+    done = db.execute(update(Job).where(Job.id == job_id, Job.state == "running")
+                      .values(state="queued", heartbeat=None, progress=0.0, attempts=Job.attempts - 1))
+    db.commit()
+    return done.rowcount == 1
+
+
 def cancel(db: Session, job_id: str) -> bool:
     """Cancel a queued or running job; False if it had finished already."""
     done = db.execute(update(Job).where(Job.id == job_id, Job.state.in_(("queued", "running"))).values(state="cancelled"))

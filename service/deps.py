@@ -6,7 +6,8 @@ import hashlib
 import hmac
 from typing import Annotated
 
-from fastapi import Depends, Header, HTTPException, Request
+from fastapi import Depends, HTTPException, Request
+from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from sqlalchemy.orm import Session
 
 from . import db
@@ -23,10 +24,14 @@ def get_session(settings: SettingsDep):
 SessionDep = Annotated[Session, Depends(get_session)]
 
 
-def client_id(request: Request, settings: SettingsDep, authorization: Annotated[str | None, Header()] = None) -> str:
+bearer = HTTPBearer(auto_error=False, description="an API key from BAKE_API_KEYS (only where the server has keys)")
+
+
+def client_id(request: Request, settings: SettingsDep,
+              credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(bearer)] = None) -> str:
     """Who is asking: the API key when keys are configured (then required), else the host."""
     if settings.api_keys:
-        token = (authorization or "").removeprefix("Bearer ").strip()
+        token = credentials.credentials if credentials else ""
         if not any(hmac.compare_digest(token.encode(), key.encode()) for key in settings.api_keys):
             raise HTTPException(401, detail="missing or unknown API key (Authorization: Bearer KEY)",
                                 headers={"WWW-Authenticate": "Bearer"})

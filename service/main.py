@@ -5,11 +5,15 @@ from __future__ import annotations
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI, HTTPException, Request
+from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
+from fastapi_offline import FastAPIOffline
 
+from bake import __version__
 from bake.errors import BakeError
 
 from .routes import jobs, meta
+from .schemas import Problem
 
 
 class BodyLimit:
@@ -56,8 +60,10 @@ async def lifespan(app: FastAPI):
 def create_app() -> FastAPI:
     from .settings import get_settings
 
-    app = FastAPI(title="texbake", version="0.1.0", lifespan=lifespan,
-                  description="Upload a mesh and a texture spec; get baked maps and a textured GLB.")
+    # /docs and /redoc with their scripts served from the package (no CDN: they work offline)
+    app = FastAPIOffline(title="texbake", version=__version__, lifespan=lifespan,
+                         description="Upload a mesh and a texture spec; get baked maps and a textured GLB.",
+                         responses={"4XX": {"model": Problem, "description": "what is wrong, naming the field or the file"}})
     app.add_middleware(BodyLimit, limit=get_settings().max_upload_bytes + 1024 * 1024)  # room for the form
     app.include_router(jobs.router)
     app.include_router(meta.router)
@@ -65,5 +71,13 @@ def create_app() -> FastAPI:
     @app.exception_handler(BakeError)
     async def bake_error(request: Request, exc: BakeError):
         return JSONResponse(status_code=422, content={"detail": str(exc)})
+
+    @app.exception_handler(RequestValidationError)
+    async def invalid_request(request: Request, exc: RequestValidationError):
+        """422 naming each bad field (``settings.size: ...``), the list under ``errors``."""
+        errors = [{"loc": list(e["loc"][1:]), "msg": e["msg"].removeprefix("Value error, "), "type": e["type"]}
+                  for e in exc.errors()]
+        detail = "; ".join(f"{'.'.join(map(str, e['loc']))}: {e['msg']}" if e["loc"] else e["msg"] for e in errors)
+        return JSONResponse(status_code=422, content={"detail": detail, "errors": errors})
 
     return app

@@ -27,6 +27,7 @@ class Settings(BaseSettings):
     workers: int = 2
     job_seconds: float = 900.0  # deadline of one bake
     job_memory_mb: int = 6144  # address-space limit of one bake
+    stop_seconds: float = 20.0  # on SIGTERM, running bakes get this long to finish, then go back to the queue
     heartbeat_seconds: float = 2.0
     stale_seconds: float = 30.0  # a running job without heartbeat for this long is re-queued
     max_attempts: int = 3

@@ -27,9 +27,9 @@ from concurrent.futures import TimeoutError as FutureTimeout
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
-from . import db
 from huey import crontab
 
+from . import db
 from .queue import make_huey
 from .settings import get_settings
 
@@ -44,6 +44,7 @@ def job_dir(job_id: str) -> Path:
 
 _forkserver = None
 _local = threading.local()  # each worker thread's bake process
+_running: dict[str, int] = {}  # job id -> pid of the bake process baking it (this worker's)
 JOBS_PER_PROCESS = 50  # then a fresh process: no memory creeps from job to job
 
 
@@ -68,6 +69,7 @@ def _start_bake(folder: Path, memory_mb: int) -> Future:
         pool = ProcessPoolExecutor(1, mp_context=_bakes(), initializer=bakejob.setup, initargs=(memory_mb,))
         _local.pool, _local.pid, _local.jobs = pool, pool.submit(os.getpid).result(), 0
     _local.jobs += 1
+    _running[folder.name] = _local.pid
     return _local.pool.submit(bakejob.run, str(folder))
 
 
@@ -103,7 +105,16 @@ def run_bake(job_id: str) -> str:
     folder = job_dir(job_id)
     shutil.rmtree(folder / "out.tmp", ignore_errors=True)
     (folder / "progress").unlink(missing_ok=True)
-    future = _start_bake(folder, s.job_memory_mb)
+    try:
+        return _supervise(job_id, folder, _start_bake(folder, s.job_memory_mb))
+    finally:
+        _running.pop(job_id, None)
+
+
+def _supervise(job_id: str, folder: Path, future: Future) -> str:
+    """Beat the job's heartbeat while its bake runs; stop it when cancelled or late."""
+    s = get_settings()
+    Session = db.sessions(s.database)
     end = time.monotonic() + s.job_seconds
     state, error = "running", None
     while True:
@@ -134,6 +145,28 @@ def run_bake(job_id: str) -> str:
             return "done"
         db.finish(session, job_id, "failed", error=error)
         return "failed"
+
+
+def hand_back() -> list[str]:
+    """Give this worker's running jobs back to the queue and stop their bakes.
+
+    For a worker that is stopping (``texbake worker`` on SIGTERM, once running bakes have
+    had ``BAKE_STOP_SECONDS`` to finish): another worker takes them up at once, without
+    waiting for the reaper, and the attempt is not counted against the job.
+    """
+    s = get_settings()
+    returned = []
+    for job_id, pid in list(_running.items()):
+        with db.sessions(s.database)() as session:
+            if db.release(session, job_id):
+                returned.append(job_id)
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    for job_id in returned:
+        run_bake(job_id)
+    return returned
 
 
 def reap_forever(stop) -> None:

@@ -66,6 +66,23 @@ def test_textures_lists_every_texture_and_its_schema():
     assert {"Marble", "Wood", "Flame"} <= set(schema["$defs"])
 
 
+def test_version():
+    from bake import __version__
+
+    r = texbake("--version")
+    assert r.returncode == 0 and r.stdout.strip() == f"texbake {__version__}" and __version__ != "0+unknown"
+
+
+def test_bad_spec_files_exit_2_with_one_line(meshes, tmp_path):
+    (tmp_path / "list.yaml").write_text("- name: wood\n")
+    (tmp_path / "broken.json").write_text("{name: ")
+    for spec, words in ((tmp_path / "missing.yaml", "cannot read"), (tmp_path / "list.yaml", "one mapping"),
+                        (tmp_path / "broken.json", "not a valid spec file")):
+        r = texbake("bake", meshes / "suzanne.ply", "--texture", spec, "--out", tmp_path / "o")
+        assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and words in r.stderr, r.stderr
+        assert str(spec) in r.stderr
+
+
 def test_spec_file_and_overrides(meshes, tmp_path):
     spec = tmp_path / "wood.yaml"
     spec.write_text("name: wood\nring_width: 0.08\ntilt: [0, 90, 0]\n")

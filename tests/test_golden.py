@@ -6,10 +6,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bake.imageio import srgb_encode, read_image
+from bake.imageio import read_image, srgb_encode
 
 sys.path.insert(0, str(Path(__file__).parent / "data" / "golden"))
-import make  # noqa: E402  (the generator: same mesh and settings)
+import make
 
 
 @pytest.mark.parametrize("name", make.TEXTURES)

@@ -67,9 +67,9 @@ def test_negative_indices_shared_file(meshes):
     # Resolved by hand: every v and vt line comes before the faces, so index -k is
     # element count - k; each quad is split as a fan (0, 1, 2), (0, 2, 3).
     text = (meshes / "negative_indices.obj").read_text().splitlines()
-    v = np.array([l.split()[1:4] for l in text if l.startswith("v ")], float)
-    vt = np.array([l.split()[1:3] for l in text if l.startswith("vt ")], float)
-    corners = [[t.split("/") for t in l.split()[1:]] for l in text if l.startswith("f ")]
+    v = np.array([line.split()[1:4] for line in text if line.startswith("v ")], float)
+    vt = np.array([line.split()[1:3] for line in text if line.startswith("vt ")], float)
+    corners = [[t.split("/") for t in line.split()[1:]] for line in text if line.startswith("f ")]
     pos = [[v[len(v) + int(c[0])] for c in q] for q in corners]
     tex = [[vt[len(vt) + int(c[1])] for c in q] for q in corners]
     fan = lambda q: [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]

@@ -54,6 +54,9 @@ def test_upload_is_queued_once(client, meshes):
     ({"uv": "sideways"}, "uv"),
     ({"sampels": 4}, "sampels"),
     ({"quality": "best"}, "quality"),
+    ({"bits": 7}, "settings.bits"),
+    ({"fmt": "exr", "bits": 8}, "exr takes 16 or 32 bits"),
+    ({"margin": -1}, "settings.margin"),
 ])
 def test_bad_settings_name_the_field(client, meshes, settings, field):
     r = post(client, meshes / "suzanne.ply", settings)
@@ -71,3 +74,33 @@ def test_not_json_settings_and_unknown_routes(client, meshes):
 def test_readiness_checks_queue_and_database(client):
     ready = client.get("/readyz").json()
     assert ready["ok"] and ready["queue"] >= 1  # the jobs queued above, no worker to take them
+
+
+def test_a_texture_naming_a_server_path_is_an_unknown_name(client, meshes, tmp_path):
+    """The service never opens a path a client names: an existing spec file on the server,
+    a missing one and a made-up name get the same 422, before anything is queued."""
+    spec = tmp_path / "secret.yaml"
+    spec.write_text("name: wood\n")
+    before = client.get("/v1/jobs").json()["total"]
+    details = set()
+    for text in (str(spec), str(tmp_path / "missing.yaml"), "/etc/hostname", "plaid"):
+        r = post(client, meshes / "suzanne.ply", {"texture": text})
+        assert r.status_code == 422, r.text
+        details.add(r.json()["detail"].replace(repr(text), "TEXT"))
+    assert len(details) == 1 and next(iter(details)).startswith("settings.texture: unknown texture TEXT"), details
+    assert client.get("/v1/jobs").json()["total"] == before
+
+
+def test_openapi_documents_the_settings_and_the_bearer_scheme(client):
+    from service.schemas import BakeSettings
+
+    spec = client.get("/openapi.json").json()
+    body = spec["paths"]["/v1/jobs"]["post"]["requestBody"]["content"]["multipart/form-data"]["schema"]["$ref"].split("/")[-1]
+    field = spec["components"]["schemas"][body]["properties"]["settings"]["anyOf"][0]
+    assert field["contentMediaType"] == "application/json" and field["contentSchema"]["$ref"].endswith("/BakeSettings")
+    documented = spec["components"]["schemas"]["BakeSettings"]
+    assert documented["properties"].keys() == BakeSettings.model_json_schema()["properties"].keys()
+    assert documented["properties"]["bits"]["anyOf"] == BakeSettings.model_json_schema()["properties"]["bits"]["anyOf"]
+    assert spec["components"]["securitySchemes"]["HTTPBearer"]["scheme"] == "bearer"
+    assert {"HTTPBearer": []} in spec["paths"]["/v1/jobs"]["post"]["security"]
+    assert spec["paths"]["/v1/jobs"]["post"]["responses"]["4XX"]["content"]["application/json"]["schema"]["$ref"].endswith("/Problem")

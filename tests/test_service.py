@@ -2,9 +2,11 @@
 (SQLite queue and jobs table in a temporary data folder)."""
 
 import bz2
+import contextlib
 import io
 import json
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -13,11 +15,10 @@ import time
 import zipfile
 
 import httpx
-import numpy as np
 import pytest
+from test_load import glb_with_accessor, glb_with_image_uri
 
 from bake.imageio import read_image
-from test_load import glb_with_accessor, glb_with_image_uri
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -51,8 +52,11 @@ def stop(proc, sig=signal.SIGTERM):
     try:
         os.killpg(proc.pid, sig)
         proc.wait(20)
-    except (ProcessLookupError, subprocess.TimeoutExpired):
-        os.killpg(proc.pid, signal.SIGKILL)
+    except ProcessLookupError:  # the whole group has ended already
+        proc.wait()
+    except subprocess.TimeoutExpired:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
         proc.wait()
     proc.log.close()
 
@@ -209,6 +213,11 @@ def test_catalogue_and_docs(server):
     assert httpx.get(f"{url}/openapi.json", timeout=10).json()["paths"].keys() >= {"/v1/jobs", "/v1/jobs/{job_id}", "/v1/textures"}
     docs = httpx.get(f"{url}/docs", timeout=10)
     assert docs.status_code == 200 and "swagger-ui" in docs.text
+    scripts = re.findall(r'(?:src|href)="([^"]+)"', docs.text)
+    assert scripts and all(s.startswith("/") for s in scripts), scripts  # no CDN: served here
+    assert all(httpx.get(f"{url}{s}", timeout=10).status_code == 200 for s in scripts)
+    redoc = httpx.get(f"{url}/redoc", timeout=10).text
+    assert all(s.startswith("/") for s in re.findall(r'src="([^"]+)"', redoc))
     assert httpx.get(f"{url}/readyz", timeout=10).json()["ok"]
 
 
@@ -307,6 +316,35 @@ def test_killed_worker_job_is_requeued_and_done_once(tmp_path, meshes):
             stop(replacement)
         assert job["state"] == "done" and job["attempts"] == 2, job
     finally:
+        stop(api)
+
+
+def test_stopped_worker_hands_its_bake_back(tmp_path, meshes):
+    """SIGTERM (what docker stop sends): no new job, BAKE_STOP_SECONDS for the running bake,
+    then it goes back to the queue uncounted, and another worker bakes it."""
+    data = tmp_path
+    port = free_port()
+    api = start(["serve", "--port", str(port), "--workers", "0"], data, port=port)
+    url = f"http://127.0.0.1:{port}"
+    worker = start(["worker", "--workers", "1"], data, {"BAKE_STOP_SECONDS": "1"})
+    try:
+        job_id = upload(url, meshes / "bunny.ply", {"texture": "marble", "size": 2048, "samples": 16}).json()["id"]
+        wait(url, job_id, states=("running",), timeout=60)
+        began = time.monotonic()
+        worker.send_signal(signal.SIGTERM)  # the worker alone, as docker stop does
+        assert worker.wait(30) == 0
+        assert time.monotonic() - began < 20
+        job = httpx.get(f"{url}/v1/jobs/{job_id}", timeout=10).json()
+        assert job["state"] == "queued" and job["attempts"] == 0, job
+        assert "handed 1 running jobs back" in open(worker.log.name).read()
+        replacement = start(["worker", "--workers", "1"], data)
+        try:
+            job = wait(url, job_id, timeout=180)
+        finally:
+            stop(replacement)
+        assert job["state"] == "done" and job["attempts"] == 1, job
+    finally:
+        stop(worker)
         stop(api)
 
 

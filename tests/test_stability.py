@@ -8,10 +8,10 @@ import json
 import math
 
 import pytest
+from test_cli import texbake
 
 from bake import stability
 from bake.cli import main
-from test_cli import texbake
 
 CASES = [pytest.param(c, id=c.name, marks=[pytest.mark.slow] if c.slow else []) for c in stability.CASES.values()]
 

@@ -90,3 +90,17 @@ def test_filtered_checker_stays_in_range_far_out():
     p = np.random.default_rng(1).random((2000, 3)) + 1e9
     d = np.full((2000, 3), 1e-3)
     assert np.abs(checker_parity(p, np.full(3, 0.125), d, d)).max() <= 1.0
+
+
+def test_parse_spec_reads_no_files(tmp_path):
+    """A string is a name or JSON, never a path: an existing spec file, a missing one and an
+    unknown name get the same message, so a client cannot probe the server's files."""
+    spec = tmp_path / "wood.yaml"
+    spec.write_text("name: wood\n")
+    texts = [str(spec), str(tmp_path / "missing.yaml"), "/etc/hostname", "plaid", "{not json"]
+    messages = set()
+    for text in texts:
+        with pytest.raises(TextureError) as error:
+            parse_spec(text)
+        messages.add(str(error.value).replace(repr(text), "TEXT"))
+    assert len(messages) == 1, messages

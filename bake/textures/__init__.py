@@ -11,8 +11,19 @@ import numpy as np
 
 from . import basic
 from .spec import (
-    TEXTURES, Checker, ColourMap, FBm, Flame, Marble, Noise, Position, TextureSpec, Transform,
-    Turbulence, Wood, parse_spec,
+    TEXTURES,
+    Checker,
+    ColourMap,
+    FBm,
+    Flame,
+    Marble,
+    Noise,
+    Position,
+    TextureSpec,
+    Transform,
+    Turbulence,
+    Wood,
+    parse_spec,
 )
 
 __all__ = ["evaluate", "parse_spec", "TextureSpec", "Transform", "TEXTURES"]

@@ -18,11 +18,17 @@ Hot loops are numba kernels over flat arrays (compiled once, cached on disk).
 from __future__ import annotations
 
 import functools
+import logging
 
 import numba as nb  # pip install numba
 import numpy as np
 
+logger = logging.getLogger(__name__)
+
 # Kernels are module-level so that numba's on-disk cache finds them in a new process.
+# The cache is the ``__pycache__`` folder beside this file where that is writable (an
+# installed wheel in a user's venv), else numba's user-wide cache (``NUMBA_CACHE_DIR``,
+# by default ``~/.cache/numba``).
 jit = functools.partial(nb.njit, cache=True, fastmath=False, nogil=True)
 
 INTERPOLATIONS = ("linear", "cubic", "catmull-rom")
@@ -229,7 +235,7 @@ def octave_kernel(points, width, noise, index, noise_perm, perm_yz, basis, inter
             big = max(big, abs(points[lo + i, 0]), abs(points[lo + i, 1]), abs(points[lo + i, 2]))
         amp = 1.0
         freq = 1.0
-        for k in range(count):
+        for _ in range(count):
             if narrowest * freq >= DROP_CELLS:  # every point of the chunk drops this octave
                 for i in range(m):
                     acc[i] += amp * mean
@@ -304,6 +310,7 @@ def octave_sum(
     noise_perm, perm_yz = _derived_tables(seed)
     count = int(octaves) if max_octaves is None else min(int(octaves), int(max_octaves))
     mean = basis_mean(basis, seed)
+    _announce_compile()
     octave_kernel(p, w, noise_table, index_table, noise_perm, perm_yz, BASES.index(basis), INTERPOLATIONS.index(interpolation),
                count, float(lacunarity), float(gain), bool(signed), mean, out)
     if count < octaves and not signed:  # the capped octaves add their mean
@@ -314,3 +321,22 @@ def octave_sum(
 def noise(points: np.ndarray, *, basis: str = "value", interpolation: str = "linear", seed: int = 0) -> np.ndarray:
     """``(n,)`` float64 noise in [0, 1] at ``(n, 3)`` points (one octave, point-sampled)."""
     return octave_sum(points, None, octaves=1, basis=basis, interpolation=interpolation, seed=seed)
+
+
+_announced = False
+
+
+def _announce_compile() -> None:
+    """Say once per process when the kernels are about to be compiled (numba's cache has
+    none for this code yet: the first bake after an install), so a pause is explained."""
+    global _announced
+    if _announced:
+        return
+    _announced = True
+    try:  # numba's cache index for this source file (empty when missing or out of date)
+        cache = octave_kernel._cache  # type: ignore[attr-defined]  # numba's dispatcher internals
+        cached, where = bool(cache._cache_file._load_index()), cache._cache_path
+    except (AttributeError, OSError):  # another numba: nothing to say
+        return
+    if not cached:
+        logger.warning("texbake: compiling the texture kernels, once after an install (about 30 s); cached in %s", where)

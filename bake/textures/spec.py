@@ -8,8 +8,8 @@ command line and the service (as JSON).
 from __future__ import annotations
 
 import json
-from pathlib import Path
-from typing import Annotated, ClassVar, Literal, Union
+from itertools import pairwise
+from typing import Annotated, ClassVar, Literal, get_args
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, model_validator
@@ -29,7 +29,7 @@ class Transform(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    scale: Union[Annotated[float, Field(gt=0)], tuple[float, float, float]] = 1.0
+    scale: Annotated[float, Field(gt=0)] | tuple[float, float, float] = 1.0
     rotate: Vec3 = Field((0.0, 0.0, 0.0), description="XYZ Euler angles, degrees")
     translate: Vec3 = (0.0, 0.0, 0.0)
 
@@ -55,6 +55,7 @@ class Transform(BaseModel):
 class _Texture(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
+    name: str  # each texture's own Literal: the discriminator
     transform: Transform = Transform()
     space: Literal["object", "world"] = Field(
         "object",
@@ -89,7 +90,7 @@ class Checker(_Texture):
 def _check_knots(knots, values) -> None:
     if len(knots) != len(values) or not knots:
         raise ValueError(f"{len(knots)} knots for {len(values)} values")
-    if any(b <= a for a, b in zip(knots, knots[1:])):
+    if any(b <= a for a, b in pairwise(knots)):
         raise ValueError(f"knots must increase, got {knots}")
 
 
@@ -218,8 +219,8 @@ class Flame(_Texture):
     blue: Curve = Curve(knots=(0.0, 0.2, 0.45), values=(0.8, 0.15, 0.0))
 
 
-TEXTURE_CLASSES = (Position, Checker, Noise, Turbulence, FBm, Marble, Wood, Flame)
-TextureSpec = Annotated[Union[TEXTURE_CLASSES], Field(discriminator="name")]
+TextureSpec = Annotated[Position | Checker | Noise | Turbulence | FBm | Marble | Wood | Flame, Field(discriminator="name")]
+TEXTURE_CLASSES: tuple[type[_Texture], ...] = get_args(get_args(TextureSpec)[0])
 _ADAPTER = TypeAdapter(TextureSpec)
 
 TEXTURES = {cls.model_fields["name"].default: cls for cls in TEXTURE_CLASSES}
@@ -231,22 +232,6 @@ def _describe(error: ValidationError) -> str:
         where = ".".join(str(x) for x in e["loc"]) or "spec"
         parts.append(f"{where}: {e['msg']}")
     return "; ".join(parts)
-
-
-def _read_spec_file(path: Path):
-    """The mapping in a JSON or YAML spec file."""
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise TextureError(f"{path}: cannot read texture spec: {exc.strerror}") from None
-    try:
-        if path.suffix.lower() == ".json":
-            return json.loads(text)
-        import yaml  # pip install pyyaml
-
-        return yaml.safe_load(text)
-    except Exception as exc:  # json and yaml parse errors
-        raise TextureError(f"{path}: not a valid spec file: {str(exc).splitlines()[0]}") from None
 
 
 def with_overrides(value, assignments: list[str]) -> _Texture:
@@ -298,26 +283,26 @@ def json_schema() -> dict:
 
 
 def parse_spec(value) -> _Texture:
-    """A texture spec from a spec object, a dict, a texture name, JSON text or a JSON file.
+    """A texture spec from a spec object, a dict, a texture name or JSON text.
 
-    Raises :class:`TextureError` naming the unknown texture or the bad parameter.
+    Pure: a string is a name or JSON, never a path (only the command line reads spec
+    files). Raises :class:`TextureError` naming the unknown texture or the bad parameter;
+    every string that is neither a known name nor a JSON object gets the same message.
     """
     if isinstance(value, _Texture):
         return value
-    if isinstance(value, (str, Path)):
-        text = str(value).strip()
+    if isinstance(value, str):
+        text = value.strip()
         if text in TEXTURES:
-            return TEXTURES[text]()
-        if text.startswith("{"):
-            try:
-                value = json.loads(text)
-            except json.JSONDecodeError as exc:
-                raise TextureError(f"texture spec is not valid JSON: {exc}") from None
-        elif Path(text).suffix.lower() in (".json", ".yaml", ".yml"):
-            value = _read_spec_file(Path(text))
-        else:
-            known = ", ".join(sorted(TEXTURES))
-            raise TextureError(f"unknown texture {text!r} (known: {known})")
+            return _ADAPTER.validate_python({"name": text})
+        try:
+            value = json.loads(text) if text.startswith("{") else None
+        except json.JSONDecodeError:
+            value = None
+        if not isinstance(value, dict):
+            shown = text if len(text) <= 80 else text[:77] + "..."
+            raise TextureError(f"unknown texture {shown!r}: expected a texture name ({', '.join(sorted(TEXTURES))}) "
+                               "or a JSON spec object") from None
     if not isinstance(value, dict):
         raise TextureError(f"texture spec must be a name or a mapping, got {type(value).__name__}")
     if "name" not in value:

@@ -13,12 +13,11 @@ from typing import Annotated
 
 from fastapi import APIRouter, File, Form, HTTPException, Query, Request, Response, UploadFile
 from fastapi.responses import FileResponse, StreamingResponse
-from pydantic import ValidationError
+from pydantic import Json
 from sqlalchemy import func, select, true
 
-from bake.errors import MeshError, TextureError
+from bake.errors import MeshError
 from bake.load import FORMATS, check_file
-from bake.textures import parse_spec
 
 from .. import db
 from ..deps import ClientDep, JobDep, SessionDep, SettingsDep
@@ -42,22 +41,14 @@ def _safe_stem(filename: str | None) -> str:
     return "".join(c if c.isalnum() or c in "-_" else "_" for c in stem)[:64] or "mesh"
 
 
-def _bake_settings(raw: str, settings) -> dict:
-    try:
-        parsed = BakeSettings.model_validate_json(raw or "{}")
-    except ValidationError as exc:
-        problems = "; ".join(f"{'.'.join(map(str, e['loc'])) or 'settings'}: {e['msg']}" for e in exc.errors())
-        raise HTTPException(422, detail=f"settings: {problems}") from None
-    try:
-        spec = parse_spec(parsed.texture)
-    except TextureError as exc:
-        raise HTTPException(422, detail=f"settings.texture: {exc}") from None
+def _bake_options(parsed: BakeSettings | None, settings) -> dict:
+    """The job's settings as the bake takes them, within this server's limits."""
+    parsed = parsed or BakeSettings()
     if parsed.size > settings.max_size:
         raise HTTPException(422, detail=f"settings.size: {parsed.size} is over this server's limit of {settings.max_size}")
     if parsed.samples is not None and parsed.samples > settings.max_samples:
         raise HTTPException(422, detail=f"settings.samples: {parsed.samples} is over this server's limit of {settings.max_samples}")
-    out = parsed.model_dump(exclude_none=True)  # what is left out comes from the preset or the defaults
-    out["texture"] = spec.model_dump(mode="json")
+    out = parsed.model_dump(mode="json", exclude_none=True)  # what is left out comes from the preset or the defaults
     out["max_faces"] = settings.max_faces
     return out
 
@@ -66,7 +57,7 @@ def _bake_settings(raw: str, settings) -> dict:
 def create_job(
     request: Request, response: Response, session: SessionDep, settings: SettingsDep, client: ClientDep,
     mesh: Annotated[UploadFile, File(description="OBJ, PLY, STL, OFF, glTF or GLB")],
-    bake_settings: Annotated[str, Form(alias="settings", description="JSON of BakeSettings")] = "{}",
+    bake_settings: Annotated[Json[BakeSettings] | None, Form(alias="settings", description="BakeSettings as JSON (default: all defaults)")] = None,
 ):
     """Upload a mesh and its bake settings; the bake is queued (202). The same upload with
     the same settings returns the existing job (200) instead of baking twice.
@@ -76,8 +67,8 @@ def create_job(
     suffix = Path(mesh.filename or "").suffix.lower()
     if suffix not in FORMATS or suffix == ".gltf":  # a glTF's buffers would be separate files
         raise HTTPException(422, detail=f"mesh: {mesh.filename!r} is not a single-file mesh (.obj .ply .stl .off .glb)")
-    options = _bake_settings(bake_settings, settings)
-    unfinished = session.scalar(select(func.count()).select_from(db.Job).where(db.Job.client == client, db.Job.state.in_(("queued", "running"))))
+    options = _bake_options(bake_settings, settings)
+    unfinished = session.scalar(select(func.count()).select_from(db.Job).where(db.Job.client == client, db.Job.state.in_(("queued", "running")))) or 0
     if unfinished >= settings.jobs_per_client:
         raise HTTPException(429, detail=f"{unfinished} unfinished jobs: the limit per client is {settings.jobs_per_client}")
 
@@ -100,7 +91,7 @@ def create_job(
         digest.update(json.dumps(options, sort_keys=True).encode())
         if settings.api_keys:  # with keys, each client has its own jobs
             digest.update(client.encode())
-        job, created = db.create_job(session, key=digest.hexdigest(), client=client, mesh_name=mesh.filename, settings=options)
+        job, created = db.create_job(session, key=digest.hexdigest(), client=client, mesh_name=mesh.filename or "mesh", settings=options)
         if created:
             from ..tasks import job_dir, run_bake
 

@@ -3,12 +3,10 @@
 from __future__ import annotations
 
 from fastapi import APIRouter, HTTPException
-from sqlalchemy import text
 
 from bake.textures.spec import catalogue, json_schema
 
-from .. import db
-from ..deps import SettingsDep
+from ..health import ready
 
 router = APIRouter(tags=["meta"])
 
@@ -25,13 +23,10 @@ async def healthz():
 
 
 @router.get("/readyz")
-def readyz(settings: SettingsDep):
-    from ..tasks import huey
-
+def readyz():
+    """Readiness: the jobs table and the queue answer."""
     try:
-        with db.sessions(settings.database)() as session:
-            session.execute(text("SELECT 1"))
-        queued = huey.pending_count()
+        queued = ready()
     except Exception as exc:  # the answer is the check's result
         raise HTTPException(503, detail=f"not ready: {type(exc).__name__}: {exc}") from None
     return {"ok": True, "queue": queued}

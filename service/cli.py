@@ -1,0 +1,78 @@
+"""The service's commands, ``texbake serve`` and ``texbake worker``.
+
+The core's command line finds them through the ``texbake.commands`` entry points, so the
+core never imports the service. Both need the ``service`` extra
+(``pip install 'texbake[service]'``); without it they say so and exit 2.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import typer
+
+
+def _need_service_extra(exc: ImportError):
+    typer.echo(f"texbake: error: this command needs the service extra (pip install 'texbake[service]'): {exc}", err=True)
+    raise typer.Exit(2)
+
+
+def serve(
+    host: str = typer.Option("127.0.0.1", envvar="BAKE_HOST", help="address to listen on"),
+    port: int = typer.Option(8000, envvar="BAKE_PORT", help="port to listen on"),
+    workers: int | None = typer.Option(None, help="embedded bake workers (default BAKE_WORKERS, 2; 0: none, API only)"),
+):
+    """Run the HTTP API with an embedded worker pool (SQLite queue and jobs by default)."""
+    import atexit
+    import subprocess
+
+    try:
+        import uvicorn
+
+        from .main import create_app
+        from .settings import get_settings
+    except ImportError as exc:
+        _need_service_extra(exc)
+
+    if host not in ("127.0.0.1", "localhost", "::1") and not get_settings().api_keys:
+        print(f"texbake serve: listening on {host} with no API keys: anyone who can reach it can bake (set BAKE_API_KEYS)", file=sys.stderr)
+    if workers != 0:
+        command = [sys.executable, "-m", "bake.cli", "worker"] + ([] if workers is None else ["--workers", str(workers)])
+        pool = subprocess.Popen(command)
+
+        def stop_pool():
+            pool.terminate()  # the worker's graceful stop: finish or hand back its bakes
+            pool.wait(get_settings().stop_seconds + 10)
+
+        atexit.register(stop_pool)
+    uvicorn.run(create_app(), host=host, port=port, log_level="warning")
+
+
+def worker(workers: int | None = typer.Option(None, help="bakes at a time (default BAKE_WORKERS, 2)")):
+    """Run bake workers alone (for more machines: point BAKE_REDIS_URL and BAKE_DATABASE_URL at shared servers).
+
+    On SIGTERM the worker takes no new job, gives running bakes BAKE_STOP_SECONDS to
+    finish, then hands the rest back to the queue for another worker; on SIGINT (Ctrl-C)
+    it hands them back at once.
+    """
+    import logging
+    import threading
+
+    try:
+        from .settings import get_settings
+        from .tasks import hand_back, huey, reap_forever
+    except ImportError as exc:
+        _need_service_extra(exc)
+
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    settings = get_settings()
+    stop = threading.Event()
+    threading.Thread(target=reap_forever, args=(stop,), daemon=True).start()  # re-queue dead workers' jobs
+    try:  # threads are enough: each bake runs in its own child process
+        huey.create_consumer(workers=workers or settings.workers, worker_type="thread", periodic=True,
+                             graceful_signal="TERM", shutdown_timeout=settings.stop_seconds).run()
+    finally:
+        stop.set()
+        returned = hand_back()
+        if returned:
+            logging.getLogger("texbake.service").info("handed %d running jobs back to the queue: %s", len(returned), ", ".join(returned))
