@@ -19,11 +19,11 @@ import numpy as np
 from . import estimate as estimate_stage
 from . import margin as margin_stage
 from .atlas import MODES, Atlas, make_atlas
+from .bump import LUMINANCE, normal_map
 from .errors import ParameterError
 from .load import LoadedMesh, load_mesh, mesh_from_trimesh
-from .report import library_versions
-from .bump import LUMINANCE, normal_map
 from .quality import FROM_PRESET, PRECISIONS, resolve
+from .report import library_versions
 from .shading import MODES as SHADING_MODES
 from .shading import lit
 from .surface import SurfaceMap
@@ -297,7 +297,7 @@ def bake_mesh(
                 values["lit"] = lit(values[colour_name], normals, mode=shading, light=light)
         if bump_spec is not None:
             with timer.stage("bump"):
-                height_of = lambda x: evaluate(bump_spec, x, bounds=bounds, max_octaves=max_octaves) @ LUMINANCE  # noqa: E731
+                height_of = lambda x: evaluate(bump_spec, x, bounds=bounds, max_octaves=max_octaves) @ LUMINANCE
                 values["normal"] = normal_map(height_of, q, footprint[:, 0], footprint[:, 1], normals, bump_strength)
         with timer.stage("accumulate"):
             rows = tile.stop - tile.start

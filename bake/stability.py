@@ -29,9 +29,9 @@ import tempfile
 import time
 import traceback
 import warnings
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Iterable
 
 import numpy as np
 
