@@ -271,7 +271,7 @@ def plot(rows: list[Row], path) -> Path:
                    s=45, zorder=3)
         ax.annotate(s.name, (r.seconds, max(r.rmse, 1e-12)), fontsize=6.5, xytext=(4, 3), textcoords="offset points")
     sizes = sorted({r.setting.size for r in rows}, reverse=True)
-    for style, size in zip(("k--", "k:", "k-."), sizes):
+    for style, size in zip(("k--", "k:", "k-."), sizes, strict=False):
         front = sorted((r for r in rows if r.pareto and r.setting.size == size), key=lambda r: r.seconds)
         ax.plot([r.seconds for r in front], [max(r.rmse, 1e-12) for r in front], style, lw=1, zorder=2,
                 label=f"Pareto front, {size}x{size}")

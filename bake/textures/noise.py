@@ -229,7 +229,7 @@ def octave_kernel(points, width, noise, index, noise_perm, perm_yz, basis, inter
             big = max(big, abs(points[lo + i, 0]), abs(points[lo + i, 1]), abs(points[lo + i, 2]))
         amp = 1.0
         freq = 1.0
-        for k in range(count):
+        for _k in range(count):
             if narrowest * freq >= DROP_CELLS:  # every point of the chunk drops this octave
                 for i in range(m):
                     acc[i] += amp * mean
