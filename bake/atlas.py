@@ -209,6 +209,7 @@ class _Workers:
                 p.kill()
                 p.wait()
         for s in (p.stdin, p.stdout):
+            assert s is not None  # started with stdin and stdout pipes
             try:
                 s.close()
             except OSError:
@@ -246,6 +247,7 @@ class _Workers:
         while pending or busy:
             while pending and (self.idle or len(self.all) - sum(p.poll() is not None for p in self.all) < self.n):
                 p = self.idle.pop() if self.idle else self._start()
+                assert p.stdin is not None and p.stdout is not None  # started with pipes
                 i = pending.pop()
                 path = os.path.join(self.tmp, f"job{self.count}.pickle")
                 self.count += 1
