@@ -31,6 +31,7 @@ import statistics
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypedDict
 
 import numpy as np
 
@@ -61,6 +62,14 @@ class Setting(Quality):
     def kwargs(self) -> dict:
         """The quality settings, as ``bake_mesh`` keywords."""
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(Quality)}
+
+
+class _Common(TypedDict):
+    """The ``bake_mesh`` keywords every bake of a sweep shares."""
+
+    uv: str
+    margin: int
+    workers: int
 
 
 @dataclass
@@ -160,7 +169,7 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
         raise ParameterError("settings", "expected at least one setting")
     say = progress or (lambda line: None)
     base = prepare_mesh(mesh, size=max(s.size for s in settings), uv=uv, workers=workers)
-    common = {"uv": "keep", "margin": 0, "workers": workers}
+    common: _Common = {"uv": "keep", "margin": 0, "workers": workers}
 
     references: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     info: dict[int, dict] = {}
