@@ -16,6 +16,7 @@ from __future__ import annotations
 import os
 import pickle
 import sys
+from collections.abc import Callable
 
 import numpy as np
 
@@ -112,7 +113,7 @@ def _area2(uv: np.ndarray, faces: np.ndarray) -> float:
     return 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]).sum()
 
 
-JOBS = {"chart": chart, "pack": pack}
+JOBS: dict[str, Callable[..., object]] = {"chart": chart, "pack": pack}
 
 
 def main() -> None:

@@ -209,6 +209,7 @@ class _Workers:
                 p.kill()
                 p.wait()
         for s in (p.stdin, p.stdout):
+            assert s is not None  # started with stdin and stdout pipes
             try:
                 s.close()
             except OSError:
@@ -246,6 +247,7 @@ class _Workers:
         while pending or busy:
             while pending and (self.idle or len(self.all) - sum(p.poll() is not None for p in self.all) < self.n):
                 p = self.idle.pop() if self.idle else self._start()
+                assert p.stdin is not None and p.stdout is not None  # started with pipes
                 i = pending.pop()
                 path = os.path.join(self.tmp, f"job{self.count}.pickle")
                 self.count += 1
@@ -395,7 +397,7 @@ def _unwrap(vertices, faces, size, padding, end, deadline, workers, patch_faces)
 
     with _Workers(min(workers, max(1, len(jobs))), end) as pool:
         done = pool.run(jobs)
-        for (ok, value), p in zip(done, patches):
+        for (ok, value), p in zip(done, patches, strict=True):
             if not ok:
                 what = _describe(value, deadline)
                 raise _XatlasFailed(what if len(patches) == 1 else f"{what} on a patch of {len(p)} faces")
@@ -405,7 +407,7 @@ def _unwrap(vertices, faces, size, padding, end, deadline, workers, patch_faces)
         # mesh, so charts of different patches must not share a mesh.
         meshes = []  # (face ids, atlas vertex -> mesh vertex, uv, local faces)
         lost = [np.setdiff1d(np.arange(m), good)]
-        for (_, (vmap, idx, uv)), p, used in zip(done, patches, used_of):
+        for (_, (vmap, idx, uv)), p, used in zip(done, patches, used_of, strict=True):
             idx = idx.astype(np.int64)
             if idx.shape != (len(p), 3) or not np.isfinite(uv).all():
                 raise _XatlasFailed("xatlas returned bad UVs for a patch")
@@ -435,7 +437,7 @@ def _unwrap(vertices, faces, size, padding, end, deadline, workers, patch_faces)
     if len(packed) != len(meshes):
         raise _XatlasFailed("xatlas' packing lost meshes")
     maps, uvs, out_faces, offset = [], [], np.full((m, 3), -1, dtype=np.int64), 0
-    for (face_ids, vmap, _, _), (vm2, idx2, uv2) in zip(meshes, packed):
+    for (face_ids, vmap, _, _), (vm2, idx2, uv2) in zip(meshes, packed, strict=True):
         if idx2.shape != (len(face_ids), 3):
             raise _XatlasFailed("xatlas' packing changed the faces")
         maps.append(vmap[vm2.astype(np.int64)])

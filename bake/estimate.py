@@ -40,7 +40,7 @@ RMSE at 512^2 for marble, turbulence, checker and wood.
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 

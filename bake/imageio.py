@@ -291,7 +291,7 @@ def _check_tiff_layout(path: Path) -> None:
         for tag in _TIFF_IFD_POINTERS:
             todo.extend(tags.get(tag, ()))
         for offsets, counts in _TIFF_DATA:
-            for offset, count in zip(tags.get(offsets, ()), tags.get(counts, ())):
+            for offset, count in zip(tags.get(offsets, ()), tags.get(counts, ()), strict=False):
                 if offset + count > size:
                     raise OutputError(f"{path}: truncated TIFF (pixel data, disk full?)")
         todo.append(struct.unpack_from(e + "I", data, ifd + 2 + 12 * n)[0])

@@ -119,9 +119,9 @@ def check_file(path) -> str:
             head = f.read(1024)
     except OSError as exc:
         raise MeshError(where, f"cannot read: {exc.strerror}") from None
-    for magic, kind in _ARCHIVES.items():
+    for magic, archive in _ARCHIVES.items():
         if head.startswith(magic):
-            raise MeshError(where, f"is a {kind} archive; archives are not accepted")
+            raise MeshError(where, f"is a {archive} archive; archives are not accepted")
     if path.name.lower().endswith(".tar") or (len(head) > 262 and head[257:262] == b"ustar"):
         raise MeshError(where, "is a tar archive; archives are not accepted")
     kind = FORMATS.get(path.suffix.lower())
@@ -353,7 +353,7 @@ def _validate(parts, name: str, where: str, sha256: str, max_faces: int) -> Load
     n_faces = sum(len(p[1]) for p in parts)
     if n_faces > max_faces:
         raise MeshError(where, f"{n_faces} faces is more than the limit of {max_faces}")
-    vertices, faces, uvs, offset = [], [], [], 0
+    vertex_parts, face_parts, uvs, offset = [], [], [], 0
     for v, f, uv in parts:
         v = np.asarray(v, dtype=np.float64)
         f = np.asarray(f)
@@ -361,12 +361,12 @@ def _validate(parts, name: str, where: str, sha256: str, max_faces: int) -> Load
             raise MeshError(where, f"faces must be triangles, got shape {f.shape}")
         if f.min() < 0 or f.max() >= len(v):
             raise MeshError(where, f"face index {int(f.max()) if f.max() >= len(v) else int(f.min())} out of range ({len(v)} vertices)")
-        vertices.append(v)
-        faces.append(f.astype(np.int64) + offset)
+        vertex_parts.append(v)
+        face_parts.append(f.astype(np.int64) + offset)
         uvs.append(uv)
         offset += len(v)
-    vertices = np.concatenate(vertices)
-    faces = np.concatenate(faces)
+    vertices = np.concatenate(vertex_parts)
+    faces = np.concatenate(face_parts)
     uv = None if any(u is None for u in uvs) else np.concatenate(uvs)
     vertices, faces, uv = _weld(vertices, faces, uv)
     if not np.isfinite(vertices).all():

@@ -27,7 +27,7 @@ def read_obj(data: bytes, path: Path, check_reference) -> tuple[np.ndarray, np.n
     ``mtllib`` file name.
     """
     where = str(path)
-    positions, texcoords, corners, counts, sizes = [], [], [], [], []
+    positions, texcoords, corners, counts, size_list = [], [], [], [], []
     for number, line in enumerate(data.decode("utf-8", errors="replace").splitlines(), 1):
         parts = line.split()
         if not parts:
@@ -41,7 +41,7 @@ def read_obj(data: bytes, path: Path, check_reference) -> tuple[np.ndarray, np.n
             if len(parts) < 4:
                 raise MeshError(where, f"line {number}: a face needs at least 3 corners")
             corners.extend(parts[1:])
-            sizes.append(len(parts) - 1)
+            size_list.append(len(parts) - 1)
             counts.append((len(positions), len(texcoords), number))
         elif key == "mtllib":
             for name in parts[1:]:
@@ -57,11 +57,11 @@ def read_obj(data: bytes, path: Path, check_reference) -> tuple[np.ndarray, np.n
         return v, np.zeros((0, 3), dtype=np.int64), None
 
     vi, ti = _corner_indices(corners, where)
-    sizes = np.array(sizes)
+    sizes = np.array(size_list)
     seen = np.repeat(np.array(counts, dtype=np.int64), sizes, axis=0)  # per corner
     vi = _absolute(vi, seen[:, 0], len(v), seen[:, 2], "vertex", where)
     has_uv = bool((ti != 0).all())
-    ti = _absolute(ti, seen[:, 1], len(vt), seen[:, 2], "texture coordinate", where) if has_uv else None
+    uv_index = _absolute(ti, seen[:, 1], len(vt), seen[:, 2], "texture coordinate", where) if has_uv else None
 
     # Fan-triangulate polygons: corner k of a polygon starting at s gives (s, s+k, s+k+1).
     starts = np.repeat(np.cumsum(sizes) - sizes, sizes - 2)
@@ -69,14 +69,14 @@ def read_obj(data: bytes, path: Path, check_reference) -> tuple[np.ndarray, np.n
     tri_corners = np.stack([starts, starts + k, starts + k + 1], axis=1)
 
     # One vertex per distinct (position, texcoord) pair, in order of first use.
-    key = vi if ti is None else vi * (len(vt) + 1) + ti
-    unique, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+    pair = vi if uv_index is None else vi * (len(vt) + 1) + uv_index
+    unique, first, inverse = np.unique(pair, return_index=True, return_inverse=True)
     order = np.argsort(first)
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))
     faces = rank[inverse.ravel()][tri_corners]
     used = first[order]
-    return v[vi[used]], faces, None if ti is None else vt[ti[used]]
+    return v[vi[used]], faces, None if uv_index is None else vt[uv_index[used]]
 
 
 def _corner_indices(corners: list[str], where: str) -> tuple[np.ndarray, np.ndarray]:

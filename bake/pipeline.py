@@ -9,6 +9,8 @@ from __future__ import annotations
 import itertools
 import threading
 import time
+import typing
+from collections.abc import Iterable
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -19,11 +21,11 @@ import numpy as np
 from . import estimate as estimate_stage
 from . import margin as margin_stage
 from .atlas import MODES, Atlas, make_atlas
+from .bump import LUMINANCE, normal_map
 from .errors import ParameterError
 from .load import LoadedMesh, load_mesh, mesh_from_trimesh
+from .quality import FROM_PRESET, PRECISIONS, _FromPreset, resolve
 from .report import library_versions
-from .bump import LUMINANCE, normal_map
-from .quality import FROM_PRESET, PRECISIONS, resolve
 from .shading import MODES as SHADING_MODES
 from .shading import lit
 from .surface import SurfaceMap
@@ -76,7 +78,7 @@ def flipbook(frames: list[np.ndarray]) -> np.ndarray:
 class _Timer:
     """Seconds per stage, summed over the tiles (and threads) that ran it."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.seconds: dict[str, float] = {}
         self._lock = threading.Lock()
 
@@ -111,7 +113,7 @@ def bake_mesh(
     texture,
     *,
     size: int | tuple[int, int] = 1024,
-    samples: int = FROM_PRESET,
+    samples: int | _FromPreset = FROM_PRESET,
     margin: int = 16,
     uv: str = "auto",
     source=None,
@@ -128,9 +130,9 @@ def bake_mesh(
     frames=None,
     tile_samples: int = 1 << 20,
     quality: str | None = None,
-    filtering: bool = FROM_PRESET,
-    precision: str = FROM_PRESET,
-    max_octaves: int | None = FROM_PRESET,
+    filtering: bool | _FromPreset = FROM_PRESET,
+    precision: str | _FromPreset = FROM_PRESET,
+    max_octaves: int | None | _FromPreset = FROM_PRESET,
     progress=None,
 ) -> BakeResult:
     """Bake a solid texture into the UV atlas of a mesh.
@@ -194,8 +196,11 @@ def bake_mesh(
     """
     report_progress = progress or (lambda fraction: None)
     q_settings = resolve(quality, samples=samples, filtering=filtering, precision=precision, max_octaves=max_octaves)
-    samples, filtering, precision, max_octaves = (q_settings[k] for k in ("samples", "filtering", "precision", "max_octaves"))
-    width, height = (size, size) if np.isscalar(size) else tuple(size)
+    samples, filtering, precision, max_octaves = q_settings["samples"], q_settings["filtering"], q_settings["precision"], q_settings["max_octaves"]
+    if np.isscalar(size):  # the casts: any scalar or pair is taken here, _check below rejects all but whole numbers
+        width = height = typing.cast(int, size)
+    else:
+        width, height = tuple(typing.cast("Iterable[int]", size))
     _check("size", size, all(isinstance(s, (int, np.integer)) and 1 <= s <= 65536 for s in (width, height)), "expected whole numbers from 1 to 65536")
     _check("samples", samples, isinstance(samples, (int, np.integer)) and 1 <= samples <= 1024, "expected a whole number from 1 to 1024")
     _check("filtering", filtering, isinstance(filtering, (bool, np.bool_)), "expected True or False")
@@ -211,7 +216,7 @@ def bake_mesh(
     if frames is not None:
         frames = [float(t) for t in frames]
         _check("frames", frames, 0 < len(frames) <= 1024 and all(np.isfinite(frames)), "expected 1 to 1024 finite times")
-        _check("frames", frames, "time" in type(spec).model_fields, f"texture {spec.name!r} has no time to animate")
+        _check("frames", frames, "time" in type(spec).model_fields, f"texture {spec.name!r} has no time to animate")  # type: ignore[attr-defined]  # every concrete spec has a name; parse_spec is typed as returning their base
         specs = {f"albedo_{i:04d}": spec.model_copy(update={"time": t}) for i, t in enumerate(frames)}
     else:
         specs = {"albedo": spec}
@@ -260,7 +265,7 @@ def bake_mesh(
     images = {name: np.zeros((height, width, 3), dtype=np.float32) for name in names}
     hits = np.zeros((height, width), dtype=np.uint16 if samples < 65536 else np.uint32)
 
-    def bake_tile(tile) -> int:
+    def bake_tile(tile) -> np.ndarray:
         """Bake the rows of one tile into ``image`` and ``hits``.
 
         Returns ``[rays cast, transfer rays that missed, *spread sums]`` (the sums of
@@ -279,6 +284,7 @@ def bake_mesh(
         missed = 0
         if caster is not None:
             with timer.stage("transfer"):
+                assert s.normals is not None  # need_normals: the surface map has them for a transfer
                 points, found = caster.project(points, s.normals, reach)
                 missed = int((~found).sum())
                 hit[np.flatnonzero(hit)[~found]] = False
@@ -297,7 +303,7 @@ def bake_mesh(
                 values["lit"] = lit(values[colour_name], normals, mode=shading, light=light)
         if bump_spec is not None:
             with timer.stage("bump"):
-                height_of = lambda x: evaluate(bump_spec, x, bounds=bounds, max_octaves=max_octaves) @ LUMINANCE  # noqa: E731
+                height_of = lambda x: evaluate(bump_spec, x, bounds=bounds, max_octaves=max_octaves) @ LUMINANCE
                 values["normal"] = normal_map(height_of, q, footprint[:, 0], footprint[:, 1], normals, bump_strength)
         with timer.stage("accumulate"):
             rows = tile.stop - tile.start

@@ -24,6 +24,7 @@ converge to the texel mean. float32 made no measurable difference in time or err
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
+from typing import TypedDict, cast
 
 from .errors import ParameterError
 
@@ -60,7 +61,16 @@ class _FromPreset:
 FROM_PRESET = _FromPreset()
 
 
-def resolve(quality: str | None, **given) -> dict:
+class Settings(TypedDict):
+    """``Quality``'s fields as :func:`resolve` returns them."""
+
+    samples: int
+    filtering: bool
+    precision: str
+    max_octaves: int | None
+
+
+def resolve(quality: str | None, **given) -> Settings:
     """The settings of preset ``quality`` (``None``: ``"default"``), with the ``given``
     ones that are not ``FROM_PRESET`` overriding it. Returns a dict of ``Quality``'s fields."""
     if quality is not None and quality not in PRESETS:
@@ -70,4 +80,4 @@ def resolve(quality: str | None, **given) -> dict:
     if unknown:
         raise ParameterError(sorted(unknown)[0], "not a quality setting")
     settings.update({k: v for k, v in given.items() if v is not FROM_PRESET})
-    return settings
+    return cast(Settings, settings)

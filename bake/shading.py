@@ -28,10 +28,10 @@ def lit(colour, normals, *, mode="ambient-diffuse", light=(0.3, 0.5, 0.8), view=
     """``(n, 3)`` lit colour from ``(n, 3)`` texture colour and unit ``(n, 3)`` normals."""
     if mode not in MODES[1:]:
         raise ParameterError("shading", f"expected one of {', '.join(MODES)}, got {mode!r}")
-    l = _unit(light, "light")
-    ndotl = np.maximum(normals @ l, 0.0)[:, None]
+    ldir = _unit(light, "light")
+    ndotl = np.maximum(normals @ ldir, 0.0)[:, None]
     out = colour * (ambient + diffuse * ndotl)
     if mode == "full":
-        h = _unit(l + _unit(view, "view"), "view")
+        h = _unit(ldir + _unit(view, "view"), "view")
         out = out + specular * np.maximum(normals @ h, 0.0)[:, None] ** shininess
     return out

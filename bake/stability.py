@@ -29,9 +29,9 @@ import tempfile
 import time
 import traceback
 import warnings
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Iterable
 
 import numpy as np
 
@@ -168,7 +168,7 @@ def _max(x) -> float:
     return float(np.max(x)) if np.isfinite(x).all() else math.inf
 
 
-def _worst(figures: dict[str, float]) -> tuple[float, str]:
+def _worst(figures: Mapping[str, float]) -> tuple[float, str]:
     """The largest figure and a detail naming it and the others."""
     name = max(figures, key=lambda k: (not np.isfinite(figures[k]), figures[k]))
     parts = ", ".join(f"{k} {v:.3g}" for k, v in figures.items())
@@ -295,7 +295,7 @@ def _() -> Figure:
     values = np.array([0.0, -0.0, 5e-324, -5e-324, 1.0, -1.0, 1e9, -1e9, 1e20, -1e20, big, -big])
     rng = np.random.default_rng(5)
     p = values[rng.integers(0, len(values), (400, 3))]
-    bad = {}
+    bad: dict[str, int] = {}
     for name in ALL:
         for fp in (None, np.full((len(p), 2, 3), 1e-3), np.full((len(p), 2, 3), 1e30)):
             v = _evaluate(_spec(name), p, fp)

@@ -31,6 +31,7 @@ import statistics
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypedDict
 
 import numpy as np
 
@@ -61,6 +62,14 @@ class Setting(Quality):
     def kwargs(self) -> dict:
         """The quality settings, as ``bake_mesh`` keywords."""
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(Quality)}
+
+
+class _Common(TypedDict):
+    """The ``bake_mesh`` keywords every bake of a sweep shares."""
+
+    uv: str
+    margin: int
+    workers: int
 
 
 @dataclass
@@ -160,7 +169,7 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
         raise ParameterError("settings", "expected at least one setting")
     say = progress or (lambda line: None)
     base = prepare_mesh(mesh, size=max(s.size for s in settings), uv=uv, workers=workers)
-    common = {"uv": "keep", "margin": 0, "workers": workers}
+    common: _Common = {"uv": "keep", "margin": 0, "workers": workers}
 
     references: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     info: dict[int, dict] = {}
@@ -271,7 +280,7 @@ def plot(rows: list[Row], path) -> Path:
                    s=45, zorder=3)
         ax.annotate(s.name, (r.seconds, max(r.rmse, 1e-12)), fontsize=6.5, xytext=(4, 3), textcoords="offset points")
     sizes = sorted({r.setting.size for r in rows}, reverse=True)
-    for style, size in zip(("k--", "k:", "k-."), sizes):
+    for style, size in zip(("k--", "k:", "k-."), sizes, strict=False):
         front = sorted((r for r in rows if r.pareto and r.setting.size == size), key=lambda r: r.seconds)
         ax.plot([r.seconds for r in front], [max(r.rmse, 1e-12) for r in front], style, lw=1, zorder=2,
                 label=f"Pareto front, {size}x{size}")

@@ -12,8 +12,9 @@ import time
 import uuid
 from datetime import datetime, timedelta, timezone
 from functools import lru_cache
+from typing import Any, cast
 
-from sqlalchemy import DateTime, Integer, String, Text, create_engine, event, select, update
+from sqlalchemy import CursorResult, DateTime, Integer, Result, String, Text, create_engine, event, select, update
 from sqlalchemy.exc import DBAPIError
 from sqlalchemy.orm import DeclarativeBase, Mapped, Session, mapped_column, sessionmaker
 
@@ -88,6 +89,11 @@ def create_job(db: Session, *, key: str, client: str, mesh_name: str, settings: 
     return job, True
 
 
+def _rowcount(result: Result[Any]) -> int:
+    """Rows an UPDATE matched: the session returns a CursorResult for DML without RETURNING."""
+    return cast("CursorResult[Any]", result).rowcount
+
+
 def claim(db: Session, job_id: str) -> Job | None:
     """Move a queued job to running (atomically); None if it is not queued any more."""
     done = db.execute(
@@ -95,7 +101,7 @@ def claim(db: Session, job_id: str) -> Job | None:
         .values(state="running", heartbeat=now(), attempts=Job.attempts + 1, progress=0.0)
     )
     db.commit()
-    return db.get(Job, job_id) if done.rowcount == 1 else None
+    return db.get(Job, job_id) if _rowcount(done) == 1 else None
 
 
 def beat(db: Session, job_id: str, progress: float | None = None) -> str:
@@ -103,7 +109,9 @@ def beat(db: Session, job_id: str, progress: float | None = None) -> str:
     values = {"heartbeat": now()} if progress is None else {"heartbeat": now(), "progress": progress}
     db.execute(update(Job).where(Job.id == job_id, Job.state == "running").values(**values))
     db.commit()
-    return db.scalar(select(Job.state).where(Job.id == job_id))
+    state = db.scalar(select(Job.state).where(Job.id == job_id))
+    assert state is not None  # jobs are never deleted, and this one was claimed
+    return state
 
 
 def finish(db: Session, job_id: str, state: str, *, error: str | None = None, report: dict | None = None) -> None:
@@ -129,7 +137,7 @@ def cancel(db: Session, job_id: str) -> bool:
     """Cancel a queued or running job; False if it had finished already."""
     done = db.execute(update(Job).where(Job.id == job_id, Job.state.in_(("queued", "running"))).values(state="cancelled"))
     db.commit()
-    return done.rowcount == 1
+    return _rowcount(done) == 1
 
 
 def reap(db: Session, stale_seconds: float, max_attempts: int) -> tuple[list[str], list[str]]:
@@ -139,16 +147,18 @@ def reap(db: Session, stale_seconds: float, max_attempts: int) -> tuple[list[str
     """
     cutoff = now() - timedelta(seconds=stale_seconds)
     stale = db.scalars(select(Job).where(Job.state == "running", Job.heartbeat < cutoff)).all()
-    requeued, failed = [], []
+    requeued: list[str] = []
+    failed: list[str] = []
     for job in stale:
         if job.attempts >= max_attempts:
+            assert job.heartbeat is not None  # selected by heartbeat < cutoff, so not NULL
             reason = f"the worker stopped answering {job.attempts} times (last heartbeat {job.heartbeat.isoformat()})"
             moved = db.execute(update(Job).where(Job.id == job.id, Job.state == "running", Job.heartbeat < cutoff)
                                .values(state="failed", error=reason).execution_options(synchronize_session=False))
-            (failed if moved.rowcount else []).append(job.id)
+            (failed if _rowcount(moved) else []).append(job.id)
         else:
             moved = db.execute(update(Job).where(Job.id == job.id, Job.state == "running", Job.heartbeat < cutoff)
                                .values(state="queued", heartbeat=None).execution_options(synchronize_session=False))
-            (requeued if moved.rowcount else []).append(job.id)
+            (requeued if _rowcount(moved) else []).append(job.id)
     db.commit()
     return requeued, failed
