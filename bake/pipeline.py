@@ -216,7 +216,7 @@ def bake_mesh(
     if frames is not None:
         frames = [float(t) for t in frames]
         _check("frames", frames, 0 < len(frames) <= 1024 and all(np.isfinite(frames)), "expected 1 to 1024 finite times")
-        _check("frames", frames, "time" in type(spec).model_fields, f"texture {spec.name!r} has no time to animate")  # type: ignore[attr-defined]  # every concrete spec has a name; parse_spec is typed as returning their base
+        _check("frames", frames, "time" in type(spec).model_fields, f"texture {spec.name!r} has no time to animate")
         specs = {f"albedo_{i:04d}": spec.model_copy(update={"time": t}) for i, t in enumerate(frames)}
     else:
         specs = {"albedo": spec}

@@ -130,7 +130,7 @@ def release(db: Session, job_id: str) -> bool:
     done = db.execute(update(Job).where(Job.id == job_id, Job.state == "running")
                       .values(state="queued", heartbeat=None, progress=0.0, attempts=Job.attempts - 1))
     db.commit()
-    return done.rowcount == 1
+    return _rowcount(done) == 1
 
 
 def cancel(db: Session, job_id: str) -> bool:
