@@ -339,4 +339,4 @@ def _announce_compile() -> None:
     except (AttributeError, OSError):  # another numba: nothing to say
         return
     if not cached:
-        logger.warning("texbake: compiling the texture kernels, once after an install (about 30 s); cached in %s", where)
+        logger.warning("texbake: compiling the texture kernels (once after an install: a few seconds); cached in %s", where)
