@@ -336,7 +336,8 @@ def test_stopped_worker_hands_its_bake_back(tmp_path, meshes):
         assert time.monotonic() - began < 20
         job = httpx.get(f"{url}/v1/jobs/{job_id}", timeout=10).json()
         assert job["state"] == "queued" and job["attempts"] == 0, job
-        assert "handed 1 running jobs back" in open(worker.log.name).read()
+        with open(worker.log.name) as log:
+            assert "handed 1 running jobs back" in log.read()
         replacement = start(["worker", "--workers", "1"], data)
         try:
             job = wait(url, job_id, timeout=180)
