@@ -7,6 +7,8 @@ import platform
 from importlib import metadata
 from pathlib import Path
 
+import numpy as np
+
 from .atomic import write_bytes
 
 _LIBRARIES = ("texbake", "numpy", "scipy", "trimesh", "xatlas", "embreex", "OpenImageIO", "numba", "pydantic")
@@ -26,3 +28,72 @@ def library_versions() -> dict[str, str | None]:
 def write_json(path: Path, data: dict) -> None:
     """Write ``data`` as JSON to ``path`` atomically (temporary file, then rename)."""
     write_bytes(path, (json.dumps(data, indent=2) + "\n").encode())
+
+
+def bake_report(mesh, bounds, source: dict | None, settings, quality, atlas, covered: np.ndarray, filled: np.ndarray,
+                counts: dict, error_estimate: dict, seconds: dict) -> dict:
+    """The report of one bake (``report.json``).
+
+    ``mesh``: the ``LoadedMesh``; ``bounds``: its ``(lo, hi)``; ``source``: what was
+    transferred from, or None; ``settings``: the ``BakeSettings``; ``quality``: their
+    resolved ``Quality``; ``atlas``: the ``Atlas``; ``covered``, ``filled``: ``(h, w)``
+    bool texels covered by the atlas and by the margin; ``counts``: rays ``cast``,
+    ``transfer_missed`` and sample ``hits``; ``seconds``: per stage.
+    """
+    width, height = settings.width_height
+    skipped = []
+    if source is None:
+        skipped.append({"stage": "transfer", "why": "no source mesh given"})
+    if atlas.method == "kept":
+        skipped.append({"stage": "unwrap", "why": atlas.reason})
+    # Texels that no sample hit although their four neighbours are covered: cracks.
+    inner = np.zeros_like(covered)
+    inner[1:-1, 1:-1] = ~covered[1:-1, 1:-1] & covered[:-2, 1:-1] & covered[2:, 1:-1] & covered[1:-1, :-2] & covered[1:-1, 2:]
+    lo, hi = bounds
+    return {
+        "mesh": {
+            "name": mesh.name,
+            "path": mesh.path,
+            "sha256": mesh.sha256,
+            "vertices": int(len(mesh.vertices)),
+            "faces": int(len(mesh.faces)),
+            "degenerate_faces_removed": int(mesh.removed_degenerate),
+            "bounds": [lo.tolist(), hi.tolist()],
+        },
+        "source": source,
+        "parameters": {
+            "texture": settings.texture.model_dump(mode="json"),
+            "size": [width, height],
+            "samples": quality.samples,
+            "quality": settings.quality,
+            "filtering": quality.filtering,
+            "precision": quality.precision,
+            "max_octaves": quality.max_octaves,
+            "margin": settings.margin,
+            "uv": settings.uv,
+            "texture_space": settings.texture_space,
+            "seed": settings.seed,
+            "shading": settings.shading,
+            "light": list(settings.light) if settings.shading != "decal" else None,
+            "bump": None if settings.bump is None else {"texture": settings.bump.model_dump(mode="json"), "strength": settings.bump_strength},
+            "frames": settings.frames,
+        },
+        "atlas": {"method": atlas.method, "reason": atlas.reason, **atlas.stats},
+        "texels": {
+            "total": width * height,
+            "covered": int(covered.sum()),
+            "margin": int(filled.sum()),
+            "empty": int(width * height - covered.sum() - filled.sum()),
+        },
+        "rays": {
+            "texel_samples": width * height * quality.samples,
+            "cast": counts["cast"],  # rays for the samples of texels that some face's UV box touches
+            "missed": counts["cast"] - counts["hits"] - counts["transfer_missed"],
+            "missed_inside_atlas": int(inner.sum()),
+            "transfer_missed": counts["transfer_missed"],
+        },
+        "error_estimate": error_estimate,
+        "skipped": skipped,
+        "seconds": {k: round(v, 4) for k, v in seconds.items()},
+        "versions": library_versions(),
+    }

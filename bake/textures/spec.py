@@ -15,6 +15,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, model_validator
 
 from ..errors import TextureError
+from .context import EvalContext, Placement
 
 Vec3 = tuple[float, float, float]
 Colour = Annotated[tuple[float, float, float], Field(description="linear RGB")]
@@ -65,11 +66,36 @@ class _Texture(BaseModel):
     model: Transform = Field(Transform(), description="modelling transform: object to world")
     channels: ClassVar[int] = 3  # of the colour it gives
 
+    def placement(self) -> Placement:
+        """Object space to this texture's space: the object moved through a world-space
+        field by ``model`` (space "world"), then the field's own ``transform``."""
+        steps = []
+        if self.space == "world" and self.model != Transform():  # the object moves through the field
+            m = self.model.object_from_texture()
+            steps.append((m[:3, :3].T, m[:3, 3]))
+        if self.transform != Transform():  # the identity costs nothing
+            m = self.transform.texture_from_object()
+            steps.append((m[:3, :3].T, m[:3, 3]))
+        return Placement(tuple(steps))
+
+    def evaluate(self, points: np.ndarray, ctx: EvalContext) -> np.ndarray:
+        """``(n, channels)`` float64 linear values at ``(n, 3)`` texture-space points."""
+        raise NotImplementedError
+
 
 class Position(_Texture):
     """The object-space point, normalised per axis to the mesh's bounding box (RGB = XYZ)."""
 
     name: Literal["position"] = "position"
+
+    def placement(self) -> Placement:  # normalised to the mesh's box: the transform does not apply
+        return Placement(super().placement().steps[:1] if self.space == "world" and self.model != Transform() else ())
+
+    def evaluate(self, points, ctx):
+        from .basic import position
+
+        box = np.array([[0.0] * 3, [1.0] * 3]) if ctx.bounds is None else np.asarray(ctx.bounds, float)
+        return position(points, box[0], box[1])
 
 
 class Checker(_Texture):
@@ -85,6 +111,12 @@ class Checker(_Texture):
     color_even: Colour = (0.9, 0.9, 0.9)
     color_odd: Colour = (0.05, 0.05, 0.05)
     filtered: bool = Field(True, description="box-filter over the texel footprint")
+
+    def evaluate(self, points, ctx):
+        from .basic import checker
+
+        dpdx, dpdy = (ctx.dpdx, ctx.dpdy) if self.filtered else (None, None)
+        return checker(points, self.box, self.color_even, self.color_odd, dpdx, dpdy)
 
 
 def _check_knots(knots, values) -> None:
@@ -106,6 +138,12 @@ class ColourMap(BaseModel):
     def _check(self):
         _check_knots(self.knots, self.colours)
         return self
+
+    def __call__(self, t: np.ndarray) -> np.ndarray:
+        """``(n, 3)`` colours of ``(n,)`` values."""
+        from .colour import colours
+
+        return colours(self.knots, self.colours, t)
 
 
 class Curve(BaseModel):
@@ -150,6 +188,13 @@ class Noise(_Texture, NoiseBasis):
     offset: Annotated[float, Field(ge=-1e9, le=1e9)] = 0.0
     colormap: ColourMap = ColourMap()
 
+    def evaluate(self, points, ctx):
+        from .solid import turbulence
+
+        t = turbulence(points, ctx.width, scale=self.scale, offset=self.offset, octaves=1, basis=self.basis,
+                       interpolation=self.interpolation, seed=self.seed)
+        return self.colormap(t)
+
 
 class Turbulence(_Texture, TurbulenceParams):
     """Perlin's turbulence in [0, 1], octave count cut per texel by its footprint."""
@@ -157,12 +202,23 @@ class Turbulence(_Texture, TurbulenceParams):
     name: Literal["turbulence"] = "turbulence"
     colormap: ColourMap = ColourMap()
 
+    def evaluate(self, points, ctx):
+        from .solid import turbulence
+
+        return self.colormap(turbulence(points, ctx.width, max_octaves=ctx.max_octaves, **turbulence_args(self)))
+
 
 class FBm(_Texture, TurbulenceParams):
     """Fractional Brownian motion: signed octave sum, shown as 0.5 + 0.5 fBm."""
 
     name: Literal["fbm"] = "fbm"
     colormap: ColourMap = ColourMap()
+
+    def evaluate(self, points, ctx):
+        from .solid import turbulence
+
+        t = turbulence(points, ctx.width, signed=True, max_octaves=ctx.max_octaves, **turbulence_args(self))
+        return self.colormap(0.5 + 0.5 * t)
 
 
 MARBLE_COLOURS = ColourMap(
@@ -182,6 +238,13 @@ class Marble(_Texture):
     turbulence: TurbulenceParams = TurbulenceParams()
     colormap: ColourMap = MARBLE_COLOURS
 
+    def evaluate(self, points, ctx):
+        from .solid import marble
+
+        t = marble(points, ctx.width, axis="xyz".index(self.axis), frequency=self.frequency, amplitude=self.amplitude,
+                   max_octaves=ctx.max_octaves, **turbulence_args(self.turbulence))
+        return self.colormap(t)
+
 
 class Wood(_Texture):
     """Wood grain: rings ``D + A rings(r / M + K sin(N theta + B z))`` about a tilted axis.
@@ -197,6 +260,19 @@ class Wood(_Texture):
     twist: Annotated[float, Field(ge=-1e3, le=1e3)] = 2.0
     tilt: Vec3 = (0.0, 0.0, 0.0)
     colormap: ColourMap = WOOD_COLOURS
+
+    def placement(self) -> Placement:
+        """Then the ring axis turned by ``tilt`` T: ``T^-1 q``."""
+        steps = super().placement().steps
+        if any(self.tilt):
+            steps += ((Transform(rotate=self.tilt).object_from_texture()[:3, :3], None),)
+        return Placement(steps)
+
+    def evaluate(self, points, ctx):
+        from .solid import wood
+
+        t = wood(points, ctx.width, ring_width=self.ring_width, wobble=self.wobble, wobbles=self.wobbles, twist=self.twist)
+        return self.colormap(t)
 
 
 class Flame(_Texture):
@@ -217,6 +293,21 @@ class Flame(_Texture):
     red: Curve = Curve(knots=(0.0, 0.6, 1.1), values=(1.0, 0.9, 0.0))
     green: Curve = Curve(knots=(0.0, 0.35, 0.8), values=(0.95, 0.45, 0.0))
     blue: Curve = Curve(knots=(0.0, 0.2, 0.45), values=(0.8, 0.15, 0.0))
+
+    def evaluate(self, points, ctx):
+        from .solid import flame, spline
+
+        s, weight = flame(points, ctx.width, half_width=self.half_width, height=self.height, time=self.time, rise=self.rise,
+                          turbulence_amount=self.turbulence_amount, max_octaves=ctx.max_octaves,
+                          **turbulence_args(self.turbulence))
+        rgb = [spline(s, np.asarray(c.knots), np.asarray(c.values)[:, None])[:, 0] for c in (self.red, self.green, self.blue)]
+        return np.clip(np.column_stack(rgb), 0.0, None) * weight[:, None]
+
+
+def turbulence_args(params: TurbulenceParams) -> dict:
+    """Keyword arguments of ``solid.turbulence`` from a spec holding turbulence fields."""
+    names = ("scale", "offset", "octaves", "lacunarity", "gain", "basis", "interpolation", "seed")
+    return {name: getattr(params, name) for name in names}
 
 
 TextureSpec = Annotated[Position | Checker | Noise | Turbulence | FBm | Marble | Wood | Flame, Field(discriminator="name")]

@@ -1,0 +1,84 @@
+"""The maps a bake makes: only those asked for, their values for a batch of samples, and
+their images (the mean of each texel's samples).
+
+``albedo`` (or ``albedo_0000``... for the frames of an animated texture), ``lit`` when
+the shading is not "decal", ``normal`` when a bump texture is given. Images are
+``(height, width, 3)`` float32, linear, row 0 at the top; ``hits`` counts the samples that
+reached each texel.
+"""
+
+from __future__ import annotations
+
+from contextlib import nullcontext
+
+import numpy as np
+
+from .bump import LUMINANCE, normal_map
+from .quality import Quality
+from .samples import Samples
+from .settings import BakeSettings
+from .shading import lit
+from .texels import Tile
+from .textures import evaluate
+from .textures.mapping import TextureMapping
+
+
+class Maps:
+    """The maps of one bake of ``width x height`` texels."""
+
+    def __init__(self, settings: BakeSettings, quality: Quality, width: int, height: int, mapping: TextureMapping):
+        spec = settings.texture
+        if settings.frames is None:
+            self.colours = {"albedo": spec}
+        else:
+            self.colours = {f"albedo_{i:04d}": spec.model_copy(update={"time": t}) for i, t in enumerate(settings.frames)}
+        self.colour_name = next(iter(self.colours))  # the map the error estimate and the GLB use
+        self.settings, self.quality, self.mapping = settings, quality, mapping
+        self.width, self.samples = width, quality.samples
+        names = [*self.colours, *(["lit"] if settings.shading != "decal" else []), *(["normal"] if settings.bump is not None else [])]
+        self.images = {name: np.zeros((height, width, 3), dtype=np.float32) for name in names}
+        self.hits = np.zeros((height, width), dtype=np.uint16 if self.samples < 65536 else np.uint32)
+
+    @property
+    def needs_normals(self) -> bool:
+        return self.settings.shading != "decal" or self.settings.bump is not None
+
+    def values(self, s: Samples, timer=None) -> dict[str, np.ndarray]:
+        """``(n, 3)`` float64 values of every map at the samples ``s``."""
+        stage = timer.stage if timer is not None else (lambda name: nullcontext())
+        settings, quality, mapping = self.settings, self.quality, self.mapping
+        with stage("texture"):
+            dpdx, dpdy = (s.dpdx, s.dpdy) if quality.filtering else (None, None)
+            values = {name: mapping.evaluate(spec, s.points, dpdx, dpdy, max_octaves=quality.max_octaves)
+                      for name, spec in self.colours.items()}
+        if settings.shading != "decal":
+            with stage("shading"):
+                values["lit"] = lit(values[self.colour_name], s.normals, mode=settings.shading, light=settings.light)
+        if settings.bump is not None:
+            with stage("bump"):
+                q, dqdx, dqdy = mapping.to_space(s.points, s.dpdx, s.dpdy)
+                height_of = lambda x: evaluate(settings.bump, x, bounds=mapping.bounds, max_octaves=quality.max_octaves) @ LUMINANCE
+                values["normal"] = normal_map(height_of, q, dqdx, dqdy, s.normals, settings.bump_strength)
+        return values
+
+    def accumulate(self, tile: Tile, texel: np.ndarray, values: dict[str, np.ndarray]) -> None:
+        """Write the rows of ``tile``: ``texel`` ``(n,)`` is each sample's texel index
+        within the tile (row-major); each texel gets the mean of its samples."""
+        rows, width = tile.stop - tile.start, self.width
+        if self.samples == 1:  # one sample a texel: a hit is a count of one
+            count = np.zeros(rows * width, dtype=self.hits.dtype)
+            count[texel] = 1
+        else:
+            count = np.bincount(texel, minlength=rows * width)
+        for name, v in values.items():
+            if self.samples == 1:
+                block = np.zeros((rows * width, 3), dtype=np.float32)
+                block[texel] = v
+            else:  # mean of the samples that hit each texel
+                block = np.zeros((rows * width, 3))
+                for c in range(3):
+                    block[:, c] = np.bincount(texel, weights=v[:, c], minlength=rows * width)
+                nz = count > 0
+                block[nz] /= count[nz, None]
+            self.images[name][tile.start : tile.stop] = block.reshape(rows, width, 3)
+        self.hits[tile.start : tile.stop] = count.reshape(rows, width)

@@ -1,0 +1,84 @@
+"""Texel samples to surface samples: the texel lookup, the surface and the transfer
+stages, chained over one batch type.
+
+A :class:`Sampler` takes ``(m, 2)`` UV points (texel samples) to :class:`Samples`: the
+atlas face under each (``texels.UVLookup``), the surface point, normal and footprint there
+(``surface.SurfaceMap``), and, with a source mesh, the point on the source that rays along
+the normal find (``transfer.SourceMesh``). The bake's tiles and the error estimate's
+probe go through the same chain.
+"""
+
+from __future__ import annotations
+
+from contextlib import nullcontext
+from dataclasses import dataclass
+
+import numpy as np
+
+from .surface import SurfaceMap
+from .texels import Tile, UVLookup
+
+
+@dataclass
+class Samples:
+    """Surface samples of some of a batch's UV points; ``n`` rows each.
+
+    ``index``: ``(n,)`` int64 position of each sample in the batch (a UV point that hit no
+    face, or whose transfer ray missed, has no sample); ``points``, ``dpdx``, ``dpdy``:
+    ``(n, 3)`` float64 object-space point and footprint (one texel right, one down);
+    ``normals``: ``(n, 3)`` float64 unit normals of the target surface, or None when the
+    sampler was made without them; ``transfer_missed``: UV points whose transfer rays
+    found no source.
+    """
+
+    index: np.ndarray
+    points: np.ndarray
+    normals: np.ndarray | None
+    dpdx: np.ndarray
+    dpdy: np.ndarray
+    transfer_missed: int = 0
+
+
+class Sampler:
+    """The lookup, surface and transfer stages for one mesh and its atlas.
+
+    ``vertices`` ``(n, 3)`` and ``faces`` ``(m, 3)`` of the mesh; ``uv`` ``(k, 2)`` and
+    ``uv_faces`` ``(m, 3)`` of its atlas; ``width``, ``height``: the image size;
+    ``normals``: also interpolate smooth normals (a transfer always does); ``source``: a
+    ``(vertices, faces)`` pair to transfer from, with rays of at most ``reach``.
+    """
+
+    def __init__(self, vertices, faces, uv, uv_faces, width: int, height: int, *, normals: bool = False,
+                 source: tuple[np.ndarray, np.ndarray] | None = None, reach: float = 0.0):
+        self.width, self.height = width, height
+        self.lookup = UVLookup(uv, uv_faces)
+        self.surface = SurfaceMap(vertices, faces, uv, uv_faces, width, height, normals=normals or source is not None)
+        self.caster = None
+        if source is not None:
+            from .transfer import SourceMesh
+
+            self.caster = SourceMesh(*source)
+        self.reach = reach
+
+    def candidates(self, tile: Tile) -> np.ndarray:
+        """``(t,)`` indices of the texels of ``tile`` that some face can cover."""
+        return self.lookup.candidates(tile, self.width, self.height)
+
+    def at(self, uvs: np.ndarray, timer=None) -> Samples:
+        """Surface samples at ``(m, 2)`` UV points; ``timer.stage(name)`` times each stage."""
+        stage = timer.stage if timer is not None else (lambda name: nullcontext())
+        with stage("lookup"):
+            face = self.lookup.faces_at(uvs)
+            index = np.flatnonzero(face >= 0)
+            face = face[index]
+            bary = self.lookup.barycentric(uvs[index], face)
+        with stage("surface"):
+            s = self.surface.samples(face, bary)
+        samples = Samples(index, s.points, s.normals, s.dpdx, s.dpdy)
+        if self.caster is None:
+            return samples
+        with stage("transfer"):
+            assert s.normals is not None  # a transfer's surface map has normals
+            points, found = self.caster.project(s.points, s.normals, self.reach)
+            return Samples(index[found], points[found], s.normals[found], s.dpdx[found], s.dpdy[found],
+                           transfer_missed=int((~found).sum()))

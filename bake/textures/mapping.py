@@ -1,0 +1,59 @@
+"""The bake's texture mapping: object-space surface samples to a texture's space, points
+and footprints together (pbrt's ``TextureMapping3D``).
+
+Three steps, in this order: the bake's texture space ("unit": ``(p - origin) * scale``,
+computed in that order so that a mesh far from the origin keeps its precision, with the
+bounding box then starting at 0 and its longest side 1; "object": as it is); rounding to
+float32 where the bake asks for it (as a float32 pipeline would hold the points); then the
+spec's own placement (``model`` in world space, ``transform``, the wood's ``tilt``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .context import EvalContext
+
+TEXTURE_SPACES = ("unit", "object")
+
+
+@dataclass(frozen=True)
+class TextureMapping:
+    """``origin`` (3,) and ``scale`` of the bake's texture space, ``bounds`` (2, 3) of the
+    mesh in it, and the ``precision`` the texture sees points in."""
+
+    origin: np.ndarray
+    scale: float
+    bounds: np.ndarray
+    precision: str = "float64"
+
+    @classmethod
+    def for_mesh(cls, lo: np.ndarray, hi: np.ndarray, texture_space: str, precision: str = "float64") -> TextureMapping:
+        """For a mesh with bounding box ``lo``, ``hi`` ((3,) each)."""
+        if texture_space == "unit":
+            origin, scale = lo, 1.0 / (float(np.max(hi - lo)) or 1.0)
+        else:
+            origin, scale = np.zeros(3), 1.0
+        return cls(origin, scale, (np.array([lo, hi]) - origin) * scale, precision)
+
+    def to_space(self, points: np.ndarray, dpdx: np.ndarray | None = None, dpdy: np.ndarray | None = None):
+        """``(q, dqdx, dqdy)``: ``(n, 3)`` points (and differentials) in the bake's texture space."""
+        scaled = (None, None) if dpdx is None or dpdy is None else (dpdx * self.scale, dpdy * self.scale)
+        return ((points - self.origin) * self.scale, *scaled)
+
+    def evaluate(self, spec, points: np.ndarray, dpdx: np.ndarray | None, dpdy: np.ndarray | None, *,
+                 max_octaves: int | None = None, exact: bool = False) -> np.ndarray:
+        """``(n, channels)`` float64 values of ``spec`` at ``(n, 3)`` object-space points.
+
+        ``dpdx``, ``dpdy``: ``(n, 3)`` footprints, or None to point-sample. ``exact``: in
+        float64 whatever the bake's precision (the error probe's reference).
+        """
+        q, dqdx, dqdy = self.to_space(points, dpdx, dpdy)
+        if self.precision == "float32" and not exact:
+            q = q.astype(np.float32).astype(np.float64)
+            if dqdx is not None and dqdy is not None:
+                dqdx, dqdy = dqdx.astype(np.float32).astype(np.float64), dqdy.astype(np.float32).astype(np.float64)
+        q, dqdx, dqdy = spec.placement()(q, dqdx, dqdy)
+        return spec.evaluate(q, EvalContext(dqdx, dqdy, self.bounds, max_octaves))
