@@ -9,14 +9,18 @@ from __future__ import annotations
 import glob
 import json
 import math
+import inspect
 import sys
 import time
+import types
+import typing
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from multiprocessing import get_context
 from pathlib import Path
 
 import numpy as np
 import typer
+from pydantic import BaseModel
 
 from .errors import BakeError, TextureError
 
@@ -78,93 +82,111 @@ def read_spec(value):
     return data
 
 
-def _bake_one(mesh: str, out: str, settings: dict) -> dict:
-    """Bake and save one mesh; returns the report (runs in batch worker processes too)."""
+def _bake_one(mesh: str, out: str, given: dict, source: str | None = None, workers: int = 2) -> dict:
+    """Bake and save one mesh with the settings ``given`` (as the command line or a manifest
+    line has them); returns the report (runs in batch worker processes too)."""
     from .pipeline import bake_mesh
+    from .settings import BakeSettings
     from .textures.spec import with_overrides
 
-    save = {k: settings.pop(k) for k in ("fmt", "bits", "obj") if k in settings}
-    texture = with_overrides(read_spec(settings.pop("texture")), settings.pop("set", None) or [])
-    if settings.get("bump") is not None:
-        settings["bump"] = read_spec(settings["bump"])
-    result = bake_mesh(mesh, texture, **settings)
-    result.save(out, **save)
+    given = dict(given)
+    overrides = given.pop("set", None) or []
+    if "texture" in given or overrides:
+        given["texture"] = with_overrides(read_spec(given.get("texture", "checker")), overrides)
+    if isinstance(given.get("bump"), str):
+        given["bump"] = read_spec(given["bump"])
+    result = bake_mesh(mesh, BakeSettings.build(given), source=source, workers=workers)
+    result.save(out)
     return result.report
 
 
-def _floats(text: str | None, name: str, count: int | None = None) -> list[float] | None:
+def _floats(text: str, name: str) -> list[float]:
     """``"a,b,c"`` as floats, or ``"start:stop:n"`` as n evenly spaced values."""
-    if text is None:
-        return None
     try:
         if ":" in text:
             start, stop, n = text.split(":")
-            values = [float(x) for x in np.linspace(float(start), float(stop), int(n))]
-        else:
-            values = [float(x) for x in text.split(",")]
+            return [float(x) for x in np.linspace(float(start), float(stop), int(n))]
+        return [float(x) for x in text.split(",")]
     except ValueError:
         _fail(f"parameter {name!r}: expected numbers like 'a,b,c' or 'start:stop:count', got {text!r}")
-    if count is not None and len(values) != count:
-        _fail(f"parameter {name!r}: expected {count} numbers, got {len(values)}")
-    return values
+        raise  # not reached: _fail exits
 
 
-def _settings(texture, sets, size, samples, margin, uv, source, cage, texture_space, max_faces, deadline, fmt, bits, obj,
-              workers=2, shading="decal", light=None, bump=None, bump_strength=1.0, frames=None, quality=None):
-    extra = {"shading": shading, "bump": bump, "bump_strength": bump_strength, "frames": _floats(frames, "frames")}
-    if quality is not None:
-        extra["quality"] = quality
-    if samples is not None:  # else the quality preset's
-        extra["samples"] = samples
-    if light is not None:
-        extra["light"] = tuple(_floats(light, "light", 3))
-    return {
-        **extra, "texture": texture, "set": list(sets or []), "size": size, "margin": margin, "uv": uv,
-        "source": source, "cage": cage, "texture_space": texture_space, "max_faces": max_faces,
-        "unwrap_deadline": deadline, "fmt": fmt, "bits": bits, "obj": obj, "workers": workers,
-    }
-
-
-_TEXTURE = typer.Option("checker", "--texture", "-t", help="texture name, JSON spec, or a .json/.yaml spec file (see `texbake textures`)")
 _SET = typer.Option(None, "--set", help="override a texture parameter: key.sub=value (repeatable)")
-_SIZE = typer.Option(1024, "--size", "-s", help="image size in texels (square)")
-_SAMPLES = typer.Option(None, "--samples", help="samples per texel (stratified; default: the quality preset's, 1)")
-_QUALITY = typer.Option(None, "--quality", "-q", help="draft | default | final: samples, filtering, precision, octave cap")
-_MARGIN = typer.Option(16, "--margin", help="texels of margin filled around charts")
+_TEXTURE = typer.Option("checker", "--texture", "-t", help="texture name, JSON spec, or a .json/.yaml spec file (see `texbake textures`)")
 _UV = typer.Option("auto", "--uv", help="auto | unwrap | keep")
-_SOURCE = typer.Option(None, "--source", help="mesh to transfer the texture from (high poly)")
-_CAGE = typer.Option(None, "--cage", help="max transfer ray distance (default 5% of the bbox diagonal)")
-_SPACE = typer.Option("unit", "--texture-space", help="unit (bbox scaled to 1) | object")
-_FACES = typer.Option(5_000_000, "--max-faces", help="reject meshes with more faces")
-_DEADLINE = typer.Option(120.0, "--unwrap-deadline", help="seconds xatlas may run before a fallback atlas is used")
-_FMT = typer.Option("png", "--format", "-f", help="png | exr | tif")
-_BITS = typer.Option(None, "--bits", help="png/tif 8 or 16; exr 16 (half) or 32; tif 32 (float)")
-_OBJ = typer.Option(False, "--obj", help="also write OBJ + MTL")
-_SHADING = typer.Option("decal", "--shading", help="decal (albedo only) | ambient-diffuse | full: also bake a lit map")
-_LIGHT = typer.Option(None, "--light", help="light direction x,y,z for lit maps")
-_BUMP = typer.Option(None, "--bump", help="texture whose luminance is bumped into a tangent-space normal map")
-_BUMP_STRENGTH = typer.Option(1.0, "--bump-strength", help="scale of the bump")
-_FRAMES = typer.Option(None, "--frames", help="times to bake an animated texture (flame): 't0,t1,...' or 'start:stop:count'")
+
+# One option per BakeSettings field: the command line maps onto the settings one to one.
+_SHORT = {"texture": "-t", "size": "-s", "quality": "-q", "format": "-f"}
+_LISTS = {"size": "N, or W,H", "light": "X,Y,Z", "frames": "T0,T1,... or START:STOP:COUNT",
+          "texture": "a name, JSON, or a .json/.yaml spec file", "bump": "a name, JSON, or a .json/.yaml spec file"}
+
+
+def _option_type(annotation) -> tuple[type, list[str]]:
+    """The command-line type of a settings field and, for a choice, its values."""
+    union = typing.get_origin(annotation) in (typing.Union, types.UnionType)
+    args = [a for a in typing.get_args(annotation) if a is not type(None)] if union else [annotation]
+    kind = typing.get_args(args[0])[0] if typing.get_origin(args[0]) is typing.Annotated else args[0]
+    if typing.get_origin(kind) is typing.Literal:
+        values = typing.get_args(kind)
+        return (int if all(isinstance(v, int) for v in values) else str), [str(v) for v in values]
+    if len(args) == 1 and kind in (bool, int, float):
+        return kind, []
+    return str, []
+
+
+def _settings_parameters() -> list[inspect.Parameter]:
+    from .settings import BakeSettings
+
+    params = []
+    for name, info in BakeSettings.model_fields.items():
+        kind, choices = _option_type(info.annotation)
+        flag = "--" + name.replace("_", "-")
+        decls = [f"{flag}/--no-{flag[2:]}"] if kind is bool else [flag, *([_SHORT[name]] if name in _SHORT else [])]
+        default = info.default if not isinstance(info.default, BaseModel) else info.default.name
+        shown = ",".join(map(str, default)) if isinstance(default, (tuple, list)) else default
+        notes = [" | ".join(choices) if choices else _LISTS.get(name, "")]
+        if "default" not in (info.description or "") and shown is not None:
+            notes.append(f"default: {shown}")
+        help_ = info.description + "".join(f" ({note})" for note in notes if note)
+        params.append(inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, annotation=kind | None,
+                                        default=typer.Option(None, *decls, help=help_, show_default=False)))
+    return params
+
+
+def settings_options(command):
+    """Give ``command`` (which takes ``**given``) one option per ``BakeSettings`` field."""
+    signature = inspect.signature(command)
+    own = [p for p in signature.parameters.values() if p.kind is not inspect.Parameter.VAR_KEYWORD]
+    command.__signature__ = signature.replace(parameters=own + _settings_parameters())
+    return command
+
+
+def _given(options: dict) -> dict:
+    """The settings given on the command line (options left out take the defaults)."""
+    given = {k: v for k, v in options.items() if v is not None}
+    if "size" in given:
+        given["size"] = [int(x) if x.strip().isdigit() else x for x in given["size"].replace("x", ",").split(",")]
+        given["size"] = given["size"][0] if len(given["size"]) == 1 else given["size"]
+    for name in ("light", "frames"):
+        if name in given:
+            given[name] = _floats(given[name], name)
+    return given
 
 
 @app.command()
+@settings_options
 def bake(
     mesh: str = typer.Argument(..., help="mesh file: OBJ, PLY, STL, OFF, glTF, GLB"),
     out: Path = typer.Option(..., "--out", "-o", help="output folder"),
-    texture: str = _TEXTURE, set_: list[str] | None = _SET, size: int = _SIZE, samples: int | None = _SAMPLES, margin: int = _MARGIN,
-    uv: str = _UV, source: str | None = _SOURCE, cage: float | None = _CAGE,
-    texture_space: str = _SPACE, max_faces: int = _FACES, unwrap_deadline: float = _DEADLINE,
-    fmt: str = _FMT, bits: int | None = _BITS, obj: bool = _OBJ, shading: str = _SHADING,
-    light: str | None = _LIGHT, bump: str | None = _BUMP, bump_strength: float = _BUMP_STRENGTH,
-    frames: str | None = _FRAMES, quality: str | None = _QUALITY,
+    set_: list[str] | None = _SET,
+    source: str | None = typer.Option(None, "--source", help="mesh to transfer the texture from (high poly)"),
+    **options,
 ):
     """Bake one mesh: writes DIR/albedo.<format>, DIR/<mesh>.glb and DIR/report.json."""
-    settings = _settings(texture, set_, size, samples, margin, uv, source, cage, texture_space, max_faces, unwrap_deadline,
-                         fmt, bits, obj, shading=shading, light=light, bump=bump, bump_strength=bump_strength, frames=frames,
-                         quality=quality)
     start = time.perf_counter()
     try:
-        report = _bake_one(mesh, str(out), settings)
+        report = _bake_one(mesh, str(out), {**_given(options), "set": set_ or []}, source=source)
     except BakeError as exc:
         _fail(str(exc))
     t = report["texels"]
@@ -214,21 +236,20 @@ def _unique_folder(out: Path, stem: str, used: set[str]) -> Path:
 
 
 @app.command()
+@settings_options
 def batch(
     inputs: list[str] = typer.Argument(..., help="mesh files, globs, or .jsonl manifests (one JSON object a line: mesh and settings)"),
     out: Path = typer.Option(..., "--out", "-o", help="output folder; one sub-folder per mesh"),
     jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="parallel processes"),
-    texture: str = _TEXTURE, set_: list[str] | None = _SET, size: int = _SIZE, samples: int | None = _SAMPLES, margin: int = _MARGIN,
-    uv: str = _UV, texture_space: str = _SPACE, max_faces: int = _FACES, unwrap_deadline: float = _DEADLINE,
-    fmt: str = _FMT, bits: int | None = _BITS, obj: bool = _OBJ, quality: str | None = _QUALITY,
+    set_: list[str] | None = _SET,
+    **options,
 ):
     """Bake many meshes in parallel; keeps going past failures, exits 1 if any failed."""
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
     from rich.table import Table
 
-    base = _settings(texture, set_, size, samples, margin, uv, None, None, texture_space, max_faces, unwrap_deadline, fmt, bits, obj,
-                     workers=1, quality=quality)
+    base = {**_given(options), "set": set_ or []}
     items = _expand(inputs)
     if not items:
         _fail("no input meshes")
@@ -240,7 +261,8 @@ def batch(
         "[progress.description]{task.description}", BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(), console=console
     ) as progress:
         task = progress.add_task("baking", total=len(jobs_list))
-        started = {pool.submit(_bake_one, mesh, folder, settings): (mesh, folder, time.perf_counter()) for mesh, folder, settings in jobs_list}
+        started = {pool.submit(_bake_one, mesh, folder, settings, None, 1): (mesh, folder, time.perf_counter())
+                   for mesh, folder, settings in jobs_list}
         for future in as_completed(started):
             mesh, folder, t0 = started[future]
             try:

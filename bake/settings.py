@@ -57,7 +57,7 @@ class BakeSettings(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     texture: Texture = Field("checker", validate_default=True, description="texture: a name or a spec object (see `texbake textures`)")
-    size: Texels | tuple[Texels, Texels] = Field(1024, description="image size in texels: one number (square) or [width, height]")
+    size: Texels | tuple[Texels, Texels] = Field(1024, description="image size in texels: one number (square), or width and height")
     quality: Literal["draft", "default", "final"] | None = Field(
         None, description="preset of samples, filtering, precision and octave cap (none: 'default'); those set explicitly override it")
     samples: int = Field(1, ge=1, le=1024, description="samples per texel, stratified (default: the preset's)")

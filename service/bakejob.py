@@ -20,6 +20,7 @@ import traceback
 from pathlib import Path
 
 from bake import BakeError, bake_mesh
+from bake.settings import BakeSettings
 
 _memory_mb = 0  # this process's address-space limit, set by setup()
 
@@ -49,12 +50,11 @@ def run(job_dir: str) -> str | None:
     """Bake the job in ``job_dir``: None when its files are in ``out.tmp``, else why not."""
     os.chdir(job_dir)  # errors name the mesh as uploaded, not the server's folders
     job = json.loads(Path("job.json").read_text())
-    settings = dict(job["settings"])
-    save = {k: settings.pop(k) for k in ("fmt", "bits") if k in settings}
     try:
+        settings = BakeSettings.build(job["settings"])
         # one core per bake: the service runs as many bakes at a time as it has workers
-        result = bake_mesh(Path(job["mesh"]), settings.pop("texture"), workers=1, progress=_write_progress, **settings)
-        result.save(Path("out.tmp"), **save)
+        result = bake_mesh(Path(job["mesh"]), settings, workers=1, progress=_write_progress)
+        result.save(Path("out.tmp"))
     except BakeError as exc:
         return str(exc)
     except MemoryError:

@@ -23,6 +23,7 @@ class Settings(BaseSettings):
     max_faces: int = 2_000_000
     max_size: int = 8192
     max_samples: int = 64
+    max_frames: int = 64  # frames of an animated bake
     jobs_per_client: int = 50  # unfinished jobs a client may have
     workers: int = 2
     job_seconds: float = 900.0  # deadline of one bake

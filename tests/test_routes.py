@@ -55,7 +55,7 @@ def test_upload_is_queued_once(client, meshes):
     ({"sampels": 4}, "sampels"),
     ({"quality": "best"}, "quality"),
     ({"bits": 7}, "settings.bits"),
-    ({"fmt": "exr", "bits": 8}, "exr takes 16 or 32 bits"),
+    ({"format": "exr", "bits": 8}, "exr takes 16 or 32 bits"),
     ({"margin": -1}, "settings.margin"),
 ])
 def test_bad_settings_name_the_field(client, meshes, settings, field):
@@ -92,15 +92,37 @@ def test_a_texture_naming_a_server_path_is_an_unknown_name(client, meshes, tmp_p
 
 
 def test_openapi_documents_the_settings_and_the_bearer_scheme(client):
-    from service.schemas import BakeSettings
+    """The form field is BakeSettings: its schema in the OpenAPI document is the model's own
+    JSON Schema (FastAPI leaves out ``"default": null``, nothing else)."""
+    from bake.settings import BakeSettings
 
     spec = client.get("/openapi.json").json()
     body = spec["paths"]["/v1/jobs"]["post"]["requestBody"]["content"]["multipart/form-data"]["schema"]["$ref"].split("/")[-1]
     field = spec["components"]["schemas"][body]["properties"]["settings"]["anyOf"][0]
     assert field["contentMediaType"] == "application/json" and field["contentSchema"]["$ref"].endswith("/BakeSettings")
-    documented = spec["components"]["schemas"]["BakeSettings"]
-    assert documented["properties"].keys() == BakeSettings.model_json_schema()["properties"].keys()
-    assert documented["properties"]["bits"]["anyOf"] == BakeSettings.model_json_schema()["properties"]["bits"]["anyOf"]
+    model = BakeSettings.model_json_schema(ref_template="#/components/schemas/{model}")
+    for name, definition in model.pop("$defs").items():
+        assert spec["components"]["schemas"][name] == definition, name
+    for prop in model["properties"].values():
+        if prop.get("default", 0) is None:
+            del prop["default"]
+    assert spec["components"]["schemas"]["BakeSettings"] == model
     assert spec["components"]["securitySchemes"]["HTTPBearer"]["scheme"] == "bearer"
     assert {"HTTPBearer": []} in spec["paths"]["/v1/jobs"]["post"]["security"]
     assert spec["paths"]["/v1/jobs"]["post"]["responses"]["4XX"]["content"]["application/json"]["schema"]["$ref"].endswith("/Problem")
+
+
+def test_every_library_feature_can_be_asked_for(client, meshes):
+    """A normal map, lit shading with a light, a flame sequence and a quality preset are
+    settings like any other: queued as given."""
+    settings = {"texture": {"name": "flame", "half_width": 0.4}, "frames": [0, 0.25, 0.5], "bump": "noise", "bump_strength": 2,
+                "shading": "full", "light": [0, 1, 0], "quality": "draft", "size": [256, 128], "format": "exr", "bits": 32}
+    r = post(client, meshes / "suzanne.ply", settings)
+    assert r.status_code == 202, r.text
+    job = r.json()["settings"]
+    assert job["frames"] == [0, 0.25, 0.5] and job["bump"]["name"] == "noise" and job["light"] == [0, 1, 0]
+    assert job["texture"]["half_width"] == 0.4 and job["size"] == [256, 128] and "samples" not in job
+    r = post(client, meshes / "suzanne.ply", {"texture": "marble", "frames": [0, 1]})
+    assert r.status_code == 422 and "has no time to animate" in r.json()["detail"]
+    r = post(client, meshes / "suzanne.ply", {"frames": list(range(100)), "texture": "flame"})
+    assert r.status_code == 422 and "settings.frames: 100 is over this server's limit" in r.json()["detail"]

@@ -107,6 +107,17 @@ def test_upload_bake_download(server, meshes, tmp_path):
     assert again.status_code == 200 and again.json()["id"] == job["id"]
 
 
+def test_a_normal_map_and_a_flame_sequence_over_http(server, meshes):
+    url, *_ = server
+    settings = {"texture": "flame", "frames": [0, 0.5], "bump": "noise", "shading": "full", "light": [0, 1, 0], "size": 64}
+    r = upload(url, meshes / "suzanne.ply", settings)
+    assert r.status_code == 202, r.text
+    job = wait(url, r.json()["id"])
+    assert job["state"] == "done", job["error"]
+    assert {"albedo_0000.png", "albedo_0001.png", "flipbook.png", "lit.png", "normal.png", "suzanne.glb"} <= set(job["files"])
+    assert job["report"]["parameters"]["frames"] == [0, 0.5] and job["report"]["parameters"]["light"] == [0, 1, 0]
+
+
 def test_bad_input_gets_4xx_with_a_reason(server, meshes, tmp_path):
     url, *_ = server
     r = upload(url, meshes / "bunny.ply", {"texture": {"name": "marble", "frequncy": 3}})

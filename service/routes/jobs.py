@@ -42,14 +42,17 @@ def _safe_stem(filename: str | None) -> str:
 
 
 def _bake_options(parsed: BakeSettings | None, settings) -> dict:
-    """The job's settings as the bake takes them, within this server's limits."""
+    """The job's settings within this server's limits (which only tighten the bake's own),
+    as set by the client: what is left out comes from the preset or the defaults."""
     parsed = parsed or BakeSettings()
-    if parsed.size > settings.max_size:
-        raise HTTPException(422, detail=f"settings.size: {parsed.size} is over this server's limit of {settings.max_size}")
-    if parsed.samples is not None and parsed.samples > settings.max_samples:
-        raise HTTPException(422, detail=f"settings.samples: {parsed.samples} is over this server's limit of {settings.max_samples}")
-    out = parsed.model_dump(mode="json", exclude_none=True)  # what is left out comes from the preset or the defaults
-    out["max_faces"] = settings.max_faces
+    limits = {"size": (max(parsed.width_height), settings.max_size), "samples": (parsed.quality_settings().samples, settings.max_samples),
+              "max_faces": (parsed.max_faces if "max_faces" in parsed.model_fields_set else 0, settings.max_faces),
+              "frames": (len(parsed.frames or ()), settings.max_frames)}
+    for name, (value, limit) in limits.items():
+        if value > limit:
+            raise HTTPException(422, detail=f"settings.{name}: {value} is over this server's limit of {limit}")
+    out = parsed.model_dump(mode="json", exclude_unset=True)
+    out.setdefault("max_faces", settings.max_faces)
     return out
 
 
