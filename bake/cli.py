@@ -296,7 +296,7 @@ def report(
     uv: str = _UV,
 ):
     """Error against run time: bake under a sweep of quality settings, measure each against a converged reference."""
-    from .sweep import markdown, run_sweep, write_all
+    from .checks.sweep import markdown, run_sweep, write_all
     from .textures.spec import with_overrides
 
     if not 8 <= size <= 8192:
@@ -350,7 +350,7 @@ def stability(
     from rich.console import Console
     from rich.table import Table
 
-    from .stability import run_cases, selected
+    from .checks.stability import run_cases, selected
 
     if select and not selected(select):
         _fail(f"parameter '--case': no stability case matches {', '.join(map(repr, select))}")

@@ -3,7 +3,7 @@
 What is estimated: the RMSE, over covered texels and the three channels, in linear
 colour, of the baked colour map against each texel's true value, the mean of the
 point-sampled texture (every octave, float64) over the part of the texel the surface
-covers. That is what a converged supersampled bake gives, and what ``bake.sweep``
+covers. That is what a converged supersampled bake gives, and what ``bake.checks.sweep``
 measures against.
 
 Two methods; the bake uses the one that can see its error:

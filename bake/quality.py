@@ -1,7 +1,7 @@
 """Quality presets: samples, footprint filtering, precision and octave cap in one word.
 
 One definition for the library (``bake_mesh(quality=...)``) and the command line
-(``--quality``). Chosen from ``texbake report`` (``bake.sweep``) on
+(``--quality``). Chosen from ``texbake report`` (``bake.checks.sweep``) on
 suzanne_blender_uv.obj (63k faces) at 1024^2, whole bake with a pre-made atlas, RMSE in
 linear colour against a 256-sample point-sampled reference (2-core machine under load;
 times vary by 30 % or more):

@@ -6,8 +6,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from bake.textures import noise as N
-from bake.textures.reference import lecture_sample_code as lecture_noise_float32
-from bake.textures.reference import value_noise as reference_value_noise
+from bake.checks.reference import lecture_sample_code as lecture_noise_float32
+from bake.checks.reference import value_noise as reference_value_noise
 
 RNG = np.random.default_rng(11)
 

@@ -10,7 +10,7 @@ import math
 import pytest
 from test_cli import texbake
 
-from bake import stability
+from bake.checks import stability
 from bake.cli import main
 
 CASES = [pytest.param(c, id=c.name, marks=[pytest.mark.slow] if c.slow else []) for c in stability.CASES.values()]

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .noise import tables
+from ..textures.noise import tables
 
 
 def lattice(i: np.ndarray, seed: int = 0) -> np.ndarray:

@@ -2,7 +2,7 @@
 
 A registry of small cases, each measuring one property as one figure against a stated
 limit: texture evaluation far from the origin (against the float64 reference in
-``bake.textures.reference``), at lattice points, cell boundaries, signed zeros and
+``bake.checks.reference``), at lattice points, cell boundaries, signed zeros and
 subnormals; the checkerboard on integer planes, wood at its axis, the flame above its
 height; antialiasing at 10, 100 and 1000 times the texel rate; 30 octaves; footprints
 of zero and of the whole object; tiny, huge and far meshes, slivers and degenerate
@@ -155,7 +155,7 @@ def _spec(name: str, **params) -> dict:
 
 
 def _evaluate(spec, points, footprint=None) -> np.ndarray:
-    from .textures import evaluate
+    from ..textures import evaluate
 
     return evaluate(spec, np.asarray(points, dtype=np.float64), footprint)
 
@@ -179,7 +179,7 @@ def _worst(figures: Mapping[str, float]) -> tuple[float, str]:
 
 def _against_reference(points: np.ndarray) -> tuple[float, str]:
     """Max |evaluate(noise) - reference| over linear and cubic value noise, and a detail."""
-    from .textures import reference
+    from . import reference
 
     errors = {}
     for interpolation in ("linear", "cubic"):
@@ -219,7 +219,8 @@ def _() -> Figure:
 
 @case("noise-lattice-points", "noise at integer points is exactly noiseTable[INDEX(i, j, k)]")
 def _() -> Figure:
-    from .textures import noise, reference
+    from ..textures import noise
+    from . import reference
 
     rng = np.random.default_rng(3)
     cells = np.concatenate([rng.integers(-3, 4, (500, 3)), rng.integers(-2**40, 2**40, (500, 3)),
@@ -460,7 +461,7 @@ for _ratio in (10, 100, 1000):
 
 @case("octaves-30", "30-octave turbulence equals the float64 reference sum (and stays in [0, 1])")
 def _() -> Figure:
-    from .textures import reference
+    from . import reference
 
     rng = np.random.default_rng(10)
     errors = {}
@@ -506,7 +507,7 @@ def _() -> Figure:
 # -- meshes ----------------------------------------------------------------------------
 
 def _loaded(vertices, faces, uv=None, name="case"):
-    from .load import LoadedMesh
+    from ..load import LoadedMesh
 
     return LoadedMesh(np.asarray(vertices, np.float64), np.asarray(faces, np.int64),
                       None if uv is None else np.asarray(uv, np.float64), name, f"<{name}>", 0, "")
@@ -520,7 +521,7 @@ def _sphere(subdivisions: int = 2):
 
 
 def _bake(mesh, texture="marble", **kw):
-    from .pipeline import bake_mesh
+    from ..pipeline import bake_mesh
 
     kw = {"size": 64, "margin": 0, "workers": 1, **kw}
     return bake_mesh(mesh, texture, **kw)
@@ -529,7 +530,7 @@ def _bake(mesh, texture="marble", **kw):
 def _scale_case(name: str, scale: float, offset: float, what: str):
     @case(name, f"a mesh {what} unwraps with xatlas and bakes as the unit mesh does")
     def _() -> Figure:
-        from .atlas import make_atlas
+        from ..atlas import make_atlas
 
         v, f = _sphere(2)
         moved = v * scale + offset
@@ -552,7 +553,7 @@ _scale_case("mesh-far-from-origin", 1.0, 1e8, "2 units across, 1e8 from the orig
 
 @case("sliver-triangles", "sliver triangles (aspect ratio 1e6) bake to finite texels with finite footprints")
 def _() -> Figure:
-    from .surface import SurfaceMap
+    from ..surface import SurfaceMap
 
     v, f = _sphere(2)
     # a strip of 20 slivers 1 long and 1e-6 wide beside the sphere
@@ -603,7 +604,7 @@ HANG_DEADLINE = 2.0
 
 @case("xatlas-hang", "xatlas hanging on an infinite vertex is stopped at the deadline")
 def _() -> Figure:
-    from .atlas import _run_xatlas_in_child
+    from ..atlas import _run_xatlas_in_child
 
     v, f = _sphere(2)
     v = v.astype(np.float32)
@@ -618,7 +619,7 @@ def _() -> Figure:
 
 @case("xatlas-crash", "xatlas crashing (icosphere(6) in one piece) is survived and reported")
 def _() -> Figure:
-    from .atlas import _run_xatlas_in_child
+    from ..atlas import _run_xatlas_in_child
 
     v, f = _sphere(6)
     start = time.monotonic()
@@ -631,7 +632,7 @@ def _() -> Figure:
 
 @case("xatlas-crash-fallback", "make_atlas on the mesh that crashes xatlas still gives a packed xatlas atlas")
 def _() -> Figure:
-    from .atlas import make_atlas
+    from ..atlas import make_atlas
 
     v, f = _sphere(6)
     a = make_atlas(v, f, mode="unwrap", size=1024, _patch_faces=None)
@@ -681,8 +682,8 @@ def _big_bake_child(size: int) -> None:  # pragma: no cover  (runs in a child pr
 
 @case(f"image-{BIG}", f"a {BIG} x {BIG} bake and save stays under a peak RSS of {BIG_LIMIT_GB:.1f} GB", slow=True)
 def _() -> Figure:
-    code = f"from bake.stability import _big_bake_child; _big_bake_child({BIG})"
-    root = str(Path(__file__).resolve().parents[1])
+    code = f"from bake.checks.stability import _big_bake_child; _big_bake_child({BIG})"
+    root = str(Path(__file__).resolve().parents[2])
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=1800, cwd=root)
     if proc.returncode != 0:
         tail = (proc.stderr.strip().splitlines() or ["no output"])[-1]

@@ -35,11 +35,11 @@ from typing import TypedDict
 
 import numpy as np
 
-from .atomic import write_bytes
-from .errors import ParameterError
-from .load import LoadedMesh
-from .quality import Quality
-from .textures import parse_spec
+from ..atomic import write_bytes
+from ..errors import ParameterError
+from ..load import LoadedMesh
+from ..quality import Quality
+from ..textures import parse_spec
 
 COLUMNS = ("setting", "seconds", "rmse", "max_abs", "estimate", "ratio", "method", "samples", "filtering", "precision",
            "max_octaves", "size", "tiles_seconds", "pareto")
@@ -115,8 +115,8 @@ def default_settings(size: int = 512) -> list[Setting]:
 
 def prepare_mesh(mesh_or_path, *, size: int = 1024, uv: str = "auto", workers: int = 2) -> LoadedMesh:
     """The mesh with its atlas as its own UVs (loaded and unwrapped once), for ``uv="keep"`` bakes."""
-    from .atlas import make_atlas
-    from .pipeline import as_mesh
+    from ..atlas import make_atlas
+    from ..pipeline import as_mesh
 
     mesh = as_mesh(mesh_or_path, 5_000_000, "mesh")
     atlas = make_atlas(mesh.vertices, mesh.faces, mesh.uv, mode=uv, size=size, workers=workers)
@@ -157,7 +157,7 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
     ``check_rmse`` is the RMSE between the reference and the same bake with a quarter
     of the samples.
     """
-    from .pipeline import bake_mesh
+    from ..pipeline import bake_mesh
 
     if not isinstance(repeats, int) or not 1 <= repeats <= 100:
         raise ParameterError("repeats", f"expected a whole number from 1 to 100, got {repeats!r}")
