@@ -7,9 +7,9 @@ User errors (bad file, bad parameter) print one line and exit with code 2.
 from __future__ import annotations
 
 import glob
+import inspect
 import json
 import math
-import inspect
 import sys
 import time
 import types
@@ -20,7 +20,6 @@ from pathlib import Path
 
 import numpy as np
 import typer
-from pydantic import BaseModel
 
 from .errors import BakeError, TextureError
 
@@ -143,12 +142,12 @@ def _settings_parameters() -> list[inspect.Parameter]:
         kind, choices = _option_type(info.annotation)
         flag = "--" + name.replace("_", "-")
         decls = [f"{flag}/--no-{flag[2:]}"] if kind is bool else [flag, *([_SHORT[name]] if name in _SHORT else [])]
-        default = info.default if not isinstance(info.default, BaseModel) else info.default.name
+        default = info.default
         shown = ",".join(map(str, default)) if isinstance(default, (tuple, list)) else default
         notes = [" | ".join(choices) if choices else _LISTS.get(name, "")]
         if "default" not in (info.description or "") and shown is not None:
             notes.append(f"default: {shown}")
-        help_ = info.description + "".join(f" ({note})" for note in notes if note)
+        help_ = (info.description or "") + "".join(f" ({note})" for note in notes if note)
         params.append(inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, annotation=kind | None,
                                         default=typer.Option(None, *decls, help=help_, show_default=False)))
     return params

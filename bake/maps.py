@@ -71,6 +71,7 @@ class Maps:
         else:
             count = np.bincount(texel, minlength=rows * width)
         for name, v in values.items():
+            block: np.ndarray
             if self.samples == 1:
                 block = np.zeros((rows * width, 3), dtype=np.float32)
                 block[texel] = v

@@ -186,7 +186,7 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
         return result
 
     with timer.stage("tiles (wall)"), ThreadPoolExecutor(max(1, workers)) as pool:
-        cast, transfer_missed, *spread = sum(pool.map(bake_and_report, tile_list))
+        cast, transfer_missed, *spread = sum(pool.map(bake_and_report, tile_list), np.zeros(7))
     covered = maps.hits > 0
     with timer.stage("estimate"):
         error_estimate = _estimate(error_method, spread, sampler, maps, mapping, covered, settings.seed)

@@ -21,8 +21,8 @@ from _rows import emit
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bake.quality import PRESETS  # noqa: E402
 from bake.checks.sweep import Setting, run_sweep  # noqa: E402
+from bake.quality import PRESETS  # noqa: E402
 
 MESH = ROOT.parent / "shared" / "meshes" / "suzanne_blender_uv.obj"
 

@@ -18,11 +18,11 @@ def ready() -> int:
 
     from . import db
     from .settings import get_settings
-    from .tasks import huey
+    from .tasks import queue
 
     with db.sessions(get_settings().database)() as session:
         session.execute(text("SELECT 1"))
-    return huey.pending_count()
+    return queue().huey.pending_count()
 
 
 def main(argv: list[str]) -> int:

@@ -14,6 +14,8 @@ from bake.errors import BakeError
 
 from .routes import jobs, meta
 from .schemas import Problem
+from .settings import get_settings
+from .tasks import reap_once
 
 
 class BodyLimit:
@@ -51,15 +53,11 @@ class BodyLimit:
 
 @asynccontextmanager
 async def lifespan(app: FastAPI):
-    from .tasks import reap_once
-
     reap_once()  # jobs whose worker died while the API was down go back to the queue
     yield
 
 
 def create_app() -> FastAPI:
-    from .settings import get_settings
-
     # /docs and /redoc with their scripts served from the package (no CDN: they work offline)
     app = FastAPIOffline(title="texbake", version=__version__, lifespan=lifespan,
                          description="Upload a mesh and a texture spec; get baked maps and a textured GLB.",

@@ -33,6 +33,10 @@ class Settings(BaseSettings):
     stale_seconds: float = 30.0  # a running job without heartbeat for this long is re-queued
     max_attempts: int = 3
 
+    def job_dir(self, job_id: str) -> Path:
+        """The folder of one job: its upload, ``job.json``, ``out.tmp`` while baking, ``out``."""
+        return self.data_dir / "jobs" / job_id
+
     @property
     def database(self) -> str:
         return self.database_url or f"sqlite:///{self.data_dir / 'jobs.db'}"

@@ -1,4 +1,8 @@
-"""The bake task, as the workers run it (``texbake worker`` loads this module).
+"""The bake task, as the workers run it (``texbake worker`` takes its queue from here).
+
+Nothing happens at import: :func:`queue` makes the huey queue from the settings on first
+use and registers the tasks on it (``run_bake`` and the ``reaper``); :func:`enqueue_bake`
+puts a job id on it.
 
 A task claims its job in the jobs table, runs the bake in a child process with a
 deadline and a memory limit (a hang or a crash in native code fails that job only), beats
@@ -14,6 +18,7 @@ gets a new one. After ``JOBS_PER_PROCESS`` jobs the process is replaced anyway.
 
 from __future__ import annotations
 
+import functools
 import json
 import logging
 import multiprocessing
@@ -25,21 +30,35 @@ import time
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures import TimeoutError as FutureTimeout
 from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass
 from pathlib import Path
 
-from huey import crontab
+from huey import Huey, crontab
+from huey.api import TaskWrapper
 
 from . import db
 from .queue import make_huey
 from .settings import get_settings
 
 logger = logging.getLogger("texbake.service")
-settings = get_settings()
-huey = make_huey(settings)  # huey registers tasks on the instance: made once, here
 
 
-def job_dir(job_id: str) -> Path:
-    return get_settings().data_dir / "jobs" / job_id
+@dataclass(frozen=True)
+class Queue:
+    huey: Huey
+    bake: TaskWrapper  # calling it with a job id enqueues that job
+
+
+@functools.lru_cache
+def queue() -> Queue:
+    """The queue of this process, made from the settings on first use, with its tasks."""
+    huey = make_huey(get_settings())
+    huey.periodic_task(crontab(minute="*"), name="reaper")(reap_once)
+    return Queue(huey, huey.task(name="run_bake")(run_bake))
+
+
+def enqueue_bake(job_id: str) -> None:
+    queue().bake(job_id)
 
 
 _forkserver = None
@@ -94,15 +113,15 @@ def _progress(folder: Path) -> float | None:
         return None
 
 
-@huey.task()
 def run_bake(job_id: str) -> str:
+    """The task: bake one job (see the module's notes); returns the job's final state."""
     s = get_settings()
     Session = db.sessions(s.database)
     with Session() as session:
         job = db.claim(session, job_id)
         if job is None:
             return "not queued"
-    folder = job_dir(job_id)
+    folder = s.job_dir(job_id)
     shutil.rmtree(folder / "out.tmp", ignore_errors=True)
     (folder / "progress").unlink(missing_ok=True)
     try:
@@ -165,7 +184,7 @@ def hand_back() -> list[str]:
         except ProcessLookupError:
             pass
     for job_id in returned:
-        run_bake(job_id)
+        enqueue_bake(job_id)
     return returned
 
 
@@ -185,10 +204,5 @@ def reap_once() -> tuple[list[str], list[str]]:
     with db.sessions(s.database)() as session:
         requeued, failed = db.reap(session, s.stale_seconds, s.max_attempts)
     for job_id in requeued:
-        run_bake(job_id)
+        enqueue_bake(job_id)
     return requeued, failed
-
-
-@huey.periodic_task(crontab(minute="*"))
-def reaper() -> None:
-    reap_once()

@@ -5,9 +5,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bake.textures import noise as N
 from bake.checks.reference import lecture_sample_code as lecture_noise_float32
 from bake.checks.reference import value_noise as reference_value_noise
+from bake.textures import noise as N
 
 RNG = np.random.default_rng(11)
 

@@ -1,7 +1,6 @@
 """The API in-process through FastAPI's TestClient (SQLite queue and jobs table in a
 temporary data folder; no worker runs, so jobs stay queued)."""
 
-import importlib
 import json
 
 import pytest
@@ -15,14 +14,14 @@ def client(tmp_path_factory):
         mp.setenv("BAKE_DATA_DIR", str(data))
         mp.setenv("BAKE_MAX_SIZE", "2048")
         from service import settings, tasks
-
-        settings.get_settings.cache_clear()
-        importlib.reload(tasks)  # its huey queue lives in this data folder
         from service.main import create_app
 
+        settings.get_settings.cache_clear()
+        tasks.queue.cache_clear()  # its huey queue lives in this data folder
         with TestClient(create_app()) as c:
             yield c
         settings.get_settings.cache_clear()
+        tasks.queue.cache_clear()
 
 
 def post(client, path, settings, name=None):

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from bake import estimate
+from bake.checks.sweep import COLUMNS, Row, Setting, pareto_front, prepare_mesh, run_sweep, write_all
 from bake.errors import ParameterError
 from bake.imageio import read_image
-from bake.checks.sweep import COLUMNS, Row, Setting, pareto_front, prepare_mesh, run_sweep, write_all
 
 SETTINGS = [Setting(1, True, size=96), Setting(1, False, size=96), Setting(4, False, size=96), Setting(16, False, size=96)]
 

@@ -22,15 +22,15 @@ from bake.load import FORMATS, check_file
 from .. import db
 from ..deps import ClientDep, JobDep, SessionDep, SettingsDep
 from ..schemas import BakeSettings, JobOut, JobPage
+from ..settings import get_settings
+from ..tasks import enqueue_bake
 
 router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
 _CHUNK = 1 << 20
 
 
 def _out(job: db.Job, request: Request) -> JobOut:
-    from ..tasks import job_dir
-
-    out = job_dir(job.id) / "out"
+    out = get_settings().job_dir(job.id) / "out"
     files = sorted(p.name for p in out.iterdir()) if job.state == "done" and out.is_dir() else []
     return JobOut(url=str(request.url_for("get_job", job_id=job.id)), files=files, **job.as_dict())
 
@@ -96,14 +96,12 @@ def create_job(
             digest.update(client.encode())
         job, created = db.create_job(session, key=digest.hexdigest(), client=client, mesh_name=mesh.filename or "mesh", settings=options)
         if created:
-            from ..tasks import job_dir, run_bake
-
-            folder = job_dir(job.id)
+            folder = settings.job_dir(job.id)
             folder.mkdir(parents=True)
             name = _safe_stem(mesh.filename) + suffix  # outputs are named after it
             shutil.move(tmp, folder / name)
             (folder / "job.json").write_text(json.dumps({"mesh": name, "settings": options}))
-            run_bake(job.id)
+            enqueue_bake(job.id)
         else:
             response.status_code = 200
     finally:
@@ -137,9 +135,7 @@ def cancel_job(job: JobDep, session: SessionDep, request: Request):
 
 
 def _outputs(job: db.Job) -> Path:
-    from ..tasks import job_dir
-
-    out = job_dir(job.id) / "out"
+    out = get_settings().job_dir(job.id) / "out"
     if job.state != "done" or not out.is_dir():
         raise HTTPException(409, detail=f"job {job.id} is {job.state}: no outputs yet")
     return out
