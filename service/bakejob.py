@@ -1,42 +1,37 @@
-"""Bakes in a bake process of ``service.tasks`` (one job after another).
+"""A service bake process: ``python -m service.bakejob MEMORY_MB`` serves bakes, one job
+after another (``bake.workers`` protocol), with the baking core imported once.
 
-:func:`setup` runs once in each bake process: it caps the address space and asks the
-process to die with its parent. :func:`run` reads ``JOB_DIR/job.json`` (mesh file name and
-bake settings), bakes into ``JOB_DIR/out.tmp`` and returns None, or the reason the bake
-failed. This module imports the baking core, so the fork server that preloads it hands
-out processes with the libraries loaded. (It does not call the compiled texture kernels:
-their OpenMP threads would make every later fork abort.)
+:func:`setup` caps the process's address space and leaves Ctrl-C to the worker;
+:func:`run` reads ``JOB_DIR/job.json`` (mesh file name and bake settings), bakes into
+``JOB_DIR/out.tmp`` and returns None, or the reason the bake failed.
 """
 
 from __future__ import annotations
 
-import ctypes
 import json
 import os
 import resource
 import signal
+import sys
 import threading
 import traceback
 from pathlib import Path
 
 from bake import BakeError, bake_mesh
 from bake.settings import BakeSettings
+from bake.workers import serve
 
 _memory_mb = 0  # this process's address-space limit, set by setup()
 
 
 def setup(memory_mb: int) -> None:
-    """Start a bake process: cap its address space, leave Ctrl-C to the worker, and let it
-    die with its parent (Linux)."""
+    """Cap the address space at ``memory_mb``, and leave Ctrl-C to the worker (it reaches
+    the whole process group; the worker decides what becomes of the bake)."""
     global _memory_mb
     _memory_mb = memory_mb
     limit = memory_mb * 1024 * 1024
     resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group: the worker decides
-    try:
-        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-    except OSError:
-        pass
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _write_progress(fraction: float) -> None:
@@ -63,3 +58,8 @@ def run(job_dir: str) -> str | None:
         traceback.print_exc()
         return f"internal error: {type(exc).__name__}: {exc}"
     return None
+
+
+if __name__ == "__main__":
+    setup(int(sys.argv[1]))
+    serve({"bake": run})

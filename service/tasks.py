@@ -9,11 +9,11 @@ deadline and a memory limit (a hang or a crash in native code fails that job onl
 the job's heartbeat meanwhile, stops the child when the job is cancelled, and moves the
 outputs into place only when the bake is complete.
 
-Each worker thread keeps one bake process: forked from a fork server that has the baking
-core imported, then reused from job to job (a fresh interpreter would spend 1.5 s importing
-for every job, a fresh fork 0.7 s on lazy imports and loading compiled kernels). A bake
-that is cancelled, runs out of time or crashes takes its process with it; the next job
-gets a new one. After ``JOBS_PER_PROCESS`` jobs the process is replaced anyway.
+Each worker thread keeps one bake process, a ``bake.workers.Worker`` running
+``service.bakejob``: started once, then reused from job to job (a fresh interpreter spends
+about 1.5 s importing the baking core and loading the compiled kernels). A bake that is
+cancelled, runs out of time or crashes takes its process with it; the next job gets a new
+one. After ``JOBS_PER_PROCESS`` jobs the process is replaced anyway.
 """
 
 from __future__ import annotations
@@ -21,24 +21,23 @@ from __future__ import annotations
 import functools
 import json
 import logging
-import multiprocessing
 import os
 import shutil
 import signal
+import sys
 import threading
 import time
-from concurrent.futures import Future, ProcessPoolExecutor
-from concurrent.futures import TimeoutError as FutureTimeout
-from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
 
 from huey import Huey, crontab
 from huey.api import TaskWrapper
 
+from bake.workers import Worker
+
 from . import db
 from .queue import make_huey
-from .settings import get_settings
+from .settings import Settings, get_settings
 
 logger = logging.getLogger("texbake.service")
 
@@ -61,48 +60,33 @@ def enqueue_bake(job_id: str) -> None:
     queue().bake(job_id)
 
 
-_forkserver = None
-_local = threading.local()  # each worker thread's bake process
+_local = threading.local()  # each worker thread's bake process (a bake.workers.Worker)
 _running: dict[str, int] = {}  # job id -> pid of the bake process baking it (this worker's)
 JOBS_PER_PROCESS = 50  # then a fresh process: no memory creeps from job to job
 
 
-def _bakes():
-    """The multiprocessing context whose fork server has the baking core loaded."""
-    global _forkserver
-    if _forkserver is None:
-        _forkserver = multiprocessing.get_context("forkserver")
-        _forkserver.set_forkserver_preload(["service.bakejob"])
-    return _forkserver
+def _bake_process(s: Settings) -> Worker:
+    """This worker thread's bake process: started once (the baking core imported, the
+    kernels loaded), kept for the next jobs, replaced when it died or after
+    ``JOBS_PER_PROCESS`` jobs."""
+    worker = getattr(_local, "worker", None)
+    if worker is not None and (worker.process.poll() is not None or worker.jobs >= JOBS_PER_PROCESS):
+        worker.end(polite=True)
+        worker = None
+    if worker is None:
+        folder = s.data_dir / "workers"
+        folder.mkdir(parents=True, exist_ok=True)
+        # its stderr is the worker's: tracebacks of bugs land in the worker's log
+        worker = Worker([sys.executable, "-m", "service.bakejob", str(s.job_memory_mb)], str(folder), stderr=None)
+        _local.worker = worker
+    return worker
 
 
-def _start_bake(folder: Path, memory_mb: int) -> Future:
-    """Bake the job in ``folder`` in this worker thread's bake process: forked from the fork
-    server, then kept warm (lazy imports done, compiled kernels loaded) for the next jobs.
-    The future's result is None when the bake is done, else the reason it failed."""
-    from . import bakejob  # the baking core: loaded by workers only, never by the API
-
-    if getattr(_local, "jobs", 0) >= JOBS_PER_PROCESS:
-        _drop_bake_process()
-    if getattr(_local, "pool", None) is None:
-        pool = ProcessPoolExecutor(1, mp_context=_bakes(), initializer=bakejob.setup, initargs=(memory_mb,))
-        _local.pool, _local.pid, _local.jobs = pool, pool.submit(os.getpid).result(), 0
-    _local.jobs += 1
-    _running[folder.name] = _local.pid
-    return _local.pool.submit(bakejob.run, str(folder))
-
-
-def _drop_bake_process(kill: bool = False) -> None:
-    """Let this thread's bake process go, or ``kill`` it (a bake to abandon)."""
-    pool, _local.pool = getattr(_local, "pool", None), None
-    if pool is None:
-        return
-    if kill:
-        try:
-            os.kill(_local.pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
-    pool.shutdown(wait=kill, cancel_futures=True)
+def _drop_bake_process() -> None:
+    """End this thread's bake process (a bake to abandon, or a process that died)."""
+    worker, _local.worker = getattr(_local, "worker", None), None
+    if worker is not None:
+        worker.end()
 
 
 def _progress(folder: Path) -> float | None:
@@ -124,34 +108,39 @@ def run_bake(job_id: str) -> str:
     folder = s.job_dir(job_id)
     shutil.rmtree(folder / "out.tmp", ignore_errors=True)
     (folder / "progress").unlink(missing_ok=True)
+    worker = _bake_process(s)
+    _running[job_id] = worker.pid
     try:
-        return _supervise(job_id, folder, _start_bake(folder, s.job_memory_mb))
+        return _supervise(job_id, folder, worker)
     finally:
         _running.pop(job_id, None)
 
 
-def _supervise(job_id: str, folder: Path, future: Future) -> str:
+def _supervise(job_id: str, folder: Path, worker: Worker) -> str:
     """Beat the job's heartbeat while its bake runs; stop it when cancelled or late."""
     s = get_settings()
     Session = db.sessions(s.database)
     end = time.monotonic() + s.job_seconds
     state, error = "running", None
-    while True:
-        try:
-            error = future.result(timeout=min(s.heartbeat_seconds, 0.5))
-            break
-        except FutureTimeout:
-            pass
-        except BrokenProcessPool:  # the bake's process died: a crash in native code, or killed
-            error = "the bake's process died without a word (a crash in native code, or killed)"
+    reply: tuple[bool, object] | None = None if worker.send("bake", (str(folder),)) else (False, worker.exit_reason())
+    while reply is None:
+        reply = worker.result(timeout=min(s.heartbeat_seconds, 0.5))
+        if reply is None:
+            with Session() as session:
+                state = db.beat(session, job_id, progress=_progress(folder))
+            if state != "running" or time.monotonic() > end:
+                error = f"the bake took longer than {s.job_seconds:g} s"
+                _drop_bake_process()
+                break
+    if reply is not None:
+        ok, value = reply
+        if ok:  # the bake's own answer: None (done) or why it failed
+            error = None if value is None else str(value)
+        elif str(value).startswith("exit code"):  # the bake's process died: a crash in native code, or killed
+            error = f"the bake's process died without a word (a crash in native code, or killed; {value})"
             _drop_bake_process()
-            break
-        with Session() as session:
-            state = db.beat(session, job_id, progress=_progress(folder))
-        if state != "running" or time.monotonic() > end:
-            error = f"the bake took longer than {s.job_seconds:g} s"
-            _drop_bake_process(kill=True)
-            break
+        else:
+            error = f"internal error: {value}"
     with Session() as session:
         if state != "running":
             return state  # cancelled (or taken from us by the reaper)

@@ -1,0 +1,227 @@
+"""Worker processes: the one supervisor of every child process texbake runs work in
+(the xatlas unwrap here, the service's bakes).
+
+A worker is a fresh interpreter, ``python -m MODULE ARG...``: not a fork and not
+multiprocessing, so the caller's ``__main__`` is never re-imported, it works from pool
+processes too, and a hang or a crash in native code (xatlas, a bake) takes down only the
+worker, which the parent then sees die or kills at its deadline. The worker asks Linux to
+kill it when its parent dies (:func:`die_with_parent`).
+
+Protocol: the parent writes one line per job to the worker's stdin, the path of a file
+holding a pickled ``(kind, args)``; the worker answers on stdout with an 8-byte
+little-endian length and a pickled ``("ok", result)`` or ``("error", message)``. An empty
+line or EOF ends it. The worker's side is :func:`serve`; the parent's, :class:`Worker`
+(one worker, one job at a time) and :class:`Pool` (several, one deadline for a list of jobs).
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import select
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+_ROOT = str(Path(__file__).resolve().parents[1])  # the folder that holds the package
+
+
+def die_with_parent() -> None:
+    """Ask Linux to kill this process when its parent dies (a hung job never returns)."""
+    try:
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # not Linux: the parent still kills it at the deadline
+        pass
+
+
+def serve(jobs: dict[str, Callable[..., object]]) -> None:
+    """The worker's side: answer jobs ``kind -> function`` until an empty line or EOF."""
+    die_with_parent()
+    out = sys.stdout.buffer
+    sys.stdout = sys.stderr  # whatever a job prints must not corrupt the replies
+    for line in sys.stdin:
+        path = line.strip()
+        if not path:
+            break
+        try:
+            with open(path, "rb") as f:
+                kind, args = pickle.load(f)
+            os.unlink(path)
+            reply = ("ok", jobs[kind](*args))
+        except Exception as exc:  # reported to the parent, which decides
+            reply = ("error", f"{type(exc).__name__}: {exc}")
+        data = pickle.dumps(reply, protocol=pickle.HIGHEST_PROTOCOL)
+        out.write(len(data).to_bytes(8, "little") + data)
+        out.flush()
+
+
+class Worker:
+    """One worker process running ``command`` (``[sys.executable, "-m", MODULE, ...]``);
+    jobs one at a time. ``folder``: where job files go (and the worker's working folder)."""
+
+    def __init__(self, command: Sequence[str], folder: str, *, stderr=subprocess.DEVNULL):
+        env = dict(os.environ)
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (_ROOT, env.get("PYTHONPATH")) if p)
+        self.folder = folder
+        self.process = subprocess.Popen(list(command), stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=stderr,
+                                        bufsize=0, env=env, cwd=folder)
+        self.jobs = 0  # sent so far
+        self._buffer: bytearray | None = None  # the reply being read; None: idle
+
+    @property
+    def pid(self) -> int:
+        return self.process.pid
+
+    @property
+    def busy(self) -> bool:
+        return self._buffer is not None
+
+    def fileno(self) -> int:
+        assert self.process.stdout is not None  # started with pipes
+        return self.process.stdout.fileno()
+
+    def send(self, kind: str, args: tuple) -> bool:
+        """Start a job; False if the worker is dead (then :meth:`exit_reason` says why)."""
+        path = os.path.join(self.folder, f"job-{self.pid}-{self.jobs}.pickle")
+        self.jobs += 1
+        with open(path, "wb") as f:
+            pickle.dump((kind, args), f, protocol=pickle.HIGHEST_PROTOCOL)
+        try:
+            assert self.process.stdin is not None
+            self.process.stdin.write(path.encode() + b"\n")  # a short line: never blocks
+            self.process.stdin.flush()
+        except OSError:
+            return False
+        self._buffer = bytearray()
+        return True
+
+    def read(self) -> tuple[bool, object] | None:
+        """Read what the worker has sent (call when :meth:`fileno` is readable): the job's
+        ``(ok, result or message)`` once complete, ``(False, "exit code N")`` if the worker
+        died, None while the reply is still coming."""
+        assert self._buffer is not None  # a job was sent
+        data = os.read(self.fileno(), 1 << 22)
+        if not data:  # died (a segfault: a negative exit code)
+            self._buffer = None
+            return False, self.exit_reason()
+        buf = self._buffer
+        buf += data
+        if len(buf) >= 8 and len(buf) >= 8 + int.from_bytes(buf[:8], "little"):
+            self._buffer = None
+            status, value = pickle.loads(bytes(buf[8:]))
+            return status == "ok", value
+        return None
+
+    def result(self, timeout: float) -> tuple[bool, object] | None:
+        """The running job's ``(ok, value)``, waiting at most ``timeout`` seconds (None: not yet)."""
+        end = time.monotonic() + timeout
+        while True:
+            left = end - time.monotonic()
+            if left <= 0 or not select.select([self], [], [], left)[0]:
+                return None
+            reply = self.read()
+            if reply is not None:
+                return reply
+
+    def exit_reason(self) -> str:
+        try:
+            self.process.wait(1.0)
+        except subprocess.TimeoutExpired:
+            pass
+        return f"exit code {self.end()}"
+
+    def end(self, *, polite: bool = False) -> int | None:
+        """Stop the worker (``polite``: ask it first, for an idle one); returns its exit code."""
+        p = self.process
+        if polite and p.poll() is None and p.stdin and not p.stdin.closed:
+            try:
+                p.stdin.write(b"\n")
+                p.stdin.flush()
+                p.wait(0.2)
+            except (OSError, subprocess.TimeoutExpired):
+                pass
+        if p.poll() is None:
+            p.kill()
+            p.wait()
+        for stream in (p.stdin, p.stdout):
+            try:
+                if stream is not None:
+                    stream.close()
+            except OSError:
+                pass
+        return p.returncode
+
+
+class Pool:
+    """Up to ``n`` workers of ``command`` sharing one wall-clock ``end`` (``time.monotonic``).
+
+    Started lazily, reused for every job of one use, and replaced when one dies. Use as a
+    context manager: leaving it ends them all.
+    """
+
+    def __init__(self, command: Sequence[str], n: int, end: float):
+        self.command, self.n, self.end = list(command), max(1, n), end
+        self.folder = tempfile.mkdtemp(prefix="texbake-workers-")
+        self.idle: list[Worker] = []
+        self.all: list[Worker] = []
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def close(self) -> None:
+        for w in self.all:
+            w.end(polite=not w.busy)
+        self.all.clear()
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+    def run(self, jobs: list[tuple[str, tuple]]) -> list[tuple[bool, object]]:
+        """Run ``(kind, args)`` jobs; per job ``(True, result)`` or ``(False, why)``.
+
+        ``why`` is "timeout" for jobs not done at the end (then every busy worker is
+        ended), "exit code N" for a worker that died, or the job's exception message.
+        """
+        results: list = [None] * len(jobs)
+        pending = list(range(len(jobs)))[::-1]
+        busy: dict[Worker, int] = {}
+        while pending or busy:
+            while pending and (self.idle or sum(w.process.poll() is None for w in self.all) < self.n):
+                w = self.idle.pop() if self.idle else self._start()
+                i = pending.pop()
+                if w.send(*jobs[i]):
+                    busy[w] = i
+                else:
+                    results[i] = (False, w.exit_reason())
+            if not busy:
+                continue
+            left = self.end - time.monotonic()
+            ready = select.select(list(busy), [], [], max(0.0, left))[0] if left > 0 else []
+            if not ready and time.monotonic() >= self.end:
+                for w, i in busy.items():
+                    w.end()
+                    results[i] = (False, "timeout")
+                for i in pending:
+                    results[i] = (False, "timeout")
+                return results
+            for w in ready:
+                reply = w.read()
+                if reply is None:
+                    continue
+                results[busy.pop(w)] = reply
+                if w.process.poll() is None:  # alive: ready for the next job
+                    self.idle.append(w)
+        return results
+
+    def _start(self) -> Worker:
+        w = Worker(self.command, self.folder)
+        self.all.append(w)
+        return w
