@@ -34,7 +34,7 @@ class Maps:
             self.colours = {f"albedo_{i:04d}": spec.model_copy(update={"time": t}) for i, t in enumerate(settings.frames)}
         self.colour_name = next(iter(self.colours))  # the map the error estimate and the GLB use
         self.settings, self.quality, self.mapping = settings, quality, mapping
-        self.width, self.samples = width, quality.samples
+        self.width, self.height, self.samples = width, height, quality.samples
         names = [*self.colours, *(["lit"] if settings.shading != "decal" else []), *(["normal"] if settings.bump is not None else [])]
         self.images = {name: np.zeros((height, width, 3), dtype=np.float32) for name in names}
         self.hits = np.zeros((height, width), dtype=np.uint16 if self.samples < 65536 else np.uint32)

@@ -153,43 +153,12 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
         maps = Maps(settings, quality, width, height, mapping)
         sampler = Sampler(mesh.vertices, mesh.faces, atlas.uv, atlas.faces, width, height, normals=maps.needs_normals,
                           source=None if src is None else (src.vertices, src.faces), reach=reach)
-    offsets = sample_offsets(quality.samples, settings.seed)
-    error_method = estimate_stage.method_for(quality.samples, quality.filtering, quality.max_octaves)
-
-    def bake_tile(tile: Tile) -> np.ndarray:
-        """Bake the rows of ``tile`` into ``maps``; returns ``[rays cast, transfer rays
-        that missed, *spread sums]`` (``estimate.spread_sums``, zeros unless ``spread``)."""
-        with timer.stage("lookup"):
-            texels = sampler.candidates(tile)
-            uvs = sample_uv(tile, texels, width, height, offsets)
-        s = sampler.at(uvs, timer)
-        values = maps.values(s, timer)
-        texel = texels[s.index // quality.samples]
-        with timer.stage("accumulate"):
-            maps.accumulate(tile, texel, values)
-        spread = np.zeros(5)
-        if error_method == "spread":
-            with timer.stage("estimate"):
-                sample = s.index % quality.samples
-                spread = estimate_stage.spread_sums(values[maps.colour_name], texel, sample, quality.samples, (tile.stop - tile.start) * width)
-        return np.array([len(uvs), s.transfer_missed, *spread])
-
-    # Tiles run in threads: Embree holds the GIL, numpy mostly does not, so the stages
-    # of two tiles overlap. Each tile writes its own rows.
     report_progress(0.3)
-    tile_list = tiles(height, width, quality.samples, tile_samples)
-    finished = itertools.count(1)
-
-    def bake_and_report(tile: Tile) -> np.ndarray:
-        result = bake_tile(tile)
-        report_progress(0.3 + 0.6 * next(finished) / len(tile_list))
-        return result
-
-    with timer.stage("tiles (wall)"), ThreadPoolExecutor(max(1, workers)) as pool:
-        cast, transfer_missed, *spread = sum(pool.map(bake_and_report, tile_list), np.zeros(7))
+    cast, transfer_missed, *spread = _bake_tiles(sampler, maps, quality, settings.seed, timer, workers, tile_samples,
+                                                 lambda done: report_progress(0.3 + 0.6 * done))
     covered = maps.hits > 0
     with timer.stage("estimate"):
-        error_estimate = _estimate(error_method, spread, sampler, maps, mapping, covered, settings.seed)
+        error_estimate = _estimate(spread, sampler, maps, mapping, covered, quality, settings.seed)
     with timer.stage("margin"):
         filled = margin_stage.extend(list(maps.images.values()), covered, settings.margin, workers=workers)
     report_progress(0.95)
@@ -206,10 +175,46 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
     return BakeResult(images, covered, filled, baked, report, settings)
 
 
-def _estimate(method: str, spread, sampler: Sampler, maps: Maps, mapping: TextureMapping, covered, seed: int) -> dict:
+def _bake_tiles(sampler: Sampler, maps: Maps, quality, seed: int, timer: Timer, workers: int, tile_samples: int,
+                progress: Callable[[float], None]) -> np.ndarray:
+    """Bake the image in row tiles of about ``tile_samples`` samples into ``maps``.
+
+    Returns ``[rays cast, transfer rays that missed, *spread sums]`` summed over the tiles
+    (the sums of ``estimate.spread_sums`` when the error estimate is ``spread``, else
+    zeros). Tiles run in threads: Embree holds the GIL, numpy mostly does not, so the
+    stages of two tiles overlap; each tile writes its own rows.
+    """
+    width, height = maps.width, maps.height
+    offsets = sample_offsets(quality.samples, seed)
+    spread_too = estimate_stage.method_for(quality.samples, quality.filtering, quality.max_octaves) == "spread"
+    tile_list = tiles(height, width, quality.samples, tile_samples)
+    finished = itertools.count(1)
+
+    def bake_tile(tile: Tile) -> np.ndarray:
+        with timer.stage("lookup"):
+            texels = sampler.candidates(tile)
+            uvs = sample_uv(tile, texels, width, height, offsets)
+        s = sampler.at(uvs, timer)
+        values = maps.values(s, timer)
+        texel = texels[s.index // quality.samples]
+        with timer.stage("accumulate"):
+            maps.accumulate(tile, texel, values)
+        spread = np.zeros(5)
+        if spread_too:
+            with timer.stage("estimate"):
+                spread = estimate_stage.spread_sums(values[maps.colour_name], texel, s.index % quality.samples,
+                                                    quality.samples, (tile.stop - tile.start) * width)
+        progress(next(finished) / len(tile_list))
+        return np.array([len(uvs), s.transfer_missed, *spread])
+
+    with timer.stage("tiles (wall)"), ThreadPoolExecutor(max(1, workers)) as pool:
+        return sum(pool.map(bake_tile, tile_list), np.zeros(7))
+
+
+def _estimate(spread, sampler: Sampler, maps: Maps, mapping: TextureMapping, covered, quality, seed: int) -> dict:
     """The error estimate of the colour map (``bake.estimate``): from the tiles' spread
     sums, or a probe that sends UV points through the same chain, point-sampled in float64."""
-    if method == "spread":
+    if estimate_stage.method_for(quality.samples, quality.filtering, quality.max_octaves) == "spread":
         estimate = estimate_stage.spread_estimate(spread)
     else:
         spec = maps.colours[maps.colour_name]
