@@ -72,6 +72,9 @@ def write_glb(path, vertices, faces, uv, texture, *, normals=None, name: str = "
     ``uv``: ``(k, 2)`` float, v up; ``texture``: a PNG file's path or its bytes;
     ``normals``: optional ``(k, 3)`` normals (normalised here). Indices are uint16 below
     65535 vertices, else uint32. Returns path, bytes, vertices, faces.
+
+    One function, not several: it lays out one binary buffer and the JSON that indexes
+    it, offset by offset, and reads best top to bottom.
     """
     path = Path(path)
     v, f, t, n = _mesh_arrays(vertices, faces, uv, normals)

@@ -148,6 +148,9 @@ def write_image(path, pixels, *, fmt: str | None = None, bits: int | None = None
 
     Raises :class:`ParameterError` for a bad format, bit depth, colour space or pixel
     array and :class:`OutputError` if the file cannot be written completely.
+
+    Long because it is one transaction: validate, encode, write to a temporary name,
+    flush, read back and compare, rename; each step depends on the one before.
     """
     import OpenImageIO as oiio  # pip install OpenImageIO
 

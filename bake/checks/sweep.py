@@ -156,6 +156,9 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
     The second value maps each size to ``{"samples", "check_rmse", "seconds"}``:
     ``check_rmse`` is the RMSE between the reference and the same bake with a quarter
     of the samples.
+
+    Long because the timed runs take turns over all settings (so that a slow moment of a
+    shared machine spreads over every setting rather than one), which keeps the loop whole.
     """
     from ..pipeline import bake_mesh
 

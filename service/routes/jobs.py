@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import io
 import json
@@ -56,6 +57,38 @@ def _bake_options(parsed: BakeSettings | None, settings) -> dict:
     return out
 
 
+def _receive(mesh: UploadFile, suffix: str, settings) -> tuple[Path, hashlib._Hash]:
+    """Stream the upload to a temporary file, stopped at the limit, and check what can be
+    told without parsing (the bake's process parses it). Returns the file and its sha256."""
+    uploads = settings.data_dir / "uploads"
+    uploads.mkdir(parents=True, exist_ok=True)
+    tmp = uploads / f"{uuid.uuid4().hex}{suffix}"
+    digest, size = hashlib.sha256(), 0
+    try:
+        with open(tmp, "wb") as f:
+            while chunk := mesh.file.read(_CHUNK):
+                size += len(chunk)
+                if size > settings.max_upload_bytes:
+                    raise HTTPException(413, detail=f"mesh: larger than the limit of {settings.max_upload_bytes} bytes")
+                digest.update(chunk)
+                f.write(chunk)
+        check_file(tmp)
+    except MeshError as exc:
+        tmp.unlink(missing_ok=True)
+        raise HTTPException(422, detail=f"mesh {mesh.filename!r}: {exc.problem}") from None
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return tmp, digest
+
+
+def _resolved(options: dict) -> dict:
+    """Every setting of the bake, quality preset resolved: two uploads that bake the same
+    are the same job, however their settings were written."""
+    settings = BakeSettings.build(options)
+    return {**settings.model_dump(mode="json"), **dataclasses.asdict(settings.quality_settings())}
+
+
 @router.post("", status_code=202, response_model=JobOut)
 def create_job(
     request: Request, response: Response, session: SessionDep, settings: SettingsDep, client: ClientDep,
@@ -75,23 +108,9 @@ def create_job(
     if unfinished >= settings.jobs_per_client:
         raise HTTPException(429, detail=f"{unfinished} unfinished jobs: the limit per client is {settings.jobs_per_client}")
 
-    uploads = settings.data_dir / "uploads"
-    uploads.mkdir(parents=True, exist_ok=True)
-    tmp = uploads / f"{uuid.uuid4().hex}{suffix}"
-    digest, size = hashlib.sha256(), 0
+    tmp, digest = _receive(mesh, suffix, settings)
     try:
-        with open(tmp, "wb") as f:  # streamed to disk, stopped at the limit
-            while chunk := mesh.file.read(_CHUNK):
-                size += len(chunk)
-                if size > settings.max_upload_bytes:
-                    raise HTTPException(413, detail=f"mesh: larger than the limit of {settings.max_upload_bytes} bytes")
-                digest.update(chunk)
-                f.write(chunk)
-        try:  # what can be told without parsing; the bake's child parses it
-            check_file(tmp)
-        except MeshError as exc:
-            raise HTTPException(422, detail=f"mesh {mesh.filename!r}: {exc.problem}") from None
-        digest.update(json.dumps(options, sort_keys=True).encode())
+        digest.update(json.dumps(_resolved(options), sort_keys=True).encode())
         if settings.api_keys:  # with keys, each client has its own jobs
             digest.update(client.encode())
         job, created = db.create_job(session, key=digest.hexdigest(), client=client, mesh_name=mesh.filename or "mesh", settings=options)
