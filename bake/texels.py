@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import ParameterError
+from .uvgeometry import uv_inverse
 
 
 def sample_offsets(samples: int, seed: int = 0) -> np.ndarray:
@@ -87,24 +88,11 @@ class UVLookup:
         mesh_construction.TriangleMesh(self._scene, flat, faces.astype(np.int32))
 
         # Per-face inverse of the UV edge matrix, for float64 barycentrics.
-        t = uv[faces]  # (m, 3, 2)
-        e1 = t[:, 1] - t[:, 0]
-        e2 = t[:, 2] - t[:, 0]
-        det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-        ok = det != 0
-        inv_det = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
-        self._origin = t[:, 0]
-        # rows of inverse [[e1x e2x],[e1y e2y]]^-1
-        self._inv = np.stack(
-            [
-                np.stack([e2[:, 1], -e2[:, 0]], axis=1) * inv_det[:, None],
-                np.stack([-e1[:, 1], e1[:, 0]], axis=1) * inv_det[:, None],
-            ],
-            axis=1,
-        )  # (m, 2, 2)
+        self._origin, self._inv, ok = uv_inverse(uv, faces)  # (m, 2), (m, 2, 2), (m,)
         self.degenerate = ~ok
         self._any_degenerate = bool(self.degenerate.any())
         self._down = np.zeros((0, 3), dtype=np.float32)  # ray directions, reused
+        t = uv[faces]  # (m, 3, 2)
         lo, hi = t.min(axis=1), t.max(axis=1)
         self._box = np.stack([lo[:, 0], hi[:, 0], 1.0 - hi[:, 1], 1.0 - lo[:, 1]], axis=1)[ok]
 
