@@ -3,7 +3,9 @@
 From each target surface point, rays go along the normal both ways, at most ``distance``
 (the cage extrusion), against the source mesh; the nearer hit is where the texture is
 evaluated. Embree works in float32, so the source is re-centred and scaled to a unit
-box first and the hit point is rebuilt in float64 from the face and the ray distance.
+box first (:class:`bake.rays.Scene`), and the hit point is rebuilt in float64: the
+target point moved the ray distance along its normal (against it for the backward ray).
+The face hit is not used.
 """
 
 from __future__ import annotations
