@@ -8,7 +8,7 @@ down this process, which the parent kills at its deadline or sees die.
 Protocol: the parent writes one line per job to stdin, the path of a file holding a
 pickled ``(kind, args)``; the worker answers on stdout with an 8-byte little-endian
 length and a pickled ``("ok", result)`` or ``("error", message)``. An empty line or EOF
-ends it. Only numpy and xatlas are imported.
+ends it. Only numpy, xatlas and :mod:`bake.uvgeometry` (numpy only) are imported.
 """
 
 from __future__ import annotations
@@ -19,6 +19,8 @@ import sys
 from collections.abc import Callable
 
 import numpy as np
+
+from .uvgeometry import uv_areas
 
 
 def _die_with_parent() -> None:
@@ -89,7 +91,7 @@ def pack(meshes: list, size: int, padding: int):
         atlas.generate(co, po)
         return atlas
 
-    area = sum(float(_area2(uv, faces)) for uv, faces in meshes)
+    area = sum(float(uv_areas(uv, faces).sum()) for uv, faces in meshes)
     tpu = size * np.sqrt(0.7 / max(area, 1e-30))
     for _ in range(4):
         atlas = run(tpu)
@@ -105,12 +107,6 @@ def pack(meshes: list, size: int, padding: int):
         out.append((vmapping, indices, _square(atlas, uv)))
     info = {"width": int(atlas.width), "height": int(atlas.height), "texels_per_unit": float(tpu)}
     return out, info
-
-
-def _area2(uv: np.ndarray, faces: np.ndarray) -> float:
-    t = uv.astype(np.float64)[faces.astype(np.int64)]
-    d1, d2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
-    return 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]).sum()
 
 
 JOBS: dict[str, Callable[..., object]] = {"chart": chart, "pack": pack}

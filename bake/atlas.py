@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import AtlasError, ParameterError
+from .uvgeometry import areas, uv_areas, uv_jacobian
 
 MODES = ("auto", "unwrap", "keep")
 PATCH_FACES = 2000  # faces per patch of the parallel unwrap
@@ -58,17 +59,6 @@ class Atlas:
 # -- checks and statistics ---------------------------------------------------------
 
 
-def _uv_area(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    t = uv[faces]
-    d1, d2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
-    return 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
-
-
-def _area(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    t = vertices[faces]
-    return 0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1)
-
-
 def uv_problem(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray | None) -> str | None:
     """Why per-vertex UVs are not usable as an atlas of the mesh, or None if they are.
 
@@ -91,7 +81,7 @@ def uv_problem(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray | None) -
     lo, hi = used.min(), used.max()
     if lo < -UV_EPS or hi > 1 + UV_EPS:
         return f"the mesh's UVs leave the unit square (range {lo:.3g} to {hi:.3g})"
-    zero = int((_uv_area(uv, faces) <= 0).sum())
+    zero = int((uv_areas(uv, faces) <= 0).sum())
     if zero:
         return f"{zero} faces have zero UV area"
     return None
@@ -118,18 +108,11 @@ def atlas_stats(vertices, faces, uv_faces, uv) -> dict:
     _, labels = connected_components(graph, directed=False)
     charts = len(np.unique(labels[:m]))
 
-    t = uv[uv_faces]
-    d1, d2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
-    det = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
-    p = vertices[faces]
-    e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
-    ok = det != 0
-    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)[:, None]
-    ps = (e1 * d2[:, 1:2] - e2 * d1[:, 1:2]) * inv  # dP/du
-    pt = (e2 * d1[:, 0:1] - e1 * d2[:, 0:1]) * inv  # dP/dv
+    ps, pt, det = uv_jacobian(vertices, faces, uv, uv_faces)  # dP/du, dP/dv
+    ok = np.abs(det) > 0  # faces of zero UV area are left out
     l2sq = 0.5 * (np.einsum("ij,ij->i", ps, ps) + np.einsum("ij,ij->i", pt, pt))
     a_uv = 0.5 * np.abs(det)
-    a_3d = _area(vertices, faces)
+    a_3d = areas(vertices, faces)
     w3, wuv = a_3d[ok].sum(), a_uv[ok].sum()
     if w3 > 0 and wuv > 0:
         stretch = float(np.sqrt((a_3d[ok] * l2sq[ok]).sum() / w3 * wuv / w3))
@@ -152,7 +135,7 @@ def _problem(vmapping, faces, uv, n_faces: int, n_vertices: int, input_faces) ->
         return "the UVs are not finite"
     if uv.min() < -UV_EPS or uv.max() > 1 + UV_EPS:
         return f"the UVs leave the unit square ({uv.min():.3g} to {uv.max():.3g})"
-    zero = int((_uv_area(uv, faces) <= 0).sum())
+    zero = int((uv_areas(uv, faces) <= 0).sum())
     if zero:
         return f"{zero} faces have zero UV area"
     return None
@@ -383,7 +366,7 @@ def _unwrap(vertices, faces, size, padding, end, deadline, workers, patch_faces)
     m = len(faces)
     # Faces that are degenerate in float32 are kept away from xatlas (they give NaNs)
     # and get a small chart of their own below.
-    area32 = _area(pos32.astype(np.float64), faces)
+    area32 = areas(pos32, faces)  # in float64, of the float32 positions
     good = np.flatnonzero(area32 > 0)
     if patch_faces is None or len(good) <= 2 * patch_faces:
         patches = [good] if len(good) else []
@@ -411,18 +394,18 @@ def _unwrap(vertices, faces, size, padding, end, deadline, workers, patch_faces)
             idx = idx.astype(np.int64)
             if idx.shape != (len(p), 3) or not np.isfinite(uv).all():
                 raise _XatlasFailed("xatlas returned bad UVs for a patch")
-            a_uv = _uv_area(uv, idx)
+            a_uv = uv_areas(uv, idx)
             if not a_uv.sum() > 0:
                 raise _XatlasFailed("xatlas returned UVs of zero area for a patch")
             keep = a_uv > 0
             lost.append(p[~keep])
             if keep.any():
-                scale = np.sqrt(_area(pos, faces[p]).sum() / a_uv.sum())
+                scale = np.sqrt(areas(pos, faces[p]).sum() / a_uv.sum())
                 meshes.append((p[keep], used[vmap.astype(np.int64)], uv * scale, idx[keep]))
         # Faces left out or collapsed to zero UV area: a chart each, about 2 texels wide.
         lost = np.concatenate(lost)
         if len(lost):
-            total = max(_area(pos, faces).sum(), 1e-30)
+            total = max(areas(pos, faces).sum(), 1e-30)
             texel = np.sqrt(total / 0.7) / size  # world units per texel, roughly
             flat = _flat_triangles(pos, faces[lost])
             flat *= (2 * texel / flat.max(axis=(1, 2)))[:, None, None]

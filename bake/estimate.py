@@ -33,9 +33,8 @@ bake at 1024^2, less at larger sizes, more than the bake itself below about 128^
 
 Texels on chart edges that a single sample hit show no spread; the ``spread`` method
 gives them the mean per-sample variance of the other partly covered texels. Both
-methods are statistical: the probe's estimate (1024 texels) scattered between seeds by
-4 % (standard deviation) on marble and 17 % on the checker's hard edges at 512^2. On the sweep (``texbake report``) both came within a factor 1.3 of the measured
-RMSE at 512^2 for marble, turbulence, checker and wood.
+methods are statistical: the probe's estimate scatters between seeds, most on hard edges
+such as the checker's (figures: README, Benchmarks).
 """
 
 from __future__ import annotations

@@ -25,6 +25,7 @@ import numpy as np
 
 from .errors import MeshError, ParameterError
 from .objfile import read_obj
+from .uvgeometry import areas
 
 FORMATS = {".obj": "obj", ".ply": "ply", ".stl": "stl", ".off": "off", ".gltf": "gltf", ".glb": "glb"}
 FLOAT32_MAX = float(np.finfo(np.float32).max)
@@ -375,8 +376,7 @@ def _validate(parts, name: str, where: str, sha256: str, max_faces: int) -> Load
     if np.abs(vertices).max() > FLOAT32_MAX:
         raise MeshError(where, f"coordinate {np.abs(vertices).max():.3g} is beyond float32 range")
 
-    tri = vertices[faces]
-    area2 = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    area2 = 2.0 * areas(vertices, faces)  # |e1 x e2|
     diag = float(np.linalg.norm(vertices.max(axis=0) - vertices.min(axis=0)))
     keep = area2 > 1e-30 * diag * diag
     if not keep.any():

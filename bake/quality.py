@@ -3,19 +3,18 @@
 One definition for the library (``bake_mesh(quality=...)``) and the command line
 (``--quality``). Chosen from ``texbake report`` (``bake.checks.sweep``) on
 suzanne_blender_uv.obj (63k faces) at 1024^2, whole bake with a pre-made atlas, RMSE in
-linear colour against a 256-sample point-sampled reference (2-core machine under load;
-times vary by 30 % or more):
+linear colour against a 256-sample point-sampled reference (figures: README, Benchmarks):
 
-=========  ==============================  =====================  =====================
-preset     settings                        marble                 checker
-=========  ==============================  =====================  =====================
-draft      1 sample, filtering, 5 octaves  0.45 s, RMSE 4.2e-3    0.45 s, RMSE 1.1e-2
-default    1 sample, filtering             0.48 s, RMSE 2.9e-4    0.44 s, RMSE 1.1e-2
-final      16 samples, point sampling      2.64 s, RMSE 2.1e-4    2.14 s, RMSE 8.5e-3
-=========  ==============================  =====================  =====================
+=========  ==============================
+preset     settings
+=========  ==============================
+draft      1 sample, filtering, 5 octaves
+default    1 sample, filtering
+final      16 samples, point sampling
+=========  ==============================
 
-(``scripts/run python bench/bench_error.py``, 2026-11-25.) At one sample a texel the
-texel lookup and fixed costs dominate, so the octave cap of ``draft`` saves little there (it pays off for specs with many octaves); ``final``
+At one sample a texel the texel lookup and fixed costs dominate, so the octave cap of
+``draft`` saves little there (it pays off for specs with many octaves); ``final``
 point-samples because footprint filtering with several samples blurs each sample by a
 whole texel (its error stays at that of one filtered sample), while point samples
 converge to the texel mean. float32 made no measurable difference in time or error.

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .uvgeometry import edges, uv_jacobian
+
 # Footprints are clamped to this many object-space units per texel (finite, never NaN).
 _MAX_FOOTPRINT = 1e30
 
@@ -57,20 +59,8 @@ class SurfaceMap:
     def __init__(self, vertices, faces, uv, uv_faces, width: int, height: int, normals: bool = False):
         vertices = np.asarray(vertices, dtype=np.float64)
         faces = np.asarray(faces, dtype=np.int64)
-        tri = vertices[faces]  # (m, 3, 3)
-        self._p0 = tri[:, 0]
-        self._e1 = tri[:, 1] - tri[:, 0]
-        self._e2 = tri[:, 2] - tri[:, 0]
-
-        t = np.asarray(uv, dtype=np.float64)[uv_faces]
-        d1 = t[:, 1] - t[:, 0]
-        d2 = t[:, 2] - t[:, 0]
-        det = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
-        ok = np.abs(det) > 0
-        inv_det = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)[:, None]
-        # dP/du and dP/dv from [e1 e2] = [dP/du dP/dv] [d1 d2]
-        dpdu = (self._e1 * d2[:, 1:2] - self._e2 * d1[:, 1:2]) * inv_det
-        dpdv = (self._e2 * d1[:, 0:1] - self._e1 * d2[:, 0:1]) * inv_det
+        self._p0, self._e1, self._e2 = edges(vertices, faces)
+        dpdu, dpdv, _ = uv_jacobian(vertices, faces, uv, uv_faces)
         # One texel right is du = 1/width; one texel down is dv = -1/height.
         self._dpdx = np.clip(dpdu / width, -_MAX_FOOTPRINT, _MAX_FOOTPRINT)
         self._dpdy = np.clip(-dpdv / height, -_MAX_FOOTPRINT, _MAX_FOOTPRINT)

@@ -1,7 +1,7 @@
 """Texel lookup: which atlas face lies under each texel sample, and where in it.
 
-The UV triangles are laid flat at z = 0 in an Embree scene and one vertical ray is cast
-per sample. Embree answers only the face; the barycentric coordinates are then solved
+The UV triangles are laid flat at z = 0 in an Embree scene (:class:`bake.rays.Scene`) and
+one vertical ray is cast per sample. Embree answers only the face; the barycentric coordinates are then solved
 in float64 from the sample's UV position, so that their precision does not depend on
 Embree's float32 arithmetic.
 
@@ -17,6 +17,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import ParameterError
+from .rays import Scene
+from .uvgeometry import uv_inverse
+
+_DOWN = np.array([0.0, 0.0, -1.0], dtype=np.float32)  # the direction of every lookup ray
 
 
 def sample_offsets(samples: int, seed: int = 0) -> np.ndarray:
@@ -77,34 +81,17 @@ class UVLookup:
     """
 
     def __init__(self, uv: np.ndarray, faces: np.ndarray):
-        from embreex import mesh_construction, rtcore_scene  # pip install embreex
-
         uv = np.asarray(uv, dtype=np.float64)
         faces = np.asarray(faces, dtype=np.int64)
         flat = np.zeros((len(uv), 3), dtype=np.float32)
         flat[:, :2] = uv
-        self._scene = rtcore_scene.EmbreeScene()
-        mesh_construction.TriangleMesh(self._scene, flat, faces.astype(np.int32))
+        self._scene = Scene(flat, faces, recentre=False)  # UVs in [0, 1]: cast as they are
 
         # Per-face inverse of the UV edge matrix, for float64 barycentrics.
-        t = uv[faces]  # (m, 3, 2)
-        e1 = t[:, 1] - t[:, 0]
-        e2 = t[:, 2] - t[:, 0]
-        det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-        ok = det != 0
-        inv_det = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
-        self._origin = t[:, 0]
-        # rows of inverse [[e1x e2x],[e1y e2y]]^-1
-        self._inv = np.stack(
-            [
-                np.stack([e2[:, 1], -e2[:, 0]], axis=1) * inv_det[:, None],
-                np.stack([-e1[:, 1], e1[:, 0]], axis=1) * inv_det[:, None],
-            ],
-            axis=1,
-        )  # (m, 2, 2)
+        self._origin, self._inv, ok = uv_inverse(uv, faces)  # (m, 2), (m, 2, 2), (m,)
         self.degenerate = ~ok
         self._any_degenerate = bool(self.degenerate.any())
-        self._down = np.zeros((0, 3), dtype=np.float32)  # ray directions, reused
+        t = uv[faces]  # (m, 3, 2)
         lo, hi = t.min(axis=1), t.max(axis=1)
         self._box = np.stack([lo[:, 0], hi[:, 0], 1.0 - hi[:, 1], 1.0 - lo[:, 1]], axis=1)[ok]
 
@@ -136,9 +123,7 @@ class UVLookup:
         origins = np.empty((n, 3), dtype=np.float32)
         origins[:, :2] = uv
         origins[:, 2] = 1.0
-        if len(self._down) < n:
-            self._down = np.tile(np.array([[0, 0, -1]], dtype=np.float32), (n, 1))
-        face = self._scene.run(origins, self._down[:n])
+        face = self._scene.first_face(origins, _DOWN)
         if self._any_degenerate and face.size:
             face[(face >= 0) & self.degenerate[np.maximum(face, 0)]] = -1
         return face

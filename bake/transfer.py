@@ -3,12 +3,16 @@
 From each target surface point, rays go along the normal both ways, at most ``distance``
 (the cage extrusion), against the source mesh; the nearer hit is where the texture is
 evaluated. Embree works in float32, so the source is re-centred and scaled to a unit
-box first and the hit point is rebuilt in float64 from the face and the ray distance.
+box first (:class:`bake.rays.Scene`), and the hit point is rebuilt in float64: the
+target point moved the ray distance along its normal (against it for the backward ray).
+The face hit is not used.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from .rays import Scene
 
 
 class SourceMesh:
@@ -18,15 +22,7 @@ class SourceMesh:
     """
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray):
-        from embreex import mesh_construction, rtcore_scene  # pip install embreex
-
-        vertices = np.asarray(vertices, dtype=np.float64)
-        lo, hi = vertices.min(axis=0), vertices.max(axis=0)
-        self._centre = 0.5 * (lo + hi)
-        self._scale = float(np.max(hi - lo)) or 1.0
-        local = ((vertices - self._centre) / self._scale).astype(np.float32)
-        self._scene = rtcore_scene.EmbreeScene()
-        mesh_construction.TriangleMesh(self._scene, local, np.asarray(faces, dtype=np.int32))
+        self._scene = Scene(vertices, faces)  # re-centred and scaled to a unit box for float32
 
     def project(self, points: np.ndarray, normals: np.ndarray, distance: float):
         """Nearest source hit along ``+normal`` or ``-normal`` within ``distance``.
@@ -35,18 +31,14 @@ class SourceMesh:
         target point itself is returned and ``hit`` is False.
         """
         n = len(points)
-        origins = ((points - self._centre) / self._scale).astype(np.float32)
-        reach = np.full(n, distance / self._scale, dtype=np.float32)
         best_t = np.full(n, np.inf)
         best_dir = np.zeros(n)
         for sign in (1.0, -1.0):
-            dirs = (sign * normals).astype(np.float32)
-            res = self._scene.run(origins, dirs, dists=reach.copy(), output=1)
-            t = np.where(res["primID"] >= 0, res["tfar"].astype(np.float64), np.inf)
+            _, t = self._scene.first_hit(points, sign * normals, max_distance=distance)
             better = t < best_t
             best_t[better] = t[better]
             best_dir[better] = sign
         hit = np.isfinite(best_t)
         out = points.copy()
-        out[hit] += (best_dir[hit] * best_t[hit] * self._scale)[:, None] * normals[hit]
+        out[hit] += (best_dir[hit] * best_t[hit])[:, None] * normals[hit]
         return out, hit

@@ -1,5 +1,10 @@
 """Solid textures and their evaluation, after pbrt's texture interface.
 
+The textures and their noise follow the procedural-texturing lecture (Brian Russin,
+"Procedural Texturing", module 3C of Johns Hopkins EP 605.767 Applied Computer Graphics;
+kept at ``../shared/reference/procedural-texturing-lecture.txt`` from the project folder),
+cited as "the lecture" everywhere else.
+
 ``evaluate(spec, points, footprint)`` takes object-space points and their texel
 footprints through the spec's :class:`~bake.textures.context.Placement` into texture
 space, points and differentials together, and the spec evaluates itself there with an

@@ -197,7 +197,12 @@ class Noise(_Texture, NoiseBasis):
 
 
 class Turbulence(_Texture, TurbulenceParams):
-    """Perlin's turbulence in [0, 1], octave count cut per texel by its footprint."""
+    """Perlin's turbulence in [0, 1], filtered by the texel footprint.
+
+    Each octave is shrunk towards its mean by the share a box filter over the footprint
+    keeps of it; octaves finer than 1/8 of the footprint are skipped (their mean added;
+    see ``noise.octave_kernel``).
+    """
 
     name: Literal["turbulence"] = "turbulence"
     colormap: ColourMap = ColourMap()
