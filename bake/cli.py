@@ -309,6 +309,8 @@ def report(
         _fail(str(exc))
     typer.echo(markdown(rows, info), nl=False)
     typer.echo(f"wrote {', '.join(str(p) for p in paths.values())}")
+    if "png" not in paths:
+        typer.echo("texbake: the plot error_vs_time.png needs matplotlib: pip install 'texbake[report]'", err=True)
 
 
 @app.command()

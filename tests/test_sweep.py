@@ -93,3 +93,15 @@ def test_bad_sweep_parameters_are_named(meshes):
         run_sweep(meshes / "suzanne.ply", "marble", settings=SETTINGS, repeats=0)
     with pytest.raises(ParameterError, match="settings"):
         run_sweep(meshes / "suzanne.ply", "marble", settings=[])
+
+
+def test_without_matplotlib_the_plot_is_left_out(swept, tmp_path, monkeypatch):
+    """The plot is the report extra's: without matplotlib the table files are still written."""
+    import importlib.util
+
+    rows, info = swept
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "matplotlib" else real(name, *a))
+    paths = write_all(rows, tmp_path, info)
+    assert set(paths) == {"csv", "md"} and all(p.exists() for p in paths.values())
+    assert not (tmp_path / "error_vs_time.png").exists()

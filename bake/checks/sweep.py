@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import importlib.util
 import io
 import math
 import statistics
@@ -304,11 +305,11 @@ def plot(rows: list[Row], path) -> Path:
 
 
 def write_all(rows: list[Row], folder, info: dict | None = None) -> dict[str, Path]:
-    """``error_vs_time.csv``, ``.png`` and ``.md`` in ``folder`` (made if missing)."""
+    """``error_vs_time.csv``, ``.md`` and, where matplotlib is installed (the ``report``
+    extra), ``.png`` in ``folder`` (made if missing)."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    return {
-        "csv": write_csv(rows, folder / "error_vs_time.csv"),
-        "png": plot(rows, folder / "error_vs_time.png"),
-        "md": write_markdown(rows, folder / "error_vs_time.md", info),
-    }
+    paths = {"csv": write_csv(rows, folder / "error_vs_time.csv"), "md": write_markdown(rows, folder / "error_vs_time.md", info)}
+    if importlib.util.find_spec("matplotlib") is not None:
+        paths["png"] = plot(rows, folder / "error_vs_time.png")
+    return paths
