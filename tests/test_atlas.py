@@ -1,17 +1,14 @@
 """UV atlas: reuse, unwrap, xatlas' hangs and crashes, and the parallel patch unwrap."""
 
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
 import trimesh
+from conftest import MESHES
 
 from bake.atlas import _grid_atlas, _run_xatlas_in_child, atlas_stats, make_atlas, uv_problem
 from bake.errors import AtlasError, ParameterError
-
-SHARED = Path(__file__).resolve().parents[1].parent / "shared"
-MESHES = SHARED / "meshes"
 
 
 def load(name):

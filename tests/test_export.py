@@ -16,13 +16,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from conftest import ROOT
 
 import bake
 from bake.errors import OutputError, ParameterError
 from bake.export import write_glb, write_obj
 from bake.imageio import encode_png_bytes, read_image, write_image
 
-ROOT = Path(__file__).resolve().parents[1]
 TOOLS = ROOT / "tools"
 
 

@@ -16,11 +16,9 @@ import zipfile
 
 import httpx
 import pytest
-from test_load import glb_with_accessor, glb_with_image_uri
+from conftest import ROOT, glb_with_accessor, glb_with_image_uri
 
 from bake.imageio import read_image
-
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def free_port() -> int:

@@ -8,7 +8,7 @@ import json
 import math
 
 import pytest
-from test_cli import texbake
+from conftest import texbake
 
 from bake.checks import stability
 from bake.cli import main
