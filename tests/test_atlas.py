@@ -186,9 +186,10 @@ def test_stats_of_an_isometric_layout():
     f = np.array([[0, 1, 2], [0, 2, 3]])
     uv = np.array([[0, 0], [0.5, 0], [0.5, 0.5], [0, 0.5]])
     s = atlas_stats(v, f, f, uv)
-    assert s["charts"] == 1 and abs(s["utilisation"] - 0.25) < 1e-12 and abs(s["stretch"] - 1) < 1e-12
+    # float64 round-off (measured 0 here and below)
+    assert s["charts"] == 1 and abs(s["utilisation"] - 0.25) < 1e-14 and abs(s["stretch"] - 1) < 1e-14
     assert atlas_stats(v, f, f, uv * [1, 0.5])["stretch"] > 1.05  # squashed
     # isometric shapes at two densities (1/4 and 1/8 UV units per unit): not uniform
     uv2 = np.array([[0, 0], [0.5, 0], [0.5, 0.5], [0.6, 0.6], [0.85, 0.85], [0.6, 0.85]])
     s = atlas_stats(v, f, np.array([[0, 1, 2], [3, 4, 5]]), uv2)
-    assert s["charts"] == 2 and abs(s["stretch"] - 1.25) < 1e-12
+    assert s["charts"] == 2 and abs(s["stretch"] - 1.25) < 1e-14
