@@ -14,6 +14,10 @@ SHARED = ROOT.parent / "shared"
 MESHES = SHARED / "meshes"
 
 
+def pytest_configure(config):
+    config.addinivalue_line("markers", "xatlas_failure: relies on a real xatlas failure (a hang or a crash a new xatlas may fix)")
+
+
 @pytest.fixture(scope="session")
 def meshes() -> Path:
     if not MESHES.is_dir():
