@@ -149,6 +149,8 @@ class _XatlasFailed(Exception):
 
 
 _ROOT = str(Path(__file__).resolve().parents[1])  # the folder that holds the package
+# The command that starts an xatlas worker (tests put in one that crashes or hangs).
+WORKER = [sys.executable, "-m", "bake._unwrap_worker"]
 
 
 class _Workers:
@@ -176,7 +178,7 @@ class _Workers:
         env = dict(os.environ)
         env["PYTHONPATH"] = os.pathsep.join(p for p in (_ROOT, env.get("PYTHONPATH")) if p)
         p = subprocess.Popen(
-            [sys.executable, "-m", "bake._unwrap_worker"],
+            list(WORKER),
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
             bufsize=0, env=env, cwd=self.tmp,
         )

@@ -1,19 +1,9 @@
 """The command line, run as a real process."""
 
 import json
-import os
-import subprocess
-import sys
 
 import pytest
-
-
-def texbake(*args, cwd=None, timeout=300):
-    env = {k: v for k, v in os.environ.items() if k != "COLUMNS"} | {"COLUMNS": "200"}
-    return subprocess.run(
-        [sys.executable, "-m", "bake.cli", *map(str, args)],
-        capture_output=True, text=True, timeout=timeout, cwd=cwd, env=env,
-    )
+from conftest import texbake
 
 
 def test_bake_writes_maps_mesh_and_report(meshes, tmp_path):

@@ -136,7 +136,7 @@ def test_data_and_srgb_inputs(tmp_path, name, bits):
 
 def test_srgb_functions_invert():
     x = np.linspace(0, 1, 1001)
-    assert np.abs(srgb_decode(srgb_encode(x)) - x).max() < 1e-12
+    assert np.abs(srgb_decode(srgb_encode(x)) - x).max() < 4e-15  # float64 round-off: measured 4.4e-16
 
 
 def test_non_finite_values(tmp_path):

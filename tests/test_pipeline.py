@@ -137,7 +137,8 @@ def test_lit_normal_and_frames(meshes, tmp_path):
     cov = result.coverage
     assert (result.images["lit"][cov] <= result.images["albedo"][cov] + 1e-6).all()  # ka + kd <= 1
     n = result.images["normal"][cov] * 2 - 1
-    assert np.allclose(np.linalg.norm(n, axis=1), 1, atol=1e-5) and (n[:, 2] > 0).all()
+    # unit normals, stored in a float32 image: measured 1.2e-7 off
+    assert np.allclose(np.linalg.norm(n, axis=1), 1, atol=1e-6) and (n[:, 2] > 0).all()
     frames = bake.bake_mesh(meshes / "suzanne.ply", "flame", size=32, frames=[0, 0.5, 1])
     assert frames.images["flipbook"].shape == (64, 64, 3)
     assert not np.allclose(frames.images["albedo_0000"], frames.images["albedo_0002"])
@@ -171,8 +172,9 @@ def test_filtering_precision_and_octave_cap_change_only_what_they_should(meshes)
     base = bake.bake_mesh(mesh, "marble", size=48, margin=0)
     cov = base.coverage
     f32 = bake.bake_mesh(mesh, "marble", size=48, margin=0, precision="float32")
-    # float32 points in unit space: rounding of ~6e-8 moves the colour far below one 8-bit level
-    assert np.abs(f32.images["albedo"][cov] - base.images["albedo"][cov]).max() < 1e-3
+    # float32 points in unit space: rounding of ~6e-8 times the texture's slope, far below
+    # one 8-bit level (measured 4.5e-7)
+    assert np.abs(f32.images["albedo"][cov] - base.images["albedo"][cov]).max() < 5e-6
     point = bake.bake_mesh(mesh, "marble", size=48, margin=0, filtering=False)
     capped = bake.bake_mesh(mesh, "marble", size=48, margin=0, filtering=False, max_octaves=2)
     assert not np.allclose(point.images["albedo"][cov], base.images["albedo"][cov])

@@ -1,5 +1,8 @@
 """The API in-process through FastAPI's TestClient (SQLite queue and jobs table in a
-temporary data folder; no worker runs, so jobs stay queued)."""
+temporary data folder; no worker runs, so jobs stay queued).
+
+Each test gets its own app on its own empty data folder, so no test sees another's jobs
+and every test passes alone and in any order."""
 
 import json
 
@@ -7,19 +10,19 @@ import pytest
 from fastapi.testclient import TestClient
 
 
-@pytest.fixture(scope="module")
-def client(tmp_path_factory):
-    data = tmp_path_factory.mktemp("data")
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("BAKE_DATA_DIR", str(data))
-        mp.setenv("BAKE_MAX_SIZE", "2048")
-        from service import settings, tasks
-        from service.main import create_app
+@pytest.fixture
+def client(tmp_path_factory, monkeypatch):
+    from service import settings, tasks
+    from service.main import create_app
 
-        settings.get_settings.cache_clear()
-        tasks.queue.cache_clear()  # its huey queue lives in this data folder
+    monkeypatch.setenv("BAKE_DATA_DIR", str(tmp_path_factory.mktemp("data")))
+    monkeypatch.setenv("BAKE_MAX_SIZE", "2048")
+    settings.get_settings.cache_clear()
+    tasks.queue.cache_clear()  # its huey queue lives in this data folder
+    try:
         with TestClient(create_app()) as c:
             yield c
+    finally:
         settings.get_settings.cache_clear()
         tasks.queue.cache_clear()
 
@@ -70,9 +73,10 @@ def test_not_json_settings_and_unknown_routes(client, meshes):
     assert client.get("/v2/anything").status_code == 404
 
 
-def test_readiness_checks_queue_and_database(client):
-    ready = client.get("/readyz").json()
-    assert ready["ok"] and ready["queue"] >= 1  # the jobs queued above, no worker to take them
+def test_readiness_checks_queue_and_database(client, meshes):
+    assert client.get("/readyz").json() == {"ok": True, "queue": 0}  # a new data folder
+    assert post(client, meshes / "suzanne.ply", {"texture": "wood"}).status_code == 202
+    assert client.get("/readyz").json() == {"ok": True, "queue": 1}  # no worker to take it
 
 
 def test_a_texture_naming_a_server_path_is_an_unknown_name(client, meshes, tmp_path):
@@ -80,14 +84,14 @@ def test_a_texture_naming_a_server_path_is_an_unknown_name(client, meshes, tmp_p
     a missing one and a made-up name get the same 422, before anything is queued."""
     spec = tmp_path / "secret.yaml"
     spec.write_text("name: wood\n")
-    before = client.get("/v1/jobs").json()["total"]
+    queued = post(client, meshes / "suzanne.ply", {"texture": "wood"}).json()["id"]  # one job, queued
     details = set()
     for text in (str(spec), str(tmp_path / "missing.yaml"), "/etc/hostname", "plaid"):
         r = post(client, meshes / "suzanne.ply", {"texture": text})
         assert r.status_code == 422, r.text
         details.add(r.json()["detail"].replace(repr(text), "TEXT"))
     assert len(details) == 1 and next(iter(details)).startswith("settings.texture: unknown texture TEXT"), details
-    assert client.get("/v1/jobs").json()["total"] == before
+    assert [j["id"] for j in client.get("/v1/jobs").json()["jobs"]] == [queued]  # nothing more queued
 
 
 def test_openapi_documents_the_settings_and_the_bearer_scheme(client):

@@ -15,12 +15,11 @@ import time
 import zipfile
 
 import httpx
+import numpy as np
 import pytest
-from test_load import glb_with_accessor, glb_with_image_uri
+from conftest import ROOT, glb_with_accessor, glb_with_image_uri
 
 from bake.imageio import read_image
-
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def free_port() -> int:
@@ -264,19 +263,29 @@ def test_twenty_concurrent_uploads(server, meshes):
         done.set()
         watcher.join()
     assert [j["state"] for j in jobs] == ["done"] * 20, [j["error"] for j in jobs]
-    # limits: uploads are streamed to disk (20 x 2.9 MB would show), /healthz answers in well under a second
+    # uploads are streamed to disk (20 x 2.9 MB would show)
     assert peak_rss - base_rss < 50e6, (base_rss, peak_rss)
-    assert max(health) < 1.0 and sorted(health)[len(health) // 2] < 0.1, (max(health), len(health))
+    # /healthz is answered on the event loop, never behind the uploads or the bakes. Seconds
+    # (median, 90th percentile, max): idle 0.03, 0.05, 0.27; with three other processes
+    # busy on the 2 cores 0.17, 0.33, 0.49 (and a max of 1.7 seen once). Bounds with margin
+    # for a loaded machine; a /healthz that waited for uploads or bakes would take seconds.
+    median, p90, worst = np.percentile(health, [50, 90, 100])
+    assert median < 0.5 and p90 < 1.5 and worst < 5.0, (median, p90, worst, len(health))
 
 
 def test_a_bake_over_its_memory_limit_or_deadline_fails_alone(tmp_path, meshes):
     port = free_port()
-    limits = {"BAKE_JOB_MEMORY_MB": "1500", "BAKE_JOB_SECONDS": "10"}
+    limits = {"BAKE_JOB_MEMORY_MB": "1500", "BAKE_JOB_SECONDS": "10", "BAKE_MAX_SIZE": "16384"}
     api = start(["serve", "--port", str(port), "--workers", "1"], tmp_path, limits, port=port)
     url = f"http://127.0.0.1:{port}"
     try:
-        big = wait(url, upload(url, meshes / "bunny.ply", {"size": 8192}).json()["id"], timeout=120)
-        assert big["state"] == "failed" and ("1500 MB memory limit" in big["error"] or "died" in big["error"]), big["error"]
+        # Over the memory limit at once, however loaded the machine: the duck's own UVs are
+        # kept (no unwrap), and its first 16384 x 16384 RGB float32 image is 3 GiB (measured:
+        # MemoryError 6 ms into the bake), far from the 10 s deadline.
+        big = wait(url, upload(url, meshes / "Duck.glb", {"size": 16384}).json()["id"], timeout=120)
+        assert big["state"] == "failed" and big["error"] == "the bake ran out of its 1500 MB memory limit", big["error"]
+        # Over the deadline: 64 samples of 2048 x 2048 take 76 s on an idle machine (and stay
+        # under 1500 MB), the deadline is 10 s.
         slow = wait(url, upload(url, meshes / "bunny.ply", {"size": 2048, "samples": 64}).json()["id"], timeout=120)
         assert slow["state"] == "failed" and slow["error"] == "the bake took longer than 10 s", slow["error"]
         small = wait(url, upload(url, meshes / "bunny.ply", {"size": 64}).json()["id"], timeout=120)

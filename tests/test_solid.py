@@ -32,8 +32,9 @@ def test_turbulence_stays_in_range(offset, width, octaves):
 def test_spline_passes_through_its_knots():
     knots = np.array([0.0, 0.3, 1.0])
     values = np.array([[0, 0, 0], [1, 0.5, 0], [0, 1, 1]], float)
-    assert np.allclose(spline(knots, knots, values), values)
-    assert np.allclose(spline(np.array([-5.0, 5.0]), knots, values), values[[0, 2]])
+    # at a knot the spline is that knot's value (measured: exactly)
+    assert np.allclose(spline(knots, knots, values), values, rtol=0, atol=1e-15)
+    assert np.allclose(spline(np.array([-5.0, 5.0]), knots, values), values[[0, 2]], rtol=0, atol=1e-15)
 
 
 def test_wood_at_the_axis_and_across_the_negative_axis():
@@ -66,9 +67,14 @@ def test_flame_shape():
 
 
 def test_flame_moves_with_time():
-    a = evaluate({"name": "flame", "time": 0.0}, RNG.random((200, 3)) * [0.6, 1, 0] - [0.3, 0, 0])
-    b = evaluate({"name": "flame", "time": 0.5}, RNG.random((200, 3)) * [0.6, 1, 0] - [0.3, 0, 0])
-    assert not np.allclose(a, b)
+    # At the same points: time moves the turbulence (visibly: measured max 0.34 over these
+    # points), the same time gives the same colours, and without turbulence time changes nothing.
+    p = RNG.random((200, 3)) * [0.6, 1, 0] - [0.3, 0, 0]
+    a = evaluate({"name": "flame", "time": 0.0}, p)
+    assert np.abs(evaluate({"name": "flame", "time": 0.5}, p) - a).max() > 0.1
+    assert np.array_equal(evaluate({"name": "flame", "time": 0.0}, p), a)
+    still = [evaluate({"name": "flame", "time": t, "turbulence_amount": 0.0}, p) for t in (0.0, 0.5)]
+    assert np.array_equal(still[0], still[1]) and still[0].any()
 
 
 @pytest.mark.parametrize("name", ["turbulence", "marble", "noise"])
@@ -81,7 +87,8 @@ def test_texture_moves_with_the_object(name):
     moved = p @ m[:3, :3].T + m[:3, 3]
     fp = RNG.random((1000, 2, 3)) * 1e-3
     fp_moved = fp @ m[:3, :3].T
-    assert np.abs(evaluate(spec, moved, fp_moved) - evaluate(name, p, fp)).max() < 1e-9
+    # float64 round-off of the transform times the field's slope: measured 1.2e-14 (marble)
+    assert np.abs(evaluate(spec, moved, fp_moved) - evaluate(name, p, fp)).max() < 1e-13
 
 
 @pytest.mark.parametrize("name", ["turbulence", "marble", "fbm"])
@@ -121,7 +128,7 @@ def test_object_space_field_moves_with_the_object_world_space_does_not():
     assert np.array_equal(world[0], obj[0]) and not np.allclose(world[0], world[1])
     # world space equals evaluating the plain field at the world points
     m = parse_spec({"name": "marble", "model": moved}).model.object_from_texture()
-    assert np.allclose(world[1], evaluate("marble", p @ m[:3, :3].T + m[:3, 3]))
+    assert np.allclose(world[1], evaluate("marble", p @ m[:3, :3].T + m[:3, 3]), rtol=0, atol=1e-13)  # measured 0
 
 
 VEC = st.tuples(*[st.floats(-5, 5)] * 3)
@@ -134,17 +141,20 @@ def test_property_object_and_field_move_together(name, scale, rotate, translate)
     spec = parse_spec({"name": name, "transform": t})
     m = spec.transform.object_from_texture()
     p = RNG.random((64, 3))
-    assert np.allclose(evaluate(spec, p @ m[:3, :3].T + m[:3, 3]), evaluate(name, p), atol=1e-9)
+    # round-off of the transform times the field's slope: measured at most 3.1e-14 over
+    # 300 random transforms (hypothesis seeks the extremes: a margin of 30)
+    assert np.allclose(evaluate(spec, p @ m[:3, :3].T + m[:3, 3]), evaluate(name, p), rtol=0, atol=1e-12)
 
 
 @settings(max_examples=40, deadline=None)
 @given(st.sampled_from(["noise", "turbulence", "fbm", "marble"]), VEC, st.integers(0, 2))
 def test_property_continuous(name, point, axis):
-    # a step of 1e-9 changes the colour by less than 1e-6 (no jumps anywhere)
+    # a step of 1e-9 changes the colour by its slope times 1e-9 (no jumps anywhere):
+    # measured at most 2.8e-8 (marble) over 600000 random steps
     p = np.array([point, point], dtype=float)
     p[1, axis] += 1e-9
     v = evaluate(name, p)
-    assert np.abs(v[0] - v[1]).max() < 1e-6
+    assert np.abs(v[0] - v[1]).max() < 1e-7
 
 
 def test_wood_at_the_axis_ignores_the_sign_of_zero():

@@ -1,19 +1,29 @@
 """The stability cases (bake/stability.py) as tests, and the ``texbake stability`` command.
 
 Every registered case is a test; slow ones carry the ``slow`` marker and are left out of
-the default run (``scripts/run pytest -q -m slow`` runs them).
+the default run (``scripts/run pytest -q -m slow`` runs them). The cases on real xatlas
+failures (``xatlas-*``: a hang on an infinite vertex, the crash on icosphere(6)) are left
+out of it too, marked ``slow`` and ``xatlas_failure``: test_atlas.py tests crashes and
+hangs with injected workers and keeps one test on a real failure.
 """
 
 import json
 import math
 
 import pytest
-from test_cli import texbake
+from conftest import texbake
 
 from bake.checks import stability
 from bake.cli import main
 
-CASES = [pytest.param(c, id=c.name, marks=[pytest.mark.slow] if c.slow else []) for c in stability.CASES.values()]
+
+def _marks(c: stability.Case) -> list:
+    if c.name.startswith("xatlas-"):
+        return [pytest.mark.slow, pytest.mark.xatlas_failure]
+    return [pytest.mark.slow] if c.slow else []
+
+
+CASES = [pytest.param(c, id=c.name, marks=_marks(c)) for c in stability.CASES.values()]
 
 
 @pytest.mark.parametrize("case", CASES)
