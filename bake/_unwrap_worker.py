@@ -1,38 +1,18 @@
-"""xatlas worker process: ``python -m bake._unwrap_worker`` serves jobs until stdin closes.
-
-It is started by :mod:`bake.atlas` as a fresh interpreter (not a fork, and not through
-multiprocessing, so the caller's ``__main__`` is never re-imported and it works from
-daemonic pool workers too). xatlas can hang or crash on bad input; here that only takes
-down this process, which the parent kills at its deadline or sees die.
-
-Protocol: the parent writes one line per job to stdin, the path of a file holding a
-pickled ``(kind, args)``; the worker answers on stdout with an 8-byte little-endian
-length and a pickled ``("ok", result)`` or ``("error", message)``. An empty line or EOF
-ends it. Only numpy, xatlas and :mod:`bake.uvgeometry` (numpy only) are imported.
+"""xatlas worker process: ``python -m bake._unwrap_worker`` serves the unwrap's jobs
+(``chart``, ``pack``) until stdin closes, a :mod:`bake.workers` worker started by
+:mod:`bake.atlas`. xatlas can hang or crash on bad input; here that only takes down this
+process, which the parent kills at its deadline or sees die. Only numpy, xatlas and two
+small modules of the package (:mod:`bake.uvgeometry`, :mod:`bake.workers`) are imported.
 """
 
 from __future__ import annotations
 
-import os
-import pickle
-import sys
 from collections.abc import Callable
 
 import numpy as np
 
 from .uvgeometry import uv_areas
-
-
-def _die_with_parent() -> None:
-    """Ask Linux to kill this process when the parent dies (a hung xatlas never returns)."""
-    try:
-        import ctypes
-        import signal
-
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG
-    except Exception:  # not Linux: the parent still kills it at the deadline
-        pass
+from .workers import serve
 
 
 def _square(atlas, uv: np.ndarray) -> np.ndarray:
@@ -113,22 +93,7 @@ JOBS: dict[str, Callable[..., object]] = {"chart": chart, "pack": pack}
 
 
 def main() -> None:
-    _die_with_parent()
-    out = sys.stdout.buffer
-    for line in sys.stdin:
-        path = line.strip()
-        if not path:
-            break
-        try:
-            with open(path, "rb") as f:
-                kind, args = pickle.load(f)
-            os.unlink(path)
-            reply = ("ok", JOBS[kind](*args))
-        except Exception as exc:  # reported to the parent, which decides
-            reply = ("error", f"{type(exc).__name__}: {exc}")
-        data = pickle.dumps(reply, protocol=pickle.HIGHEST_PROTOCOL)
-        out.write(len(data).to_bytes(8, "little") + data)
-        out.flush()
+    serve(JOBS)
 
 
 if __name__ == "__main__":

@@ -18,21 +18,15 @@ grid ("fallback-grid"); ``Atlas.reason`` says what failed.
 
 from __future__ import annotations
 
-import os
-import pickle
-import select
-import shutil
-import subprocess
 import sys
-import tempfile
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from .errors import AtlasError, ParameterError
 from .uvgeometry import areas, uv_areas, uv_jacobian
+from .workers import Pool
 
 MODES = ("auto", "unwrap", "keep")
 PATCH_FACES = 2000  # faces per patch of the parallel unwrap
@@ -148,132 +142,9 @@ class _XatlasFailed(Exception):
     pass
 
 
-_ROOT = str(Path(__file__).resolve().parents[1])  # the folder that holds the package
-# The command that starts an xatlas worker (tests put in one that crashes or hangs).
+# The command that starts an xatlas worker (``bake.workers`` protocol; tests put in one
+# that crashes or hangs).
 WORKER = [sys.executable, "-m", "bake._unwrap_worker"]
-
-
-class _Workers:
-    """Up to ``n`` xatlas worker processes sharing one wall-clock end (``time.monotonic``).
-
-    Started lazily, reused for every job of a :func:`make_atlas` call, and replaced when
-    one dies. Use as a context manager: leaving it ends them all (terminate, then kill).
-    """
-
-    def __init__(self, n: int, end: float):
-        self.n = max(1, n)
-        self.end = end
-        self.idle: list[subprocess.Popen] = []
-        self.all: list[subprocess.Popen] = []
-        self.tmp = tempfile.mkdtemp(prefix="texbake-xatlas-")
-        self.count = 0
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
-
-    def _start(self) -> subprocess.Popen:
-        env = dict(os.environ)
-        env["PYTHONPATH"] = os.pathsep.join(p for p in (_ROOT, env.get("PYTHONPATH")) if p)
-        p = subprocess.Popen(
-            list(WORKER),
-            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-            bufsize=0, env=env, cwd=self.tmp,
-        )
-        self.all.append(p)
-        return p
-
-    def _end(self, p: subprocess.Popen) -> int | None:
-        if p.poll() is None:
-            p.terminate()
-            try:
-                p.wait(0.5)
-            except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait()
-        for s in (p.stdin, p.stdout):
-            assert s is not None  # started with stdin and stdout pipes
-            try:
-                s.close()
-            except OSError:
-                pass
-        if p in self.idle:
-            self.idle.remove(p)
-        return p.returncode
-
-    def close(self) -> None:
-        for p in self.all:
-            if p.poll() is None and p.stdin and not p.stdin.closed:
-                try:  # polite end: an empty line
-                    p.stdin.write(b"\n")
-                    p.stdin.flush()
-                except OSError:
-                    pass
-        for p in self.all:
-            try:
-                p.wait(0.2)
-            except subprocess.TimeoutExpired:
-                pass
-            self._end(p)
-        self.all.clear()
-        shutil.rmtree(self.tmp, ignore_errors=True)
-
-    def run(self, jobs: list[tuple[str, tuple]]) -> list[tuple[bool, object]]:
-        """Run ``(kind, args)`` jobs; per job ``(True, result)`` or ``(False, why)``.
-
-        ``why`` is "timeout" for jobs not done at the end (then every worker is ended),
-        "exit code N" for a worker that died, or the child's exception message.
-        """
-        results: list = [None] * len(jobs)
-        pending = list(range(len(jobs)))[::-1]
-        busy: dict[int, tuple[subprocess.Popen, int, bytearray]] = {}  # fd -> proc, job, buffer
-        while pending or busy:
-            while pending and (self.idle or len(self.all) - sum(p.poll() is not None for p in self.all) < self.n):
-                p = self.idle.pop() if self.idle else self._start()
-                assert p.stdin is not None and p.stdout is not None  # started with pipes
-                i = pending.pop()
-                path = os.path.join(self.tmp, f"job{self.count}.pickle")
-                self.count += 1
-                with open(path, "wb") as f:
-                    pickle.dump(jobs[i], f, protocol=pickle.HIGHEST_PROTOCOL)
-                try:
-                    p.stdin.write(path.encode() + b"\n")  # a short line: never blocks
-                    p.stdin.flush()
-                except OSError:
-                    results[i] = (False, f"exit code {self._end(p)}")
-                    continue
-                busy[p.stdout.fileno()] = (p, i, bytearray())
-            if not busy:
-                continue
-            left = self.end - time.monotonic()
-            ready = select.select(list(busy), [], [], max(0.0, left))[0] if left > 0 else []
-            if not ready and time.monotonic() >= self.end:
-                for p, i, _ in busy.values():
-                    self._end(p)
-                    results[i] = (False, "timeout")
-                for i in pending:
-                    results[i] = (False, "timeout")
-                return results
-            for fd in ready:
-                p, i, buf = busy[fd]
-                data = os.read(fd, 1 << 22)
-                if not data:  # died (a segfault: negative exit code)
-                    del busy[fd]
-                    try:
-                        p.wait(1.0)
-                    except subprocess.TimeoutExpired:
-                        pass
-                    results[i] = (False, f"exit code {self._end(p)}")
-                    continue
-                buf += data
-                if len(buf) >= 8 and len(buf) >= 8 + int.from_bytes(buf[:8], "little"):
-                    del busy[fd]
-                    status, value = pickle.loads(bytes(buf[8:]))
-                    results[i] = (status == "ok", value)
-                    self.idle.append(p)
-        return results
 
 
 def _describe(why: str, deadline: float) -> str:
@@ -292,7 +163,7 @@ def _run_xatlas_in_child(positions: np.ndarray, faces: np.ndarray, deadline: flo
     done, dead, or past ``deadline`` seconds (then it is killed).
     """
     start = time.monotonic()
-    with _Workers(1, start + deadline) as workers:
+    with Pool(WORKER, 1, start + deadline) as workers:
         ((ok, value),) = workers.run([("chart", (np.asarray(positions, np.float32), np.asarray(faces, np.uint32),
                                                  CHART_ITERATIONS))])
         if not ok:
@@ -380,7 +251,7 @@ def _unwrap(vertices, faces, size, padding, end, deadline, workers, patch_faces)
         used_of.append(used)
         jobs.append(("chart", (pos32[used], local.reshape(-1, 3).astype(np.uint32), CHART_ITERATIONS)))
 
-    with _Workers(min(workers, max(1, len(jobs))), end) as pool:
+    with Pool(WORKER, min(workers, max(1, len(jobs))), end) as pool:
         done = pool.run(jobs)
         for (ok, value), p in zip(done, patches, strict=True):
             if not ok:
