@@ -60,16 +60,18 @@ def worker(workers: int | None = typer.Option(None, help="bakes at a time (defau
 
     try:
         from .settings import get_settings
-        from .tasks import hand_back, queue, reap_forever
+        from .tasks import hand_back, prestart, queue, reap_forever
     except ImportError as exc:
         _need_service_extra(exc)
 
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
     settings = get_settings()
+    count = workers or settings.workers
+    prestart(count)  # the first jobs find their bake processes warm
     stop = threading.Event()
     threading.Thread(target=reap_forever, args=(stop,), daemon=True).start()  # re-queue dead workers' jobs
     try:  # threads are enough: each bake runs in its own child process
-        queue().huey.create_consumer(workers=workers or settings.workers, worker_type="thread", periodic=True,
+        queue().huey.create_consumer(workers=count, worker_type="thread", periodic=True,
                              graceful_signal="TERM", shutdown_timeout=settings.stop_seconds).run()
     finally:
         stop.set()

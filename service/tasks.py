@@ -9,11 +9,12 @@ deadline and a memory limit (a hang or a crash in native code fails that job onl
 the job's heartbeat meanwhile, stops the child when the job is cancelled, and moves the
 outputs into place only when the bake is complete.
 
-Each worker thread keeps one bake process, a ``bake.workers.Worker`` running
-``service.bakejob``: started once, then reused from job to job (a fresh interpreter spends
-about 1.5 s importing the baking core and loading the compiled kernels). A bake that is
-cancelled, runs out of time or crashes takes its process with it; the next job gets a new
-one. After ``JOBS_PER_PROCESS`` jobs the process is replaced anyway.
+Bakes run in bake processes, ``bake.workers.Worker``s running ``service.bakejob``: started
+when the worker starts (:func:`prestart`, one per worker thread), then reused from job to
+job (a fresh interpreter spends about 1.5 s importing the baking core and loading the
+compiled kernels). A bake that is cancelled, runs out of time or crashes takes its
+process with it; the next job gets a new one. After ``JOBS_PER_PROCESS`` jobs the process
+is replaced anyway.
 """
 
 from __future__ import annotations
@@ -60,33 +61,45 @@ def enqueue_bake(job_id: str) -> None:
     queue().bake(job_id)
 
 
-_local = threading.local()  # each worker thread's bake process (a bake.workers.Worker)
+_idle: list[Worker] = []  # bake processes started and waiting for a job
+_idle_lock = threading.Lock()
 _running: dict[str, int] = {}  # job id -> pid of the bake process baking it (this worker's)
 JOBS_PER_PROCESS = 50  # then a fresh process: no memory creeps from job to job
 
 
-def _bake_process(s: Settings) -> Worker:
-    """This worker thread's bake process: started once (the baking core imported, the
-    kernels loaded), kept for the next jobs, replaced when it died or after
-    ``JOBS_PER_PROCESS`` jobs."""
-    worker = getattr(_local, "worker", None)
-    if worker is not None and (worker.process.poll() is not None or worker.jobs >= JOBS_PER_PROCESS):
+def _new_bake_process(s: Settings) -> Worker:
+    folder = s.data_dir / "workers"
+    folder.mkdir(parents=True, exist_ok=True)
+    # its stderr is the worker's: tracebacks of bugs land in the worker's log
+    return Worker([sys.executable, "-m", "service.bakejob", str(s.job_memory_mb)], str(folder), stderr=None)
+
+
+def prestart(count: int) -> None:
+    """Start ``count`` bake processes now, so that the first jobs find them warm."""
+    s = get_settings()
+    started = [_new_bake_process(s) for _ in range(count)]
+    with _idle_lock:
+        _idle.extend(started)
+
+
+def _take_bake_process(s: Settings) -> Worker:
+    """A warm bake process (the baking core imported, the kernels loaded) from those
+    waiting, or a new one; one that died or has done ``JOBS_PER_PROCESS`` jobs is ended."""
+    while True:
+        with _idle_lock:
+            worker = _idle.pop() if _idle else None
+        if worker is None:
+            return _new_bake_process(s)
+        if worker.process.poll() is None and worker.jobs < JOBS_PER_PROCESS:
+            return worker
         worker.end(polite=True)
-        worker = None
-    if worker is None:
-        folder = s.data_dir / "workers"
-        folder.mkdir(parents=True, exist_ok=True)
-        # its stderr is the worker's: tracebacks of bugs land in the worker's log
-        worker = Worker([sys.executable, "-m", "service.bakejob", str(s.job_memory_mb)], str(folder), stderr=None)
-        _local.worker = worker
-    return worker
 
 
-def _drop_bake_process() -> None:
-    """End this thread's bake process (a bake to abandon, or a process that died)."""
-    worker, _local.worker = getattr(_local, "worker", None), None
-    if worker is not None:
-        worker.end()
+def _give_back(worker: Worker) -> None:
+    """Keep a bake process that is still alive for the next job."""
+    if worker.process.poll() is None:
+        with _idle_lock:
+            _idle.append(worker)
 
 
 def _progress(folder: Path) -> float | None:
@@ -108,12 +121,13 @@ def run_bake(job_id: str) -> str:
     folder = s.job_dir(job_id)
     shutil.rmtree(folder / "out.tmp", ignore_errors=True)
     (folder / "progress").unlink(missing_ok=True)
-    worker = _bake_process(s)
+    worker = _take_bake_process(s)
     _running[job_id] = worker.pid
     try:
         return _supervise(job_id, folder, worker)
     finally:
         _running.pop(job_id, None)
+        _give_back(worker)
 
 
 def _supervise(job_id: str, folder: Path, worker: Worker) -> str:
@@ -130,7 +144,7 @@ def _supervise(job_id: str, folder: Path, worker: Worker) -> str:
                 state = db.beat(session, job_id, progress=_progress(folder))
             if state != "running" or time.monotonic() > end:
                 error = f"the bake took longer than {s.job_seconds:g} s"
-                _drop_bake_process()
+                worker.end()  # the bake is abandoned with its process
                 break
     if reply is not None:
         ok, value = reply
@@ -138,7 +152,6 @@ def _supervise(job_id: str, folder: Path, worker: Worker) -> str:
             error = None if value is None else str(value)
         elif str(value).startswith("exit code"):  # the bake's process died: a crash in native code, or killed
             error = f"the bake's process died without a word (a crash in native code, or killed; {value})"
-            _drop_bake_process()
         else:
             error = f"internal error: {value}"
     with Session() as session:
