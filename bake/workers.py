@@ -29,6 +29,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 _ROOT = str(Path(__file__).resolve().parents[1])  # the folder that holds the package
+_PARENTS_SIGNALS = {signal.SIGINT, signal.SIGTERM}  # a worker leaves them to its parent
 
 
 def die_with_parent() -> None:
@@ -42,8 +43,15 @@ def die_with_parent() -> None:
 
 
 def serve(jobs: dict[str, Callable[..., object]]) -> None:
-    """The worker's side: answer jobs ``kind -> function`` until an empty line or EOF."""
+    """The worker's side: answer jobs ``kind -> function`` until an empty line or EOF.
+
+    SIGINT and SIGTERM are ignored: sent to the whole process group (Ctrl-C, systemd's
+    stop), they are the parent's to act on; it kills its workers, or they die with it.
+    """
     die_with_parent()
+    for signum in _PARENTS_SIGNALS:
+        signal.signal(signum, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _PARENTS_SIGNALS)  # blocked since the start: see Worker
     out = sys.stdout.buffer
     sys.stdout = sys.stderr  # whatever a job prints must not corrupt the replies
     for line in sys.stdin:
@@ -70,8 +78,15 @@ class Worker:
         env = dict(os.environ)
         env["PYTHONPATH"] = os.pathsep.join(p for p in (_ROOT, env.get("PYTHONPATH")) if p)
         self.folder = folder
-        self.process = subprocess.Popen(list(command), stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=stderr,
-                                        bufsize=0, env=env, cwd=folder)
+        # The child starts with SIGINT and SIGTERM blocked (a thread's signal mask survives
+        # fork and exec) until serve() ignores them: a group signal during its imports waits
+        # and is then dropped, instead of killing it. The parent thread's mask is restored.
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, _PARENTS_SIGNALS)
+        try:
+            self.process = subprocess.Popen(list(command), stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=stderr,
+                                            bufsize=0, env=env, cwd=folder)
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         self.jobs = 0  # sent so far
         self._buffer: bytearray | None = None  # the reply being read; None: idle
 

@@ -1,8 +1,7 @@
 """A service bake process: ``python -m service.bakejob MEMORY_MB`` serves bakes, one job
 after another (``bake.workers`` protocol), with the baking core imported once.
 
-:func:`setup` caps the process's address space and leaves Ctrl-C to the worker;
-:func:`run` reads ``JOB_DIR/job.json`` (mesh file name and bake settings), bakes into
+:func:`setup` caps the process's address space; :func:`run` reads ``JOB_DIR/job.json`` (mesh file name and bake settings), bakes into
 ``JOB_DIR/out.tmp`` and returns None, or the reason the bake failed.
 """
 
@@ -11,7 +10,6 @@ from __future__ import annotations
 import json
 import os
 import resource
-import signal
 import sys
 import threading
 import traceback
@@ -25,13 +23,11 @@ _memory_mb = 0  # this process's address-space limit, set by setup()
 
 
 def setup(memory_mb: int) -> None:
-    """Cap the address space at ``memory_mb``, and leave Ctrl-C to the worker (it reaches
-    the whole process group; the worker decides what becomes of the bake)."""
+    """Cap the address space at ``memory_mb``."""
     global _memory_mb
     _memory_mb = memory_mb
     limit = memory_mb * 1024 * 1024
     resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _write_progress(fraction: float) -> None:

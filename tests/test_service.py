@@ -29,7 +29,8 @@ def free_port() -> int:
 
 
 def start(args, data, extra_env=None, port=None):
-    env = {**os.environ, "BAKE_DATA_DIR": str(data), "BAKE_HEARTBEAT_SECONDS": "0.5", "BAKE_STALE_SECONDS": "5", **(extra_env or {})}
+    env = {**os.environ, "BAKE_DATA_DIR": str(data), "BAKE_HEARTBEAT_SECONDS": "0.5", "BAKE_STALE_SECONDS": "5",
+           "BAKE_STOP_SECONDS": "2", **(extra_env or {})}
     log = open(data / f"{args[0]}-{time.monotonic_ns()}.log", "wb")
     proc = subprocess.Popen([sys.executable, "-m", "bake.cli", *args], cwd=ROOT, env=env, start_new_session=True, stdout=log, stderr=subprocess.STDOUT)
     proc.log = log
@@ -316,6 +317,15 @@ def test_api_keys(tmp_path, meshes):
         stop(api)
 
 
+def finish_on_another_worker(url, data, job_id):
+    """Start a worker of its own on the data folder, wait for the job to end, stop the worker."""
+    replacement = start(["worker", "--workers", "1"], data)
+    try:
+        return wait(url, job_id, timeout=180)
+    finally:
+        stop(replacement)
+
+
 def test_killed_worker_job_is_requeued_and_done_once(tmp_path, meshes):
     data = tmp_path
     port = free_port()
@@ -329,11 +339,7 @@ def test_killed_worker_job_is_requeued_and_done_once(tmp_path, meshes):
         assert pool, "no worker process"
         os.kill(pool[0]["pid"], signal.SIGKILL)
         time.sleep(0.5)
-        replacement = start(["worker", "--workers", "1"], data)  # another worker takes over
-        try:
-            job = wait(url, job_id, timeout=180)
-        finally:
-            stop(replacement)
+        job = finish_on_another_worker(url, data, job_id)
         assert job["state"] == "done" and job["attempts"] == 2, job
     finally:
         stop(api)
@@ -358,11 +364,7 @@ def test_stopped_worker_hands_its_bake_back(tmp_path, meshes):
         assert job["state"] == "queued" and job["attempts"] == 0, job
         with open(worker.log.name) as log:
             assert "handed 1 running jobs back" in log.read()
-        replacement = start(["worker", "--workers", "1"], data)
-        try:
-            job = wait(url, job_id, timeout=180)
-        finally:
-            stop(replacement)
+        job = finish_on_another_worker(url, data, job_id)
         assert job["state"] == "done" and job["attempts"] == 1, job
     finally:
         stop(worker)
@@ -370,15 +372,22 @@ def test_stopped_worker_hands_its_bake_back(tmp_path, meshes):
 
 
 def test_restart_loses_no_queued_job(tmp_path, meshes):
+    """SIGTERM to the whole process group (systemd's stop, Ctrl-C's kind) while a bake
+    runs: the bake is handed back, not killed with the group, and queued jobs wait."""
     data = tmp_path
     port = free_port()
     api = start(["serve", "--port", str(port), "--workers", "1"], data, port=port)
     url = f"http://127.0.0.1:{port}"
-    ids = [upload(url, meshes / name, {"size": 128}).json()["id"] for name in ("suzanne.ply", "fandisk.obj", "ico4uv.obj")]
-    stop(api)  # with jobs still queued (or running)
+    ids = [upload(url, meshes / "bunny.ply", {"size": 2048, "samples": 4})] + [
+        upload(url, meshes / name, {"size": 128}) for name in ("suzanne.ply", "fandisk.obj", "ico4uv.obj")]
+    ids = [r.json()["id"] for r in ids]
+    wait(url, ids[0], states=("running",), timeout=60)
+    stop(api)  # the group: API, worker and bake process
     api = start(["serve", "--port", str(port), "--workers", "2"], data, port=port)
     try:
-        assert [wait(url, i, timeout=120)["state"] for i in ids] == ["done"] * 3
+        jobs = [wait(url, i, timeout=240) for i in ids]
+        assert [j["state"] for j in jobs] == ["done"] * 4, [j["error"] for j in jobs]
+        assert jobs[0]["attempts"] == 1, jobs[0]  # handed back uncounted
     finally:
         stop(api)
 
