@@ -32,9 +32,6 @@ class EvalContext:
             return None
         return np.sqrt(np.maximum(np.einsum("ij,ij->i", self.dpdx, self.dpdx), np.einsum("ij,ij->i", self.dpdy, self.dpdy)))
 
-    def point_sampled(self) -> EvalContext:
-        return EvalContext(None, None, self.bounds, self.max_octaves)
-
 
 @dataclass(frozen=True)
 class Placement:

@@ -16,8 +16,6 @@ import numpy as np
 
 from .context import EvalContext
 
-TEXTURE_SPACES = ("unit", "object")
-
 
 @dataclass(frozen=True)
 class TextureMapping:
