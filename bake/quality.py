@@ -25,7 +25,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 
-
 @dataclass(frozen=True)
 class Quality:
     """Settings a preset fixes (see ``bake_mesh`` for what each means)."""
