@@ -27,6 +27,7 @@ from .atlas import make_atlas
 from .errors import ParameterError
 from .load import LoadedMesh, load_mesh, mesh_from_trimesh
 from .maps import Maps
+from .normals import split_normals
 from .report import bake_report
 from .samples import Sampler
 from .settings import BakeSettings
@@ -42,6 +43,7 @@ class BakedMesh:
     faces: np.ndarray  # (m, 3) int64
     uv: np.ndarray  # (k, 2) float64, v up
     name: str
+    normals: np.ndarray | None = None  # (k, 3) float64 unit shading normals, split at hard edges
 
 
 @dataclass
@@ -166,11 +168,13 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
     if settings.frames is not None:
         images["flipbook"] = flipbook([images[name] for name in maps.colours])
 
+    with timer.stage("normals"):
+        source_vertex, faces, normals = split_normals(mesh.vertices[atlas.vmapping], atlas.faces)
     counts = {"cast": int(cast), "transfer_missed": int(transfer_missed), "hits": int(maps.hits.sum(dtype=np.int64))}
     source_info = None if src is None else {"path": src.path, "sha256": src.sha256, "faces": int(len(src.faces)), "cage": reach}
     report = bake_report(mesh, (lo, hi), source_info, settings, quality, atlas, covered, filled, counts, error_estimate,
                          timer.seconds)
-    baked = BakedMesh(mesh.vertices[atlas.vmapping], atlas.faces, atlas.uv, mesh.name)
+    baked = BakedMesh(mesh.vertices[atlas.vmapping][source_vertex], faces, atlas.uv[source_vertex], mesh.name, normals)
     report_progress(1.0)
     return BakeResult(images, covered, filled, baked, report, settings)
 

@@ -50,9 +50,9 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
         texture = folder / f"{colour}_gltf.png"
         written[f"{colour}_gltf"] = write_image(texture, result.images[colour])
     m = result.mesh
-    written["glb"] = write_glb(folder / f"{m.name}.glb", m.vertices, m.faces, m.uv, texture, name=m.name)
+    written["glb"] = write_glb(folder / f"{m.name}.glb", m.vertices, m.faces, m.uv, texture, normals=m.normals, name=m.name)
     if obj:
-        written["obj"] = write_obj(folder / f"{m.name}.obj", m.vertices, m.faces, m.uv, texture.name)
+        written["obj"] = write_obj(folder / f"{m.name}.obj", m.vertices, m.faces, m.uv, texture.name, normals=m.normals)
 
     report = dict(result.report)
     report["seconds"] = {**report.get("seconds", {}), "write": round(time.perf_counter() - start, 4)}

@@ -262,3 +262,19 @@ def test_missing_validator_fails_under_ci_and_skips_elsewhere(monkeypatch, tmp_p
     monkeypatch.delenv("CI")
     with pytest.raises(pytest.skip.Exception, match="npm ci"):
         validate(tmp_path / "x.glb")
+
+
+def test_a_baked_glb_has_shading_normals_and_validates(meshes, tmp_path):
+    """Every output GLB carries normals (split at hard edges), unit length; 0 validator issues."""
+    import bake
+
+    result = bake.bake_mesh(meshes / "fandisk.obj", "checker", size=64, margin=2)  # a CAD part with hard edges
+    result.save(tmp_path)
+    doc, binary = glb_parts(tmp_path / "fandisk.glb")
+    attributes = doc["meshes"][0]["primitives"][0]["attributes"]
+    assert "NORMAL" in attributes
+    m = result.mesh
+    assert m.normals is not None and m.normals.shape == m.vertices.shape
+    assert np.abs(np.linalg.norm(m.normals, axis=1) - 1).max() < 1e-12
+    report = assert_valid(tmp_path / "fandisk.glb")
+    assert report["issues"]["numWarnings"] == 0, report["issues"]["messages"]
