@@ -62,6 +62,10 @@ class LoadedMesh:
         The file as given, or ``"<mesh>"``.
     removed_degenerate : int
         How many zero-area faces were removed.
+    removed_duplicate : int
+        How many faces were removed because an earlier face has the same corners (position
+        and UV, after welding) in the same winding: a face doubled. A flipped copy is a
+        back face, and a copy with other UVs is mapped twice: both stay.
     sha256 : str
         Hex digest of the file's bytes, or of the arrays of an in-memory mesh.
     """
@@ -73,6 +77,7 @@ class LoadedMesh:
     path: str
     removed_degenerate: int
     sha256: str
+    removed_duplicate: int = 0
 
 
 def load_mesh(path, *, max_faces: int = 5_000_000) -> LoadedMesh:
@@ -381,4 +386,16 @@ def _validate(parts, name: str, where: str, sha256: str, max_faces: int) -> Load
     keep = area2 > 1e-30 * diag * diag
     if not keep.any():
         raise MeshError(where, f"all {len(faces)} faces are degenerate (zero area at the scale of the bounding-box diagonal {diag:.3g})")
-    return LoadedMesh(vertices, faces[keep], uv, name, where, int((~keep).sum()), sha256)
+    faces, duplicates = _without_duplicates(faces[keep])
+    return LoadedMesh(vertices, faces, uv, name, where, int((~keep).sum()), sha256, duplicates)
+
+
+def _without_duplicates(faces: np.ndarray) -> tuple[np.ndarray, int]:
+    """``faces`` (of welded vertices) without those that repeat an earlier face's corners in
+    the same winding, and how many went: a doubled face takes atlas space twice and splits charts."""
+    start = np.argmin(faces, axis=1)  # each face rotated to start at its smallest corner
+    corners = np.take_along_axis(faces, (start[:, None] + np.arange(3)) % 3, axis=1)
+    _, first = np.unique(corners, axis=0, return_index=True)
+    if len(first) == len(faces):
+        return faces, 0
+    return faces[np.sort(first)], len(faces) - len(first)

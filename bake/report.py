@@ -58,6 +58,7 @@ def bake_report(mesh, bounds, source: dict | None, settings, quality, atlas, cov
             "vertices": int(len(mesh.vertices)),
             "faces": int(len(mesh.faces)),
             "degenerate_faces_removed": int(mesh.removed_degenerate),
+            "duplicate_faces_removed": int(mesh.removed_duplicate),
             "bounds": [lo.tolist(), hi.tolist()],
         },
         "source": source,

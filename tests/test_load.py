@@ -43,7 +43,7 @@ REAL = {
 def test_real_meshes_load(meshes, name):
     faces, has_uv = REAL[name]
     m = load_mesh(meshes / name)
-    assert len(m.faces) + m.removed_degenerate == faces
+    assert len(m.faces) + m.removed_degenerate + m.removed_duplicate == faces
     assert (m.uv is not None) == has_uv
     assert m.vertices.dtype == np.float64 and m.faces.dtype == np.int64
     assert m.faces.max() < len(m.vertices) and np.isfinite(m.vertices).all()
@@ -132,7 +132,7 @@ def test_scene_parts_are_joined_and_uvs_kept_only_if_all_have_them():
     cloud = trimesh.PointCloud(np.random.default_rng(0).random((5, 3)))
     both = trimesh.Scene([a, b.copy(), cloud])
     m = mesh_from_trimesh(both)
-    assert len(m.faces) == 24 and m.uv is None
+    assert len(m.faces) == 12 and m.removed_duplicate == 12 and m.uv is None  # b lies exactly on a
     b.visual = trimesh.visual.TextureVisuals(uv=np.ones((len(b.vertices), 2)))
     m = mesh_from_trimesh(trimesh.Scene([a, b]))
     assert m.uv is not None and len(m.uv) == len(m.vertices)
@@ -354,3 +354,17 @@ def test_missing_file_and_face_limit(meshes, tmp_path):
         load_mesh(tmp_path / "nothing.obj")
     with pytest.raises(MeshError, match="16301 faces is more than the limit of 1000"):
         load_mesh(meshes / "bunny.ply", max_faces=1000)
+
+
+def test_duplicate_faces_removed_and_counted(tmp_path):
+    """Every face doubled (the copy's corners rotated): one of each stays, the rest are
+    counted; a flipped copy is a back face and stays."""
+    s = trimesh.creation.icosphere(2)
+    faces = np.concatenate([s.faces, np.roll(s.faces, 1, axis=1), s.faces[:8, ::-1]])
+    path = tmp_path / "doubled.ply"
+    trimesh.Trimesh(s.vertices, faces, process=False).export(path)
+    mesh = load_mesh(path)
+    assert len(mesh.faces) == len(s.faces) + 8 and mesh.removed_duplicate == len(s.faces)
+    assert np.array_equal(mesh.faces[: len(s.faces)], s.faces) and np.array_equal(mesh.faces[len(s.faces):], s.faces[:8, ::-1])
+    trimesh.Trimesh(s.vertices, s.faces, process=False).export(tmp_path / "single.ply")
+    assert load_mesh(tmp_path / "single.ply").removed_duplicate == 0
