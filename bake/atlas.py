@@ -25,10 +25,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import AtlasError, ParameterError
+from .uvcoverage import overlap
 from .uvgeometry import areas, uv_areas, uv_jacobian
 from .workers import Pool
 
 MODES = ("auto", "unwrap", "keep")
+OVERLAP_LIMIT = 0.01  # a mesh's UVs under which more of the covered texels overlap are not kept
+OVERLAP_GRID = 2048  # overlap is measured on the bake's texel grid, at most this fine
 PATCH_FACES = 2000  # faces per patch of the parallel unwrap
 CHART_ITERATIONS = 1  # xatlas ChartOptions.max_iterations: half the time of 4, same quality here
 UV_EPS = 1e-6  # tolerance of the unit-square test of UVs
@@ -47,7 +50,8 @@ class Atlas:
     uv: np.ndarray  # (k, 2) float64 in [0, 1], OpenGL convention (v up)
     method: str  # "kept" | "xatlas" | "xatlas-patches" | "fallback-grid"
     reason: str  # why this method (and what failed before it)
-    stats: dict = field(default_factory=dict)  # charts, utilisation, stretch, seconds
+    stats: dict = field(default_factory=dict)  # charts, utilisation, stretch, overlap, seconds
+    warnings: list[str] = field(default_factory=list)  # what a user should know of this atlas
 
 
 # -- checks and statistics ---------------------------------------------------------
@@ -339,13 +343,20 @@ def make_atlas(
     """A UV atlas for ``(n, 3)`` float64 vertices and ``(m, 3)`` int faces.
 
     ``uv``: ``(n, 2)`` per-vertex UVs or None. ``mode``: "auto" keeps usable UVs (see
-    :func:`uv_problem`) and unwraps otherwise, "unwrap" always unwraps, "keep" requires
-    usable UVs (:class:`AtlasError` otherwise). ``size`` (texels of the square texture)
+    :func:`uv_problem`) that do not overlap (more than ``OVERLAP_LIMIT`` of the covered
+    texel centres under two or more faces, measured on the bake's grid) and unwraps
+    otherwise, saying why; "unwrap" always unwraps; "keep" requires usable UVs
+    (:class:`AtlasError` otherwise) and keeps overlapping ones with a warning. ``size`` (texels of the square texture)
     and ``padding`` (texels between charts) set xatlas' packing; ``deadline`` bounds the
     wall time of all xatlas work, in ``workers`` processes. Meshes of more than
     ``2 * PATCH_FACES`` faces are charted in patches in parallel (``_patch_faces=None``:
     in one piece, for tests). If xatlas fails the result is a "fallback-grid" atlas and
-    ``reason`` says what failed. ``stats``: see :func:`atlas_stats`, plus ``seconds``.
+    ``reason`` says what failed. ``stats``: see :func:`atlas_stats`, plus ``overlap`` (the
+    share of covered texels under two or more faces) and ``seconds``. ``warnings``: what a
+    user should know (overlapping UVs kept, the fallback grid).
+
+    Long because it is the atlas stage's decision list (keep, unwrap whole, unwrap in
+    patches, fall back), each step depending on why the one before failed.
     """
     start = time.perf_counter()
     if mode not in MODES:
@@ -371,18 +382,27 @@ def make_atlas(
 
     def stats_of(vm, fa, u):
         s = atlas_stats(vertices, faces, fa, u)
+        s["overlap"], _ = overlap(u, fa, min(size, OVERLAP_GRID))
         s["seconds"] = time.perf_counter() - start
         return s
 
     if mode != "unwrap":
         problem = uv_problem(vertices, faces, uv)
-        if problem is None:
+        overlapping = None
+        if problem is None:  # inside the tile and not degenerate: do faces share texels?
+            share, most = overlap(np.asarray(uv, dtype=np.float64), faces, min(size, OVERLAP_GRID))
+            if share > OVERLAP_LIMIT:
+                overlapping = (f"the mesh's UVs overlap: {share:.1%} of the covered texels lie under two or more "
+                               f"faces (up to {most})")
+        if problem is None and (overlapping is None or mode == "keep"):
             uv = np.asarray(uv, dtype=np.float64)
             vm = np.arange(len(vertices), dtype=np.int64)
-            return Atlas(vm, faces, uv, "kept", "the mesh's UVs are usable", stats_of(vm, faces, uv))
+            reason = "the mesh's UVs are usable" if overlapping is None else "uv='keep'"
+            warnings = [] if overlapping is None else [f"{overlapping}: those texels show one face's texture on all of them"]
+            return Atlas(vm, faces, uv, "kept", reason, stats_of(vm, faces, uv), warnings)
         if mode == "keep":
             raise AtlasError(f"uv='keep' but {problem}")
-        why = problem
+        why = problem or overlapping
     else:
         why = "uv='unwrap'"
 
@@ -414,4 +434,5 @@ def make_atlas(
     if bad is not None:
         raise AtlasError(f"no atlas could be made ({'; '.join(failures)}; grid atlas: {bad})")
     reason = f"{why}; {'; '.join(failures) or 'xatlas was not run'}; used fallback"
-    return Atlas(vm, fa, u, "fallback-grid", reason, stats_of(vm, fa, u))
+    warning = f"fallback atlas: one chart per triangle ({reason}); texel density varies and charts are tiny"
+    return Atlas(vm, fa, u, "fallback-grid", reason, stats_of(vm, fa, u), [warning])

@@ -193,6 +193,8 @@ def bake(
         f"{mesh}: {t['covered']} texels covered, {t['margin']} margin; "
         f"atlas {report['atlas']['method']}; {time.perf_counter() - start:.2f} s -> {out}"
     )
+    for warning in report.get("warnings", []):
+        typer.echo(f"texbake: warning: {mesh}: {warning}", err=True)
 
 
 def _expand(inputs: list[str]) -> list[tuple[str, dict]]:

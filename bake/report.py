@@ -94,7 +94,16 @@ def bake_report(mesh, bounds, source: dict | None, settings, quality, atlas, cov
             "transfer_missed": counts["transfer_missed"],
         },
         "error_estimate": error_estimate,
+        "warnings": list(atlas.warnings) + _transfer_warning(counts),
         "skipped": skipped,
         "seconds": {k: round(v, 4) for k, v in seconds.items()},
         "versions": library_versions(),
     }
+
+
+def _transfer_warning(counts: dict) -> list[str]:
+    """A warning when more than 1 % of the transfer rays found no source."""
+    cast, missed = counts["cast"], counts["transfer_missed"]
+    if cast and missed > 0.01 * cast:
+        return [f"transfer: {missed} of {cast} texel samples found no source within the cage; they keep the margin's colour"]
+    return []

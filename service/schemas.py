@@ -29,6 +29,7 @@ class JobOut(BaseModel):
     created: str
     updated: str
     report: dict | None = None
+    warnings: list[str] = []  # the bake report's: fallback atlas, overlapping UVs kept, transfer misses
     files: list[str] = []
 
 

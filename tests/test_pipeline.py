@@ -70,7 +70,7 @@ def test_uv_reuse_and_unwrap_both_bake_the_surface(meshes, mode):
 
 
 def test_unwrap_is_skipped_when_uvs_are_usable(meshes):
-    result = bake.bake_mesh(meshes / "Duck.glb", "checker", size=64)
+    result = bake.bake_mesh(meshes / "suzanne_blender_uv.obj", "checker", size=64)
     skipped = {s["stage"]: s["why"] for s in result.report["skipped"]}
     assert "unwrap" in skipped and "transfer" in skipped
 

@@ -116,6 +116,9 @@ def test_a_normal_map_and_a_flame_sequence_over_http(server, meshes):
     assert job["state"] == "done", job["error"]
     assert {"albedo_0000.png", "albedo_0001.png", "flipbook.png", "lit.png", "normal.png", "suzanne.glb"} <= set(job["files"])
     assert job["report"]["parameters"]["frames"] == [0, 0.5] and job["report"]["parameters"]["light"] == [0, 1, 0]
+    assert job["warnings"] == []
+    duck = wait(url, upload(url, meshes / "Duck.glb", {"uv": "keep", "size": 64}).json()["id"])
+    assert duck["state"] == "done" and len(duck["warnings"]) == 1 and "overlap" in duck["warnings"][0], duck
 
 
 def test_bad_input_gets_4xx_with_a_reason(server, meshes, tmp_path):
@@ -281,9 +284,10 @@ def test_a_bake_over_its_memory_limit_or_deadline_fails_alone(tmp_path, meshes):
     url = f"http://127.0.0.1:{port}"
     try:
         # Over the memory limit at once, however loaded the machine: the duck's own UVs are
-        # kept (no unwrap), and its first 16384 x 16384 RGB float32 image is 3 GiB (measured:
-        # MemoryError 6 ms into the bake), far from the 10 s deadline.
-        big = wait(url, upload(url, meshes / "Duck.glb", {"size": 16384}).json()["id"], timeout=120)
+        # kept (uv=keep: no unwrap, though they overlap), and its first 16384 x 16384 RGB
+        # float32 image is 3 GiB (measured: MemoryError 6 ms into the bake), far from the
+        # 10 s deadline.
+        big = wait(url, upload(url, meshes / "Duck.glb", {"size": 16384, "uv": "keep"}).json()["id"], timeout=120)
         assert big["state"] == "failed" and big["error"] == "the bake ran out of its 1500 MB memory limit", big["error"]
         # Over the deadline: 64 samples of 2048 x 2048 take 76 s on an idle machine (and stay
         # under 1500 MB), the deadline is 10 s.

@@ -33,7 +33,9 @@ _CHUNK = 1 << 20
 def _out(job: db.Job, request: Request) -> JobOut:
     out = get_settings().job_dir(job.id) / "out"
     files = sorted(p.name for p in out.iterdir()) if job.state == "done" and out.is_dir() else []
-    return JobOut(url=str(request.url_for("get_job", job_id=job.id)), files=files, **job.as_dict())
+    data = job.as_dict()
+    warnings = (data["report"] or {}).get("warnings", [])
+    return JobOut(url=str(request.url_for("get_job", job_id=job.id)), files=files, warnings=warnings, **data)
 
 
 def _safe_stem(filename: str | None) -> str:
