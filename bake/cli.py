@@ -99,6 +99,16 @@ def _bake_one(mesh: str, out: str, given: dict, source: str | None = None, worke
     return result.report
 
 
+def _batch_item(mesh: str, out: str, given: dict) -> tuple[str, float, dict | str]:
+    """One batch item in its worker process: ``(status, seconds of the bake itself, report
+    or the error)``; a user error is a failed item, not an exception."""
+    start = time.perf_counter()
+    try:
+        return "done", time.perf_counter() - start, _bake_one(mesh, out, given, None, 1)
+    except BakeError as exc:
+        return "failed", time.perf_counter() - start, str(exc)
+
+
 def _floats(text: str, name: str) -> list[float]:
     """``"a,b,c"`` as floats, or ``"start:stop:n"`` as n evenly spaced values."""
     try:
@@ -217,10 +227,12 @@ def _expand(inputs: list[str]) -> list[tuple[str, dict]]:
                 if not Path(mesh).is_absolute():
                     mesh = str(Path(arg).parent / mesh)
                 items.append((mesh, entry))
-        elif any(c in arg for c in "*?["):
-            matches = sorted(glob.glob(arg, recursive=True))
+        elif any(c in arg for c in "*?["):  # only the mesh files a glob matches (not an OBJ's .mtl or .jpg)
+            from .load import FORMATS
+
+            matches = sorted(m for m in glob.glob(arg, recursive=True) if Path(m).suffix.lower() in FORMATS)
             if not matches:
-                _fail(f"{arg}: no file matches")
+                _fail(f"{arg}: no mesh file matches")
             items.extend((m, {}) for m in matches)
         else:
             items.append((arg, {}))
@@ -242,6 +254,7 @@ def batch(
     inputs: list[str] = typer.Argument(..., help="mesh files, globs, or .jsonl manifests (one JSON object a line: mesh and settings)"),
     out: Path = typer.Option(..., "--out", "-o", help="output folder; one sub-folder per mesh"),
     jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="parallel processes"),
+    as_json: bool = typer.Option(False, "--json", help="print the summary as JSON (one object per mesh) instead of a table"),
     set_: list[str] | None = _SET,
     **options,
 ):
@@ -257,30 +270,38 @@ def batch(
     used: set[str] = set()
     jobs_list = [(mesh, str(_unique_folder(out, Path(mesh).stem, used)), {**base, **extra}) for mesh, extra in items]
     rows = []
-    console = Console(stderr=True)
     with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as pool, Progress(
-        "[progress.description]{task.description}", BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(), console=console
+        "[progress.description]{task.description}", BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+        console=Console(stderr=True),
     ) as progress:
         task = progress.add_task("baking", total=len(jobs_list))
-        started = {pool.submit(_bake_one, mesh, folder, settings, None, 1): (mesh, folder, time.perf_counter())
-                   for mesh, folder, settings in jobs_list}
+        started = {pool.submit(_batch_item, mesh, folder, settings): (mesh, folder) for mesh, folder, settings in jobs_list}
         for future in as_completed(started):
-            mesh, folder, t0 = started[future]
+            mesh, folder = started[future]
             try:
-                report = future.result()
-                rows.append((mesh, "done", time.perf_counter() - t0, f"{report['texels']['covered']} texels -> {folder}"))
-            except BakeError as exc:
-                rows.append((mesh, "failed", time.perf_counter() - t0, str(exc)))
+                status, seconds, outcome = future.result()
             except Exception as exc:  # a crash in one item must not stop the batch
-                rows.append((mesh, "failed", time.perf_counter() - t0, f"{type(exc).__name__}: {exc}"))
+                status, seconds, outcome = "failed", math.nan, f"{type(exc).__name__}: {exc}"
+            report = outcome if isinstance(outcome, dict) else {}
+            rows.append({"mesh": mesh, "status": status, "seconds": seconds, "out": folder if report else None,
+                         "atlas": report.get("atlas", {}).get("method"), "warnings": report.get("warnings", []),
+                         "covered": report.get("texels", {}).get("covered"), "error": None if report else outcome})
             progress.advance(task)
-    table = Table(title=f"texbake batch: {len(rows)} meshes")
-    for col in ("mesh", "status", "seconds", "result"):
-        table.add_column(col)
-    for mesh, status, seconds, detail in sorted(rows):
-        table.add_row(mesh, "[green]done" if status == "done" else "[red]failed", f"{seconds:.2f}", detail)
-    Console().print(table)
-    failed = sum(r[1] == "failed" for r in rows)
+    rows.sort(key=lambda r: r["mesh"])
+    if as_json:
+        typer.echo(json.dumps([{k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in r.items()}
+                               for r in rows], indent=2))
+    else:
+        table = Table(title=f"texbake batch: {len(rows)} meshes")
+        for col in ("mesh", "status", "seconds", "atlas", "result", "warnings"):
+            table.add_column(col, overflow="fold")
+        for r in rows:
+            result = f"{r['covered']} texels -> {r['out']}" if r["status"] == "done" else r["error"]
+            table.add_row(r["mesh"], "[green]done" if r["status"] == "done" else "[red]failed", _number(r["seconds"]),
+                          r["atlas"] or "-", result, "\n".join(r["warnings"]) or "-")
+        # paths whole when the output goes to a file or a pipe, not cut to a terminal's width
+        Console(width=None if sys.stdout.isatty() else 100_000).print(table)
+    failed = sum(r["status"] == "failed" for r in rows)
     if failed:
         typer.echo(f"texbake: {failed} of {len(rows)} failed", err=True)
         raise typer.Exit(1)

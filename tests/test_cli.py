@@ -1,6 +1,7 @@
 """The command line, run as a real process."""
 
 import json
+from pathlib import Path
 
 import pytest
 from conftest import texbake
@@ -44,6 +45,25 @@ def test_batch_keeps_going_and_exits_1_on_a_failure(meshes, tmp_path):
     assert "broken.obj" in r.stdout and "failed" in r.stdout and r.stdout.count("done") == 2
     assert (tmp_path / "o" / "suzanne" / "report.json").exists()
     assert json.loads((tmp_path / "o" / "BoxTextured" / "report.json").read_text())["parameters"]["size"] == [32, 32]
+
+
+def test_batch_summary_as_json_with_atlas_warnings_and_whole_paths(meshes, tmp_path):
+    """Globs take only mesh files (capsule.obj's .mtl and .jpg stay out); per-item seconds
+    are the bake's own; the atlas and the warnings are in the summary; paths are whole."""
+    import shutil
+
+    for name in ("capsule.obj", "capsule.mtl", "capsule0.jpg", "Duck.glb"):
+        shutil.copy(meshes / name, tmp_path / name)
+    out = tmp_path / ("a-long-output-folder-name-" * 4)
+    r = texbake("batch", tmp_path / "*", "--out", out, "--size", 32, "--uv", "keep", "--json")
+    assert r.returncode == 0, r.stderr
+    rows = {Path(row["mesh"]).name: row for row in json.loads(r.stdout)}
+    assert set(rows) == {"capsule.obj", "Duck.glb"}
+    assert rows["Duck.glb"]["atlas"] == "kept" and "overlap" in rows["Duck.glb"]["warnings"][0]
+    assert rows["capsule.obj"]["warnings"] == [] and all(0 < row["seconds"] < 60 for row in rows.values())
+    table = texbake("batch", tmp_path / "*.obj", "--out", out, "--size", 32)  # not a terminal: nothing cut
+    assert table.returncode == 0 and str(out / "capsule") in table.stdout
+    assert rows["capsule.obj"]["atlas"] in table.stdout
 
 
 def test_textures_lists_every_texture_and_its_schema():
