@@ -14,7 +14,7 @@ try:
 except _metadata.PackageNotFoundError:  # run from a source tree that was never installed
     __version__ = "0+unknown"
 
-__all__ = ["__version__", "bake_mesh", "BakeResult", "BakeError", "MeshError", "ParameterError", "AtlasError", "TextureError", "OutputError"]
+__all__ = ["__version__", "BakeSettings", "bake_mesh", "BakeResult", "BakeError", "MeshError", "ParameterError", "AtlasError", "TextureError", "OutputError"]
 
 
 def __getattr__(name):  # the pipeline pulls in the heavy libraries: import it on first use
@@ -22,4 +22,8 @@ def __getattr__(name):  # the pipeline pulls in the heavy libraries: import it o
         from . import pipeline
 
         return getattr(pipeline, name)
+    if name == "BakeSettings":
+        from .settings import BakeSettings
+
+        return BakeSettings
     raise AttributeError(f"module 'bake' has no attribute {name!r}")
