@@ -1,4 +1,4 @@
-"""UV atlas: keep the mesh's own UVs when usable, or unwrap with xatlas.
+"""UV atlas: keep the mesh's own UVs when usable, or unwrap: charts, then xatlas' packer.
 
 xatlas hangs on some inputs (an infinite vertex, a mesh 1e20 units across), returns NaN
 UVs on others and segfaults on some (``trimesh.creation.icosphere(6)`` in one piece). So
@@ -6,14 +6,16 @@ it only ever runs in worker processes (``bake._unwrap_worker``, fresh interprete
 one wall-clock deadline, on a copy of the mesh normalised to a unit box in float64 before
 the cast to float32, and whatever comes back is checked.
 
-The unwrap has two stages. Charting: the mesh is cut into spatially coherent patches of
-about ``PATCH_FACES`` faces (one patch for small meshes) that the workers chart in
-parallel. Packing: each patch's charts are brought to one texel density (scaled by
-sqrt(3D area / UV area) of the patch), faces whose UV triangle collapsed get a small chart
-of their own, and all charts are packed together in a single xatlas packing pass at the
-texture's resolution and padding (one ``add_uv_mesh`` per patch). When that fails (crash, deadline, bad UVs) a one-piece
-attempt is retried in patches, and as a last resort every triangle gets its own cell of a
-grid ("fallback-grid"); ``Atlas.reason`` says what failed.
+The unwrap has two stages. Charting, one of two ways: planar charts (:mod:`bake.charts`:
+faces grouped by normal direction, each island projected onto its plane; CAD parts and
+large meshes), or xatlas' own charts (small organic meshes: the mesh cut into spatially
+coherent patches of about ``PATCH_FACES`` faces that the workers chart in parallel, each
+patch brought to one texel density). Packing: faces whose chart collapsed or that were
+left out get a small chart of their own, and all charts are packed together in a single
+xatlas packing pass at the texture's resolution and padding (one ``add_uv_mesh`` per
+mesh of charts). When one charting fails (crash, deadline, bad UVs) the other is tried;
+only when both have does every triangle get its own cell of a grid ("fallback-grid");
+``Atlas.reason`` says what failed.
 """
 
 from __future__ import annotations
@@ -24,12 +26,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .charts import planar_charts, prefer_planar
 from .errors import AtlasError, ParameterError
 from .uvcoverage import overlap
 from .uvgeometry import areas, uv_areas, uv_jacobian
 from .workers import Pool
 
 MODES = ("auto", "unwrap", "keep")
+CHARTINGS = ("auto", "xatlas", "planar")
 OVERLAP_LIMIT = 0.01  # a mesh's UVs under which more of the covered texels overlap are not kept
 OVERLAP_GRID = 2048  # overlap is measured on the bake's texel grid, at most this fine
 PATCH_FACES = 2000  # faces per patch of the parallel unwrap
@@ -48,7 +52,7 @@ class Atlas:
     vmapping: np.ndarray  # (k,) int64: atlas vertex -> mesh vertex
     faces: np.ndarray  # (m, 3) int64: faces in atlas-vertex indices, same order as the mesh's
     uv: np.ndarray  # (k, 2) float64 in [0, 1], OpenGL convention (v up)
-    method: str  # "kept" | "xatlas" | "xatlas-patches" | "fallback-grid"
+    method: str  # "kept" | "planar" | "xatlas" | "xatlas-patches" | "fallback-grid"
     reason: str  # why this method (and what failed before it)
     stats: dict = field(default_factory=dict)  # charts, utilisation, stretch, overlap, seconds
     warnings: list[str] = field(default_factory=list)  # what a user should know of this atlas
@@ -153,7 +157,7 @@ WORKER = [sys.executable, "-m", "bake._unwrap_worker"]
 
 def _describe(why: str, deadline: float) -> str:
     if why == "timeout":
-        return f"xatlas timed out after {deadline:g} s"
+        return f"xatlas timed out after {deadline:.3g} s"
     if why.startswith("exit code"):
         return f"xatlas crashed ({why})"
     return f"xatlas failed ({why})"
@@ -236,15 +240,22 @@ def _flat_triangles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return flat
 
 
-def _unwrap(vertices, faces, size, padding, end, deadline, workers, patch_faces):
-    """xatlas atlas ``(vmapping, faces, uv, method, charting_patches)``; raises ``_XatlasFailed``."""
-    pos = _normalised(vertices)
+def _good_faces(pos: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Indices of the faces that keep an area in float32 (xatlas' precision); the rest
+    would give NaNs or collapse, and get a small chart of their own (:func:`_pack`)."""
+    return np.flatnonzero(areas(pos.astype(np.float32), faces) > 0)
+
+
+def _chart_xatlas(pos, faces, good, pool, deadline, patch_faces):
+    """xatlas' charts of the ``good`` faces: ``(meshes, patch count)``, meshes as
+    :func:`_pack` takes them (faces whose chart collapsed are left out); raises
+    ``_XatlasFailed``.
+
+    Meshes of more than ``2 * patch_faces`` faces are charted in spatial patches, in
+    parallel; each patch's charts are brought to one texel density (world units of
+    ``pos``).
+    """
     pos32 = pos.astype(np.float32)
-    m = len(faces)
-    # Faces that are degenerate in float32 are kept away from xatlas (they give NaNs)
-    # and get a small chart of their own below.
-    area32 = areas(pos32, faces)  # in float64, of the float32 positions
-    good = np.flatnonzero(area32 > 0)
     if patch_faces is None or len(good) <= 2 * patch_faces:
         patches = [good] if len(good) else []
     else:
@@ -254,45 +265,71 @@ def _unwrap(vertices, faces, size, padding, end, deadline, workers, patch_faces)
         used, local = np.unique(faces[p], return_inverse=True)
         used_of.append(used)
         jobs.append(("chart", (pos32[used], local.reshape(-1, 3).astype(np.uint32), CHART_ITERATIONS)))
-
-    with Pool(WORKER, min(workers, max(1, len(jobs))), end) as pool:
-        done = pool.run(jobs)
-        for (ok, value), p in zip(done, patches, strict=True):
-            if not ok:
-                what = _describe(value, deadline)
-                raise _XatlasFailed(what if len(patches) == 1 else f"{what} on a patch of {len(p)} faces")
-
-        # Each patch's charts at one texel density (world units of ``pos``), one UV mesh
-        # per patch: xatlas' add_uv_mesh merges touching or overlapping charts of one
-        # mesh, so charts of different patches must not share a mesh.
-        meshes = []  # (face ids, atlas vertex -> mesh vertex, uv, local faces)
-        lost = [np.setdiff1d(np.arange(m), good)]
-        for (_, (vmap, idx, uv)), p, used in zip(done, patches, used_of, strict=True):
-            idx = idx.astype(np.int64)
-            if idx.shape != (len(p), 3) or not np.isfinite(uv).all():
-                raise _XatlasFailed("xatlas returned bad UVs for a patch")
-            a_uv = uv_areas(uv, idx)
-            if not a_uv.sum() > 0:
-                raise _XatlasFailed("xatlas returned UVs of zero area for a patch")
-            keep = a_uv > 0
-            lost.append(p[~keep])
-            if keep.any():
-                scale = np.sqrt(areas(pos, faces[p]).sum() / a_uv.sum())
-                meshes.append((p[keep], used[vmap.astype(np.int64)], uv * scale, idx[keep]))
-        # Faces left out or collapsed to zero UV area: a chart each, about 2 texels wide.
-        lost = np.concatenate(lost)
-        if len(lost):
-            total = max(areas(pos, faces).sum(), 1e-30)
-            texel = np.sqrt(total / 0.7) / size  # world units per texel, roughly
-            flat = _flat_triangles(pos, faces[lost])
-            flat *= (2 * texel / flat.max(axis=(1, 2)))[:, None, None]
-            flat[:, :, 0] += (np.arange(len(lost)) * 4 * texel)[:, None]
-            meshes.append((lost, faces[lost].reshape(-1), flat.reshape(-1, 2), np.arange(3 * len(lost)).reshape(-1, 3)))
-
-        pack_in = [(uv.astype(np.float32), idx.astype(np.uint32)) for _, _, uv, idx in meshes]
-        ((ok, value),) = pool.run([("pack", (pack_in, size, padding))])
+    done = pool.run(jobs)
+    for (ok, value), p in zip(done, patches, strict=True):
         if not ok:
-            raise _XatlasFailed(f"{_describe(value, deadline)} while packing")
+            what = _describe(value, deadline)
+            raise _XatlasFailed(what if len(patches) == 1 else f"{what} on a patch of {len(p)} faces")
+    meshes = []
+    for (_, (vmap, idx, uv)), p, used in zip(done, patches, used_of, strict=True):
+        idx = idx.astype(np.int64)
+        if idx.shape != (len(p), 3) or not np.isfinite(uv).all():
+            raise _XatlasFailed("xatlas returned bad UVs for a patch")
+        a_uv = uv_areas(uv, idx)
+        if not a_uv.sum() > 0:
+            raise _XatlasFailed("xatlas returned UVs of zero area for a patch")
+        keep = a_uv > 0
+        if keep.any():
+            scale = np.sqrt(areas(pos, faces[p]).sum() / a_uv.sum())
+            meshes.append((p[keep], used[vmap.astype(np.int64)], uv * scale, idx[keep]))
+    return meshes, len(patches)
+
+
+def _chart_planar(pos, faces, good, size):
+    """Planar charts (:mod:`bake.charts`) of the ``good`` faces: ``(meshes, chart count,
+    flat share)``, meshes as :func:`_pack` takes them, in world units of ``pos``.
+
+    Slivers under a thousandth of a texel high (at the density a ``size``-texel atlas
+    would have) are left out: xatlas' float32 UVs can collapse them, and they hold no
+    texel centre anyway; they get charts of their own.
+    """
+    c = planar_charts(pos, faces[good], grid=size)
+    a_uv = uv_areas(c.uv, c.faces)
+    tri = c.uv[c.faces]
+    longest = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2).max(axis=1)
+    texel = np.sqrt(a_uv.sum() / 0.5) / size
+    keep = 2 * a_uv > 1e-3 * texel * longest
+    if not keep.any():
+        return [], 0, c.flat
+    used, local = np.unique(c.faces[keep], return_inverse=True)  # vertices of the faces kept
+    return [(good[keep], c.vmapping[used], c.uv[used], local.reshape(-1, 3))], int(c.labels.max()) + 1, c.flat
+
+
+def _pack(pos, faces, meshes, size, padding, pool, deadline):
+    """Pack charted UV meshes into one atlas ``(vmapping, faces, uv)`` of all ``faces``.
+
+    ``meshes``: ``(face ids, chart vertex -> mesh vertex, uv, faces in chart vertices)``
+    at one texel density. Faces in none of them get a chart each, about two
+    texels wide. One xatlas packing pass at the texture's resolution and padding (one
+    ``add_uv_mesh`` per mesh: xatlas merges touching or overlapping charts of one mesh).
+    """
+    m = len(faces)
+    charted = np.zeros(m, dtype=bool)
+    for face_ids, *_ in meshes:
+        charted[face_ids] = True
+    lost = np.flatnonzero(~charted)
+    if len(lost):
+        total = max(areas(pos, faces).sum(), 1e-30)
+        texel = np.sqrt(total / 0.7) / size  # world units per texel, roughly
+        flat = _flat_triangles(pos, faces[lost])
+        flat *= (2 * texel / flat.max(axis=(1, 2)))[:, None, None]
+        flat[:, :, 0] += (np.arange(len(lost)) * 4 * texel)[:, None]
+        meshes = [*meshes, (lost, faces[lost].reshape(-1), flat.reshape(-1, 2), np.arange(3 * len(lost)).reshape(-1, 3))]
+
+    pack_in = [(uv.astype(np.float32), idx.astype(np.uint32)) for _, _, uv, idx in meshes]
+    ((ok, value),) = pool.run([("pack", (pack_in, size, padding))])
+    if not ok:
+        raise _XatlasFailed(f"{_describe(value, deadline)} while packing")
     packed, _info = value
     if len(packed) != len(meshes):
         raise _XatlasFailed("xatlas' packing lost meshes")
@@ -304,10 +341,24 @@ def _unwrap(vertices, faces, size, padding, end, deadline, workers, patch_faces)
         uvs.append(uv2)
         out_faces[face_ids] = idx2.astype(np.int64) + offset
         offset += len(uv2)
-    vmapping = np.concatenate(maps)
-    idx, uv = out_faces, np.concatenate(uvs)
-    method = "xatlas-patches" if len(patches) > 1 else "xatlas"
-    return vmapping, idx.astype(np.int64), uv.astype(np.float64), method, len(patches)
+    return np.concatenate(maps), out_faces, np.concatenate(uvs).astype(np.float64)
+
+
+def _unwrap(vertices, faces, size, padding, end, deadline, workers, patch_faces, charting):
+    """An atlas ``(vmapping, faces, uv, method, detail)`` charted by ``charting``
+    ("xatlas" or "planar") and packed by xatlas; raises ``_XatlasFailed``."""
+    pos = _normalised(vertices)
+    good = _good_faces(pos, faces)
+    if charting == "planar":
+        with Pool(WORKER, 1, end) as pool:
+            meshes, charts, flat = _chart_planar(pos, faces, good, size)
+            vm, fa, uv = _pack(pos, faces, meshes, size, padding, pool, deadline)
+        return vm, fa, uv, "planar", {"planar_charts": charts, "flat_share": round(flat, 4)}
+    n_patches = 1 if patch_faces is None or len(good) <= 2 * patch_faces else -(-len(good) // patch_faces)
+    with Pool(WORKER, min(workers, max(1, n_patches)), end) as pool:
+        meshes, n_patches = _chart_xatlas(pos, faces, good, pool, deadline, patch_faces)
+        vm, fa, uv = _pack(pos, faces, meshes, size, padding, pool, deadline)
+    return vm, fa, uv, "xatlas-patches" if n_patches > 1 else "xatlas", {"patches": n_patches}
 
 
 def _grid_atlas(vertices: np.ndarray, faces: np.ndarray, padding: float):
@@ -328,6 +379,25 @@ def _grid_atlas(vertices: np.ndarray, faces: np.ndarray, padding: float):
     return faces.reshape(-1).astype(np.int64), np.arange(3 * m, dtype=np.int64).reshape(m, 3), uv
 
 
+def _attempts(vertices, faces, charting: str, patch_faces: int | None) -> tuple[list[tuple[str, int | None]], str]:
+    """The unwraps to try in turn, ``(charting, faces per patch)``, and why that order.
+
+    xatlas in one piece or in patches, then in smaller patches (icosphere(6) crashes it
+    in one piece; smaller patches may get through), and planar charts, first or last
+    as ``charting`` asks ("auto": see :func:`bake.charts.prefer_planar`).
+    """
+    xatlas = [("xatlas", patch_faces)]
+    if patch_faces is None and len(faces) > 2 * PATCH_FACES:
+        xatlas.append(("xatlas", PATCH_FACES))
+    elif patch_faces is not None and len(faces) > 2 * patch_faces:
+        xatlas.append(("xatlas", max(250, patch_faces // 4)))
+    if charting == "auto":
+        planar_first, why = prefer_planar(vertices, faces)
+    else:
+        planar_first, why = charting == "planar", f"charting={charting!r}"
+    return ([("planar", None), *xatlas] if planar_first else [*xatlas, ("planar", None)]), why
+
+
 def make_atlas(
     vertices: np.ndarray,
     faces: np.ndarray,
@@ -338,6 +408,7 @@ def make_atlas(
     padding: int = 2,
     deadline: float = 120.0,
     workers: int = 2,
+    charting: str = "auto",
     _patch_faces: int | None = PATCH_FACES,
 ) -> Atlas:
     """A UV atlas for ``(n, 3)`` float64 vertices and ``(m, 3)`` int faces.
@@ -346,21 +417,27 @@ def make_atlas(
     :func:`uv_problem`) that do not overlap (more than ``OVERLAP_LIMIT`` of the covered
     texel centres under two or more faces, measured on the bake's grid) and unwraps
     otherwise, saying why; "unwrap" always unwraps; "keep" requires usable UVs
-    (:class:`AtlasError` otherwise) and keeps overlapping ones with a warning. ``size`` (texels of the square texture)
-    and ``padding`` (texels between charts) set xatlas' packing; ``deadline`` bounds the
-    wall time of all xatlas work, in ``workers`` processes. Meshes of more than
-    ``2 * PATCH_FACES`` faces are charted in patches in parallel (``_patch_faces=None``:
-    in one piece, for tests). If xatlas fails the result is a "fallback-grid" atlas and
-    ``reason`` says what failed. ``stats``: see :func:`atlas_stats`, plus ``overlap`` (the
-    share of covered texels under two or more faces) and ``seconds``. ``warnings``: what a
-    user should know (overlapping UVs kept, the fallback grid).
+    (:class:`AtlasError` otherwise) and keeps overlapping ones with a warning. ``size``
+    (texels of the square texture) and ``padding`` (texels between charts) set the
+    packing; ``deadline`` bounds the wall time of all xatlas work, in ``workers``
+    processes. ``charting``: "planar" (:mod:`bake.charts`), "xatlas" (its own charts;
+    meshes of more than ``2 * PATCH_FACES`` faces in patches, in parallel;
+    ``_patch_faces=None``: in one piece, for tests) or "auto"
+    (:func:`bake.charts.prefer_planar`); the other is tried when the first fails, and
+    a "fallback-grid" atlas only when both have. ``reason`` says why the UVs were not
+    kept, which charting was used and why, and what failed. ``stats``: see
+    :func:`atlas_stats`, plus ``overlap`` (the share of covered texels under two or
+    more faces), ``seconds``, and ``patches`` or ``planar_charts`` and ``flat_share``.
+    ``warnings``: what a user should know (overlapping UVs kept, the fallback grid).
 
-    Long because it is the atlas stage's decision list (keep, unwrap whole, unwrap in
-    patches, fall back), each step depending on why the one before failed.
+    Long because it is the atlas stage's decision list (keep, unwrap one way, the other
+    way, fall back), each step depending on why the one before failed.
     """
     start = time.perf_counter()
     if mode not in MODES:
         raise ParameterError("uv", f"expected one of {', '.join(MODES)}, got {mode!r}")
+    if charting not in CHARTINGS:
+        raise ParameterError("charting", f"expected one of {', '.join(CHARTINGS)}, got {charting!r}")
     for name, value, ok in (
         ("size", size, isinstance(size, (int, np.integer)) and 1 <= size <= 65536),
         ("padding", padding, isinstance(padding, (int, np.integer)) and 0 <= padding <= 64),
@@ -407,32 +484,31 @@ def make_atlas(
         why = "uv='unwrap'"
 
     end = time.monotonic() + deadline
-    failures = []
-    attempts = [_patch_faces]
-    if _patch_faces is None and len(faces) > 2 * PATCH_FACES:
-        attempts.append(PATCH_FACES)  # e.g. icosphere(6) crashes xatlas in one piece
-    elif _patch_faces is not None and len(faces) > 2 * _patch_faces:
-        attempts.append(max(250, _patch_faces // 4))  # smaller patches may get through
-    for patch_faces in attempts:
-        if time.monotonic() >= end:
-            break
+    failures: list[str] = []
+    attempts, order = _attempts(vertices, faces, charting, _patch_faces)
+    for i, (charting_i, patch_faces) in enumerate(attempts):
+        now = time.monotonic()
+        if now >= end or (charting_i == "xatlas" and any("timed out" in f for f in failures)):
+            continue
+        # xatlas' charting may take 3/4 of what is left when planar charts are still to come
+        until = now + 0.75 * (end - now) if ("planar", None) in attempts[i + 1:] else end
         try:
-            vm, fa, u, method, _ = _unwrap(vertices, faces, size, padding, end, deadline, workers, patch_faces)
+            vm, fa, u, method, detail = _unwrap(vertices, faces, size, padding, until, until - now, workers,
+                                                patch_faces, charting_i)
         except _XatlasFailed as exc:
             failures.append(str(exc))
-            if "timed out" in str(exc):
-                break
             continue
         bad = _problem(vm, fa, u, len(faces), len(vertices), faces)
         if bad is None:
             retried = f" (after: {'; '.join(failures)})" if failures else ""
-            return Atlas(vm, fa, u, method, f"{why}{retried}", stats_of(vm, fa, u))
-        failures.append(f"xatlas returned an unusable atlas: {bad}")
+            stats = {**stats_of(vm, fa, u), **detail}
+            return Atlas(vm, fa, u, method, f"{why}; {charting_i} charts: {order}{retried}", stats)
+        failures.append(f"{charting_i} charting gave an unusable atlas: {bad}")
 
     vm, fa, u = _grid_atlas(vertices, faces, padding / size)
     bad = _problem(vm, fa, u, len(faces), len(vertices), faces)
     if bad is not None:
         raise AtlasError(f"no atlas could be made ({'; '.join(failures)}; grid atlas: {bad})")
-    reason = f"{why}; {'; '.join(failures) or 'xatlas was not run'}; used fallback"
+    reason = f"{why}; {'; '.join(failures) or f'the unwrap deadline of {deadline:g} s passed'}; used fallback"
     warning = f"fallback atlas: one chart per triangle ({reason}); texel density varies and charts are tiny"
     return Atlas(vm, fa, u, "fallback-grid", reason, stats_of(vm, fa, u), [warning])

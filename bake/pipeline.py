@@ -147,7 +147,7 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
     report_progress(0.05)
     with timer.stage("atlas"):
         atlas = make_atlas(mesh.vertices, mesh.faces, mesh.uv, mode=settings.uv, size=max(width, height),
-                           deadline=settings.unwrap_deadline, workers=workers)
+                           deadline=settings.unwrap_deadline, workers=workers, charting=settings.charting)
     lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
     mapping = TextureMapping.for_mesh(lo, hi, settings.texture_space, quality.precision)
     reach = settings.cage if settings.cage is not None else 0.05 * float(np.linalg.norm(hi - lo))
