@@ -65,6 +65,7 @@ class _Texture(BaseModel):
     )
     model: Transform = Field(Transform(), description="modelling transform: object to world")
     channels: ClassVar[int] = 3  # of the colour it gives
+    emits: ClassVar[bool] = False  # light, not a surface colour: the GLB binds its map as emissive too
 
     def placement(self) -> Placement:
         """Object space to this texture's space: the object moved through a world-space
@@ -289,6 +290,7 @@ class Flame(_Texture):
     """
 
     name: Literal["flame"] = "flame"
+    emits: ClassVar[bool] = True
     half_width: Annotated[float, Field(gt=0, le=1e6)] = 0.3
     height: Annotated[float, Field(gt=0, le=1e6)] = 1.0
     time: Annotated[float, Field(ge=-1e6, le=1e6)] = 0.0
