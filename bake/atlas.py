@@ -28,7 +28,7 @@ import numpy as np
 
 from .charts import planar_charts, prefer_planar
 from .errors import AtlasError, ParameterError
-from .uvcoverage import overlap
+from .uvcoverage import covering_faces, overlap
 from .uvgeometry import areas, uv_areas, uv_jacobian
 from .workers import Pool
 
@@ -36,6 +36,7 @@ MODES = ("auto", "unwrap", "keep")
 CHARTINGS = ("auto", "xatlas", "planar")
 OVERLAP_LIMIT = 0.01  # a mesh's UVs under which more of the covered texels overlap are not kept
 OVERLAP_GRID = 2048  # overlap is measured on the bake's texel grid, at most this fine
+BARE_LIMIT = 0.01  # a warning when more of the surface lies on charts without a texel centre
 PATCH_FACES = 2000  # faces per patch of the parallel unwrap
 CHART_ITERATIONS = 1  # xatlas ChartOptions.max_iterations: half the time of 4, same quality here
 UV_EPS = 1e-6  # tolerance of the unit-square test of UVs
@@ -89,6 +90,18 @@ def uv_problem(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray | None) -
     return None
 
 
+def chart_labels(uv_faces: np.ndarray, k: int) -> np.ndarray:
+    """``(m,)`` the chart of each face: connected pieces of the UV mesh (faces sharing one
+    of the ``k`` UV vertices)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    m = len(uv_faces)
+    rows = np.repeat(np.arange(m), 3)
+    graph = coo_matrix((np.ones(3 * m), (rows, uv_faces.ravel() + m)), shape=(m + k, m + k))
+    return connected_components(graph, directed=False)[1][:m]
+
+
 def atlas_stats(vertices, faces, uv_faces, uv) -> dict:
     """Chart count, utilisation and stretch of an atlas (``uv_faces`` index ``uv``).
 
@@ -101,14 +114,7 @@ def atlas_stats(vertices, faces, uv_faces, uv) -> dict:
     with anisotropic distortion and with uneven texel density between faces (faces with
     zero UV area are left out).
     """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    k, m = len(uv), len(uv_faces)
-    rows = np.repeat(np.arange(m), 3)
-    graph = coo_matrix((np.ones(3 * m), (rows, uv_faces.ravel() + m)), shape=(m + k, m + k))
-    _, labels = connected_components(graph, directed=False)
-    charts = len(np.unique(labels[:m]))
+    charts = len(np.unique(chart_labels(uv_faces, len(uv))))
 
     ps, pt, det = uv_jacobian(vertices, faces, uv, uv_faces)  # dP/du, dP/dv
     ok = np.abs(det) > 0  # faces of zero UV area are left out
@@ -427,8 +433,10 @@ def make_atlas(
     a "fallback-grid" atlas only when both have. ``reason`` says why the UVs were not
     kept, which charting was used and why, and what failed. ``stats``: see
     :func:`atlas_stats`, plus ``overlap`` (the share of covered texels under two or
-    more faces), ``seconds``, and ``patches`` or ``planar_charts`` and ``flat_share``.
-    ``warnings``: what a user should know (overlapping UVs kept, the fallback grid).
+    more faces), ``bare_area`` (the share of the surface on charts that hold no texel
+    centre at ``size``; None above 8192), ``seconds``, and ``patches`` or ``planar_charts``
+    and ``flat_share``. ``warnings``: what a user should know (overlapping UVs kept, the
+    fallback grid, over ``BARE_LIMIT`` of the surface on bare charts).
 
     Long because it is the atlas stage's decision list (keep, unwrap one way, the other
     way, fall back), each step depending on why the one before failed.
@@ -460,8 +468,21 @@ def make_atlas(
     def stats_of(vm, fa, u):
         s = atlas_stats(vertices, faces, fa, u)
         s["overlap"], _ = overlap(u, fa, min(size, OVERLAP_GRID))
+        s["bare_area"] = None
+        if size <= 8192:  # the surface on charts that hold no texel centre: their texels are all margin
+            a3, chart = areas(vertices, faces), chart_labels(fa, len(u))
+            held = np.zeros(chart.max() + 1, dtype=bool)
+            held[chart[covering_faces(u, fa, size)]] = True
+            s["bare_area"] = float(a3[~held[chart]].sum() / max(a3.sum(), 1e-300))
         s["seconds"] = time.perf_counter() - start
         return s
+
+    def bare_warning(stats) -> list[str]:
+        share = stats["bare_area"]
+        if share is None or share <= BARE_LIMIT:
+            return []
+        return [f"{share:.0%} of the surface lies on charts that hold no texel centre at {size}x{size}: they show "
+                "only the margin's colours (bake larger, or unwrap)"]
 
     if mode != "unwrap":
         problem = uv_problem(vertices, faces, uv)
@@ -476,7 +497,8 @@ def make_atlas(
             vm = np.arange(len(vertices), dtype=np.int64)
             reason = "the mesh's UVs are usable" if overlapping is None else "uv='keep'"
             warnings = [] if overlapping is None else [f"{overlapping}: those texels show one face's texture on all of them"]
-            return Atlas(vm, faces, uv, "kept", reason, stats_of(vm, faces, uv), warnings)
+            stats = stats_of(vm, faces, uv)
+            return Atlas(vm, faces, uv, "kept", reason, stats, warnings + bare_warning(stats))
         if mode == "keep":
             raise AtlasError(f"uv='keep' but {problem}")
         why = problem or overlapping
@@ -502,7 +524,7 @@ def make_atlas(
         if bad is None:
             retried = f" (after: {'; '.join(failures)})" if failures else ""
             stats = {**stats_of(vm, fa, u), **detail}
-            return Atlas(vm, fa, u, method, f"{why}; {charting_i} charts: {order}{retried}", stats)
+            return Atlas(vm, fa, u, method, f"{why}; {charting_i} charts: {order}{retried}", stats, bare_warning(stats))
         failures.append(f"{charting_i} charting gave an unusable atlas: {bad}")
 
     vm, fa, u = _grid_atlas(vertices, faces, padding / size)
@@ -511,4 +533,5 @@ def make_atlas(
         raise AtlasError(f"no atlas could be made ({'; '.join(failures)}; grid atlas: {bad})")
     reason = f"{why}; {'; '.join(failures) or f'the unwrap deadline of {deadline:g} s passed'}; used fallback"
     warning = f"fallback atlas: one chart per triangle ({reason}); texel density varies and charts are tiny"
-    return Atlas(vm, fa, u, "fallback-grid", reason, stats_of(vm, fa, u), [warning])
+    stats = stats_of(vm, fa, u)
+    return Atlas(vm, fa, u, "fallback-grid", reason, stats, [warning, *bare_warning(stats)])

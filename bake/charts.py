@@ -22,6 +22,8 @@ ANGLE_LIMIT = 66.0  # degrees between a face's normal and its chart's direction,
 FLAT_COS = np.cos(np.radians(2.0))  # a face this close to its chart's direction counts as flat
 COPLANAR_COS = np.cos(np.radians(0.05))  # neighbours this close are one flat face of a CAD model
 SPLITS = 6  # rounds of cutting self-overlapping charts in two
+CRUMB_FACES, CRUMB_LIMIT = 16, 55.0  # charts of fewer faces join a neighbour within this angle, on meshes
+CRUMB_FLAT = 0.1  # with less of their area flat (within 2 degrees of its direction) than this
 XATLAS_FACES = 10_000  # "auto" charting leaves meshes of more faces to planar charts
 
 
@@ -133,6 +135,33 @@ def _assign(normals: np.ndarray, weights: np.ndarray, dirs: np.ndarray, cos_limi
     return dirs, label
 
 
+def _absorb_crumbs(faces, normals, weights, dirs, group, rounds: int = 3):
+    """``group`` with the faces of crumbs (charts of under ``CRUMB_FACES`` faces, which a
+    noisy scan scatters along every border between directions) moved to a neighbouring
+    chart's direction, the one nearest their normal if within ``CRUMB_LIMIT`` degrees.
+    Fewer, larger charts: far less padding, so far more texels, at low resolutions. Only
+    for smooth meshes: a CAD part's small charts are its facets."""
+    a, b = _edge_pairs(faces)
+    a, b = np.concatenate([a, b]), np.concatenate([b, a])  # both ways: a takes from b
+    cos_limit = np.cos(np.radians(CRUMB_LIMIT))
+    for _ in range(rounds):
+        island = _islands(faces, group)
+        small = np.bincount(island)[island] < CRUMB_FACES
+        take = small[a] & (group[a] != group[b])
+        if not take.any():
+            break
+        fa, cand = a[take], group[b[take]]
+        fit = np.einsum("ij,ij->i", normals[fa], dirs[cand])
+        ok = fit > cos_limit
+        fa, cand, fit = fa[ok], cand[ok], fit[ok]
+        order = np.lexsort((-fit, fa))  # per face, its best candidate first
+        first = np.ones(len(order), dtype=bool)
+        first[1:] = fa[order][1:] != fa[order][:-1]
+        group = group.copy()
+        group[fa[order][first]] = cand[order][first]
+    return group
+
+
 def planar_charts(vertices: np.ndarray, faces: np.ndarray, angle_limit: float = ANGLE_LIMIT, grid: int = 1024) -> Charts:
     """Planar charts of ``(n, 3)`` float64 vertices and ``(m, 3)`` int faces (see the module).
 
@@ -155,6 +184,9 @@ def planar_charts(vertices: np.ndarray, faces: np.ndarray, angle_limit: float = 
 
     dirs = directions(normals, weights, angle_limit)
     dirs, group = _assign(normals, weights, dirs, np.cos(np.radians(angle_limit)))  # each face's direction
+    total = weights.sum()
+    if total > 0 and weights[np.einsum("ij,ij->i", normals, dirs[group]) > FLAT_COS].sum() < CRUMB_FLAT * total:
+        group = _absorb_crumbs(faces, normals, weights, dirs, group)
     centroids = vertices[faces].mean(axis=1)
     for attempt in range(SPLITS + 1):
         island = _islands(faces, group)
@@ -173,7 +205,6 @@ def planar_charts(vertices: np.ndarray, faces: np.ndarray, angle_limit: float = 
             dirs = np.concatenate([dirs, dirs[group[half[:1]]]])
             group[half] = len(dirs) - 1
     best = np.einsum("ij,ij->i", normals, dirs[group])
-    total = weights.sum()
     flat = float(weights[best > FLAT_COS].sum() / total) if total > 0 else 0.0
     return Charts(vmapping, chart_faces, uv, island, dirs, flat)
 

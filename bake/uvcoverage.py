@@ -48,8 +48,9 @@ def _span(x0, y0, x1, y1, x2, y2, py):
 
 @nb.njit(cache=True, nogil=True)
 def _raster(uv, faces, size, counts, flags, count):
-    """``count``: add each face to ``counts`` of the centres it covers; else flag the faces
-    that cover a centre ``counts`` has more than one face over."""
+    """``count``: add each face to ``counts`` of the centres it covers and flag the faces
+    that cover one; else flag the faces that cover a centre ``counts`` has more than one
+    face over."""
     for f in range(faces.shape[0]):
         x0, y0 = uv[faces[f, 0], 0] * size, (1.0 - uv[faces[f, 0], 1]) * size
         x1, y1 = uv[faces[f, 1], 0] * size, (1.0 - uv[faces[f, 1], 1]) * size
@@ -76,8 +77,18 @@ def _raster(uv, faces, size, counts, flags, count):
                         and (w2 > 0 or (w2 == 0 and own2))):
                     if count:
                         counts[r, c] += 1
+                        flags[f] = True
                     elif counts[r, c] > 1:
                         flags[f] = True
+
+
+def _counts(uv: np.ndarray, faces: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    uv = np.ascontiguousarray(uv, dtype=np.float64)
+    faces = np.ascontiguousarray(faces, dtype=np.int64)
+    counts = np.zeros((size, size), dtype=np.uint16)
+    covering = np.zeros(len(faces), dtype=np.bool_)
+    _raster(uv, faces, int(size), counts, covering, True)
+    return uv, faces, counts, covering
 
 
 def coverage_counts(uv: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
@@ -85,19 +96,18 @@ def coverage_counts(uv: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
 
     ``uv``: ``(k, 2)`` float in the unit square (v up); ``faces``: ``(m, 3)`` int into it.
     """
-    counts = np.zeros((size, size), dtype=np.uint16)
-    _raster(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(faces, dtype=np.int64), int(size), counts,
-            np.zeros(0, dtype=np.bool_), True)
-    return counts
+    return _counts(uv, faces, size)[2]
+
+
+def covering_faces(uv: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
+    """``(m,)`` bool: the faces that hold at least one texel centre."""
+    return _counts(uv, faces, size)[3]
 
 
 def overlapping_faces(uv: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
     """``(m,)`` bool: the faces that cover a texel centre another face covers too."""
-    uv = np.ascontiguousarray(uv, dtype=np.float64)
-    faces = np.ascontiguousarray(faces, dtype=np.int64)
-    counts = np.zeros((size, size), dtype=np.uint16)
+    uv, faces, counts, _ = _counts(uv, faces, size)
     flags = np.zeros(len(faces), dtype=np.bool_)
-    _raster(uv, faces, int(size), counts, flags, True)
     _raster(uv, faces, int(size), counts, flags, False)
     return flags
 
