@@ -11,10 +11,9 @@ max(d, 1/d), d a face's texel density over the mean; 1.0 is uniform), Sander's L
 stretch and the share of covered texels under two faces. The targets (issue 11):
 utilisation >= 0.9x Smart UV's, spread no worse, time <= 2x Smart UV's + 1 s, no grid.
 
-Blender runs in its own venv (``bpy`` pins numpy 1.26): ``--blender`` names its Python
-(default ``../venv-blender/bin/python`` if it exists; make one with
-``python3.11 -m venv ../venv-blender && ../venv-blender/bin/pip install 'bpy==4.5.*'``).
-Without it only texbake's columns are printed.
+Blender runs in its own venv (``bpy`` pins numpy 1.26, OpenImageIO needs numpy 2):
+``--blender`` names its Python, by default ``.venv-blender/bin/python`` when it exists
+(``scripts/blender`` makes it). Without it only texbake's columns are printed.
 """
 
 from __future__ import annotations
@@ -42,7 +41,7 @@ from bake.load import load_mesh  # noqa: E402
 from bake.uvcoverage import overlap  # noqa: E402
 
 SHARED = ROOT.parent / "shared" / "meshes"
-BLENDER = ROOT.parent / "venv-blender" / "bin" / "python"
+BLENDER = ROOT / ".venv-blender" / "bin" / "python"
 
 
 def all_meshes(only: str | None) -> dict[str, tuple[np.ndarray, np.ndarray]]:
