@@ -37,6 +37,7 @@ CHARTINGS = ("auto", "xatlas", "planar")
 OVERLAP_LIMIT = 0.01  # a mesh's UVs under which more of the covered texels overlap are not kept
 OVERLAP_GRID = 2048  # overlap is measured on the bake's texel grid, at most this fine
 PLANAR_GAIN = 1.3  # "auto" takes planar charts over xatlas' on a small organic mesh when they use this much more texture
+PROXY_FACES = 32  # charts of more faces are packed by the triangulation of their outline
 BARE_LIMIT = 0.01  # a warning when more of the surface lies on charts without a texel centre
 PATCH_FACES = 2000  # faces per patch of the parallel unwrap
 CHART_ITERATIONS = 1  # xatlas ChartOptions.max_iterations: half the time of 4, same quality here
@@ -333,7 +334,10 @@ def _pack(pos, faces, meshes, size, padding, pool, deadline):
         flat[:, :, 0] += (np.arange(len(lost)) * 4 * texel)[:, None]
         meshes = [*meshes, (lost, faces[lost].reshape(-1), flat.reshape(-1, 2), np.arange(3 * len(lost)).reshape(-1, 3))]
 
-    pack_in = [(uv.astype(np.float32), idx.astype(np.uint32)) for _, _, uv, idx in meshes]
+    meshes = [_compact(*mesh) for mesh in meshes]
+    texel = np.sqrt(sum(float(uv_areas(uv, idx).sum()) for _, _, uv, idx in meshes) / 0.5) / size  # UV units, roughly
+    proxies = [_proxy(uv, idx, 0.25 * texel) for _, _, uv, idx in meshes]
+    pack_in = [(uv[used].astype(np.float32), tri.astype(np.uint32)) for (_, _, uv, _), (used, tri, _) in zip(meshes, proxies, strict=True)]
     ((ok, value),) = pool.run([("pack", (pack_in, size, padding))])
     if not ok:
         raise _XatlasFailed(f"{_describe(value, deadline)} while packing")
@@ -341,14 +345,75 @@ def _pack(pos, faces, meshes, size, padding, pool, deadline):
     if len(packed) != len(meshes):
         raise _XatlasFailed("xatlas' packing lost meshes")
     maps, uvs, out_faces, offset = [], [], np.full((m, 3), -1, dtype=np.int64), 0
-    for (face_ids, vmap, _, _), (vm2, idx2, uv2) in zip(meshes, packed, strict=True):
-        if idx2.shape != (len(face_ids), 3):
-            raise _XatlasFailed("xatlas' packing changed the faces")
-        maps.append(vmap[vm2.astype(np.int64)])
-        uvs.append(uv2)
-        out_faces[face_ids] = idx2.astype(np.int64) + offset
-        offset += len(uv2)
-    return np.concatenate(maps), out_faces, np.concatenate(uvs).astype(np.float64)
+    for (face_ids, vmap, uv, idx), (used, _, chart), (vm2, _, uv2) in zip(meshes, proxies, packed, strict=True):
+        uvs.append(_place(uv, chart, used[vm2.astype(np.int64)], uv2.astype(np.float64)))
+        maps.append(vmap)
+        out_faces[face_ids] = idx + offset
+        offset += len(uv)
+    return np.concatenate(maps), out_faces, np.concatenate(uvs)
+
+
+def _compact(face_ids, vmap, uv, idx):
+    """A UV mesh for :func:`_pack` without the vertices no face uses."""
+    used, local = np.unique(idx, return_inverse=True)
+    return face_ids, vmap[used], uv[used], local.reshape(-1, 3)
+
+
+def _proxy(uv: np.ndarray, faces: np.ndarray, tolerance: float):
+    """What the packer gets for a UV mesh: ``(used (u,), triangles (t, 3) into used,
+    chart (k,))``: each chart of more than ``PROXY_FACES`` faces as the ear-cut
+    triangulation of its outline simplified within ``tolerance`` (a quarter texel:
+    :func:`bake.charts.outline_triangles`; xatlas rasterises each triangle over its
+    bounding box, so a fan of 4000 slivers costs it seconds), the others as they are;
+    ``chart``: each vertex's chart."""
+    from .charts import outline_triangles
+
+    chart = np.zeros(len(uv), dtype=np.int64)
+    face_chart = chart_labels(faces, len(uv))
+    chart[faces] = face_chart[:, None]
+    order = np.argsort(face_chart, kind="stable")
+    starts = np.flatnonzero(np.r_[True, face_chart[order][1:] != face_chart[order][:-1]])
+    parts = []
+    for members in np.split(order, starts[1:]):
+        tri = outline_triangles(uv, faces[members], tolerance) if len(members) > PROXY_FACES else None
+        parts.append(faces[members] if tri is None else tri)
+    tri = np.concatenate(parts)
+    used, local = np.unique(tri, return_inverse=True)
+    return used, local.reshape(-1, 3), chart
+
+
+def _place(uv: np.ndarray, chart: np.ndarray, source: np.ndarray, placed: np.ndarray) -> np.ndarray:
+    """``uv`` (k, 2) moved chart by chart as the packer moved the ``source`` vertices to
+    ``placed``: a chart whose vertices were all placed as placed, the others (packed by
+    their outline) by the affine map that fits the placed ones best by least squares
+    (xatlas rotates, scales, and turns a chart a quarter by swapping u and v, a mirror);
+    raises ``_XatlasFailed`` if that map does not fit."""
+    k = int(chart.max()) + 1
+    c = chart[source]
+    n = np.bincount(c, minlength=k)
+    if (n[np.unique(chart)] == 0).any():
+        raise _XatlasFailed("xatlas' packing lost a chart")
+    x = np.column_stack([uv[source], np.ones(len(source))])  # (s, 3)
+    gram = np.zeros((k, 3, 3))
+    rhs = np.zeros((k, 3, 2))
+    np.add.at(gram, c, x[:, :, None] * x[:, None, :])
+    np.add.at(rhs, c, x[:, :, None] * placed[:, None, :])
+    maps = np.linalg.pinv(gram) @ rhs  # (k, 3, 2): each chart's affine map
+    err = np.linalg.norm(np.einsum("si,sij->sj", x, maps[c]) - placed, axis=1)
+    whole = n >= np.bincount(chart, minlength=k)  # every vertex placed: xatlas' own placement
+    lo = np.full((k, 2), np.inf)
+    hi = np.full((k, 2), -np.inf)
+    np.minimum.at(lo, c, placed)
+    np.maximum.at(hi, c, placed)
+    extent = (hi - lo).max(axis=1)
+    worst = np.zeros(k)
+    np.maximum.at(worst, c, err)
+    if (~whole & (worst > 1e-3 * extent + 1e-7)).any():
+        raise _XatlasFailed("xatlas' packing distorted a chart")
+    out = np.einsum("ki,kij->kj", np.column_stack([uv, np.ones(len(uv))]), maps[chart])
+    direct = whole[c]
+    out[source[direct]] = placed[direct]
+    return out
 
 
 def _unwrap(vertices, faces, size, padding, end, deadline, workers, patch_faces, charting):

@@ -300,3 +300,81 @@ def prefer_planar(vertices: np.ndarray, faces: np.ndarray) -> tuple[bool, str]:
     if flat >= 0.2 or sliver >= 0.2:
         return True, f"CAD-like: {flat:.0%} of the area on flat regions, {sliver:.0%} on slivers"
     return False, f"organic: {flat:.0%} of the area on flat regions, {sliver:.0%} on slivers"
+
+
+def _simplified(points: np.ndarray, tolerance: float) -> np.ndarray:
+    """Indices of a closed loop's ``(n, 2)`` points kept by Douglas-Peucker at ``tolerance``
+    (at least three)."""
+    n = len(points)
+    far = int(np.argmax(np.linalg.norm(points - points[0], axis=1)))
+    keep = np.zeros(n, dtype=bool)
+    keep[[0, far]] = True
+    stack = [(0, far), (far, n)]  # chains i..j (j == n: back to 0)
+    while stack:
+        i, j = stack.pop()
+        if j - i < 2:
+            continue
+        a, b = points[i], points[j % n]
+        inner = points[i + 1:j]
+        d = b - a
+        length = np.hypot(*d)
+        dist = np.abs(d[0] * (inner[:, 1] - a[1]) - d[1] * (inner[:, 0] - a[0])) / length if length > 0 else np.linalg.norm(inner - a, axis=1)
+        worst = int(np.argmax(dist))
+        if dist[worst] > tolerance:
+            keep[i + 1 + worst] = True
+            stack += [(i, i + 1 + worst), (i + 1 + worst, j)]
+    if keep.sum() < 3:
+        keep[np.linspace(0, n - 1, 3).astype(int)] = True
+    return np.flatnonzero(keep)
+
+
+def outline_triangles(uv: np.ndarray, faces: np.ndarray, tolerance: float = 0.0) -> np.ndarray | None:
+    """``(t, 3)`` triangles of (nearly) the same region as one chart's ``(m, 3)`` faces into
+    ``(k, 2)`` ``uv``, on vertices of its outline only, simplified within ``tolerance``
+    (Douglas-Peucker) and ear-cut (mapbox_earcut): a few well-shaped triangles for a
+    region a fan of slivers covers. None when the outline is not simple loops (a vertex
+    where the border touches itself) or the triangles' area differs from the chart's by
+    more than the simplification allows (the chart overlaps itself)."""
+    import mapbox_earcut
+
+    directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    n = int(faces.max()) + 1
+    key = directed[:, 0] * n + directed[:, 1]
+    border = directed[~np.isin(key, directed[:, 1] * n + directed[:, 0])]  # edges no neighbour shares
+    if len(border) == 0 or len(np.unique(border[:, 0])) != len(border):
+        return None
+    after = dict(zip(border[:, 0].tolist(), border[:, 1].tolist(), strict=True))
+    loops, seen = [], set()
+    for start in after:
+        if start in seen:
+            continue
+        loop, v = [], start
+        while v not in seen:
+            seen.add(v)
+            loop.append(v)
+            v = after.get(v, -1)
+            if v < 0:
+                return None
+        if v != start:
+            return None
+        loops.append(np.array(loop))
+    def signed(loop):
+        p = uv[loop]
+        return 0.5 * float(np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1]))
+    loops.sort(key=signed, reverse=True)  # the outer one (counter-clockwise, largest) first
+    from .uvgeometry import uv_areas
+
+    want = uv_areas(uv, faces).sum()
+    perimeter = sum(float(np.linalg.norm(uv[loop] - uv[np.roll(loop, -1)], axis=1).sum()) for loop in loops)
+    if tolerance * perimeter > 0.01 * want:  # a thin chart: simplified, it could lose its width
+        tolerance = 0.0
+    if tolerance > 0:
+        loops = [loop[_simplified(uv[loop], tolerance)] for loop in loops]
+    ring = np.concatenate(loops)
+    tri = mapbox_earcut.triangulate_float64(uv[ring].astype(np.float64), np.cumsum([len(x) for x in loops]).astype(np.uint32))
+    if len(tri) == 0:
+        return None
+    tri = ring[np.asarray(tri, dtype=np.int64).reshape(-1, 3)]
+    if abs(uv_areas(uv, tri).sum() - want) > 1e-9 * max(want, 1e-300) * len(faces) + tolerance * perimeter:
+        return None
+    return tri
