@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI, HTTPException, Request
@@ -15,7 +16,7 @@ from bake.errors import BakeError
 from .routes import jobs, meta
 from .schemas import Problem
 from .settings import get_settings
-from .tasks import reap_once
+from .tasks import reap_forever
 
 
 class BodyLimit:
@@ -53,8 +54,16 @@ class BodyLimit:
 
 @asynccontextmanager
 async def lifespan(app: FastAPI):
-    reap_once()  # jobs whose worker died while the API was down go back to the queue
-    yield
+    """The reaper, every half BAKE_STALE_SECONDS while the API runs: jobs whose worker died
+    go back to the queue, and queued jobs the queue lost are enqueued again."""
+    stop = threading.Event()
+    reaper = threading.Thread(target=reap_forever, args=(stop,), name="reaper", daemon=True)
+    reaper.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        reaper.join(10)
 
 
 def create_app() -> FastAPI:

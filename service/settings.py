@@ -31,10 +31,11 @@ class Settings(BaseSettings):
     stop_seconds: float = 20.0  # on SIGTERM, running bakes get this long to finish, then go back to the queue
     heartbeat_seconds: float = 2.0
     stale_seconds: float = 30.0  # a running job without heartbeat for this long is re-queued
+    requeue_seconds: float = 60.0  # a queued job missing from the queue for this long is enqueued again
     max_attempts: int = 3
 
     def job_dir(self, job_id: str) -> Path:
-        """The folder of one job: its upload, ``job.json``, ``out.tmp`` while baking, ``out``."""
+        """The folder of one job: its upload, ``job.json``, ``out.tmp.LEASE`` while baking, ``out``."""
         return self.data_dir / "jobs" / job_id
 
     @property

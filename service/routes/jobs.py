@@ -6,6 +6,7 @@ import dataclasses
 import hashlib
 import io
 import json
+import logging
 import shutil
 import uuid
 import zipfile
@@ -24,9 +25,10 @@ from .. import db
 from ..deps import ClientDep, JobDep, SessionDep, SettingsDep
 from ..schemas import BakeSettings, JobOut, JobPage
 from ..settings import get_settings
-from ..tasks import enqueue_bake
+from ..tasks import enqueue_bake, state_changed
 
 router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
+logger = logging.getLogger("texbake.service")
 _CHUNK = 1 << 20
 
 
@@ -115,14 +117,28 @@ def create_job(
         digest.update(json.dumps(_resolved(options), sort_keys=True).encode())
         if settings.api_keys:  # with keys, each client has its own jobs
             digest.update(client.encode())
-        job, created = db.create_job(session, key=digest.hexdigest(), client=client, mesh_name=mesh.filename or "mesh", settings=options)
+        # the folder first, the row second: a job in the table always has its upload
+        job_id = uuid.uuid4().hex
+        folder = settings.job_dir(job_id)
+        folder.mkdir(parents=True)
+        name = _safe_stem(mesh.filename) + suffix  # outputs are named after it
+        shutil.move(tmp, folder / name)
+        (folder / "job.json").write_text(json.dumps({"mesh": name, "settings": options}))
+        try:
+            job, created = db.create_job(session, job_id=job_id, key=digest.hexdigest(), client=client,
+                                         mesh_name=mesh.filename or "mesh", settings=options)
+        except BaseException:
+            shutil.rmtree(folder, ignore_errors=True)
+            raise
+        if not created:  # the same upload's job exists already
+            shutil.rmtree(folder, ignore_errors=True)
         if created:
-            folder = settings.job_dir(job.id)
-            folder.mkdir(parents=True)
-            name = _safe_stem(mesh.filename) + suffix  # outputs are named after it
-            shutil.move(tmp, folder / name)
-            (folder / "job.json").write_text(json.dumps({"mesh": name, "settings": options}))
-            enqueue_bake(job.id)
+            state_changed(job.id, "queued", f"{name}, client {client}")
+            try:
+                enqueue_bake(job.id)
+            except Exception as exc:  # the job is in the table: the reaper enqueues it once the queue answers
+                logger.warning("job %s: the queue write failed (%s: %s): the reaper enqueues it within %g s",
+                               job.id, type(exc).__name__, exc, settings.requeue_seconds)
         else:
             response.status_code = 200
     finally:
