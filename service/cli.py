@@ -22,30 +22,44 @@ def serve(
     port: int = typer.Option(8000, envvar="BAKE_PORT", help="port to listen on"),
     workers: int | None = typer.Option(None, help="embedded bake workers (default BAKE_WORKERS, 2; 0: none, API only)"),
 ):
-    """Run the HTTP API with an embedded worker pool (SQLite queue and jobs by default)."""
-    import atexit
-    import subprocess
+    """Run the HTTP API with an embedded worker pool (SQLite queue and jobs by default).
+
+    The worker is watched and restarted when it dies; SIGTERM or SIGINT stops the API,
+    then the worker (its running bakes finish within BAKE_STOP_SECONDS or go back to the
+    queue), and leaves no process behind.
+    """
+    import logging
+    import signal
 
     try:
         import uvicorn
 
         from .main import create_app
         from .settings import get_settings
+        from .supervise import Supervisor
     except ImportError as exc:
         _need_service_extra(exc)
 
-    if host not in ("127.0.0.1", "localhost", "::1") and not get_settings().api_keys:
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    settings = get_settings()
+    if host not in ("127.0.0.1", "localhost", "::1") and not settings.api_keys:
         print(f"texbake serve: listening on {host} with no API keys: anyone who can reach it can bake (set BAKE_API_KEYS)", file=sys.stderr)
+    supervisor = None
     if workers != 0:
         command = [sys.executable, "-m", "bake.cli", "worker"] + ([] if workers is None else ["--workers", str(workers)])
-        pool = subprocess.Popen(command)
-
-        def stop_pool():
-            pool.terminate()  # the worker's graceful stop: finish or hand back its bakes
-            pool.wait(get_settings().stop_seconds + 10)
-
-        atexit.register(stop_pool)
-    uvicorn.run(create_app(), host=host, port=port, log_level="warning")
+        supervisor = Supervisor(command, settings.stop_seconds)
+        supervisor.start()
+    # uvicorn stops on SIGTERM/SIGINT, then raises the signal again with the handlers it
+    # found: these, which let this function go on to stop the worker (the default ones
+    # would end the process first and leave the worker running).
+    app = create_app()
+    for signum in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(signum, lambda *_: None)
+    try:
+        uvicorn.run(app, host=host, port=port, log_level="warning")
+    finally:
+        if supervisor is not None:
+            supervisor.stop()
 
 
 def worker(workers: int | None = typer.Option(None, help="bakes at a time (default BAKE_WORKERS, 2)")):
