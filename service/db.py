@@ -19,6 +19,7 @@ worker claimed it) can neither mark it done nor publish its outputs.
 from __future__ import annotations
 
 import json
+import threading
 import time
 import uuid
 from datetime import datetime, timedelta, timezone
@@ -27,7 +28,7 @@ from typing import Any, cast
 
 from sqlalchemy import CursorResult, DateTime, Integer, Result, String, Text, create_engine, event, inspect, select, text, update
 from sqlalchemy.engine import Engine
-from sqlalchemy.exc import DBAPIError, IntegrityError
+from sqlalchemy.exc import IntegrityError, OperationalError, ProgrammingError
 from sqlalchemy.orm import DeclarativeBase, Mapped, Session, mapped_column, sessionmaker
 
 STATES = ("queued", "running", "done", "failed", "cancelled")
@@ -71,6 +72,9 @@ class Job(Base):
         }
 
 
+_creating = threading.Lock()
+
+
 @lru_cache
 def sessions(url: str) -> sessionmaker:
     """A session factory for the database at ``url`` (tables created on first use)."""
@@ -80,15 +84,19 @@ def sessions(url: str) -> sessionmaker:
         def _sqlite(conn, _):  # many readers, one writer, waiting rather than failing
             conn.execute("PRAGMA journal_mode=WAL")
             conn.execute("PRAGMA busy_timeout=10000")
-    for attempt in range(5):  # the API and workers start together: another may create them first
-        try:
-            Base.metadata.create_all(engine)
-            _upgrade(engine)
-            break
-        except DBAPIError:
-            if attempt == 4:
-                raise
-            time.sleep(0.2 * (attempt + 1))
+    # The API and workers start together: another process may create the tables first
+    # (SQLite says so with an OperationalError); a database out of reach raises at once.
+    created_meanwhile = (IntegrityError, ProgrammingError, OperationalError) if url.startswith("sqlite") else (IntegrityError, ProgrammingError)
+    with _creating:  # and threads of this process one at a time
+        for attempt in range(5):
+            try:
+                Base.metadata.create_all(engine)
+                _upgrade(engine)
+                break
+            except created_meanwhile:
+                if attempt == 4:
+                    raise
+                time.sleep(0.2 * (attempt + 1))
     return sessionmaker(engine, expire_on_commit=False)
 
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import errno
+import logging
 import threading
 from contextlib import asynccontextmanager
 
@@ -9,6 +11,8 @@ from fastapi import FastAPI, HTTPException, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from fastapi_offline import FastAPIOffline
+from redis.exceptions import RedisError
+from sqlalchemy.exc import DataError, DBAPIError
 
 from bake import __version__
 from bake.errors import BakeError
@@ -17,6 +21,8 @@ from .routes import jobs, meta
 from .schemas import Problem
 from .settings import get_settings
 from .tasks import reap_forever
+
+logger = logging.getLogger("texbake.service")
 
 
 class BodyLimit:
@@ -52,6 +58,15 @@ class BodyLimit:
         await self.app(scope, limited, send)
 
 
+RETRY_AFTER_SECONDS = 10
+
+
+def unavailable(what: str) -> JSONResponse:
+    """503 with ``Retry-After``: a dependency is down, the request may be sent again."""
+    return JSONResponse(status_code=503, headers={"Retry-After": str(RETRY_AFTER_SECONDS)},
+                        content={"detail": f"{what} is unavailable: try again in {RETRY_AFTER_SECONDS} s"})
+
+
 @asynccontextmanager
 async def lifespan(app: FastAPI):
     """The reaper, every half BAKE_STALE_SECONDS while the API runs: jobs whose worker died
@@ -78,6 +93,32 @@ def create_app() -> FastAPI:
     @app.exception_handler(BakeError)
     async def bake_error(request: Request, exc: BakeError):
         return JSONResponse(status_code=422, content={"detail": str(exc)})
+
+    @app.exception_handler(DBAPIError)
+    async def database_error(request: Request, exc: DBAPIError):
+        """The jobs table out of reach: 503, try again; a value the database refuses: 422."""
+        if isinstance(exc, DataError):  # e.g. a string too long for its column that validation let through
+            return JSONResponse(status_code=422, content={"detail": "a value in the request is not valid for the jobs table"})
+        logger.warning("%s %s: the jobs table is unavailable: %s", request.method, request.url.path, type(exc.orig).__name__)
+        return unavailable("the jobs database")
+
+    @app.exception_handler(RedisError)
+    async def queue_error(request: Request, exc: RedisError):
+        logger.warning("%s %s: the queue is unavailable: %s", request.method, request.url.path, type(exc).__name__)
+        return unavailable("the queue")
+
+    @app.exception_handler(OSError)
+    async def disk_error(request: Request, exc: OSError):
+        if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            logger.error("%s %s: the data folder's disk is full", request.method, request.url.path)
+            return unavailable("the server's disk (full)")
+        return await server_error(request, exc)
+
+    @app.exception_handler(Exception)
+    async def server_error(request: Request, exc: Exception):
+        """A bug: JSON like every other answer; the trace goes to the log."""
+        logger.error("%s %s: internal error", request.method, request.url.path, exc_info=exc)
+        return JSONResponse(status_code=500, content={"detail": f"internal error ({type(exc).__name__}); the server's log has the details"})
 
     @app.exception_handler(RequestValidationError)
     async def invalid_request(request: Request, exc: RequestValidationError):

@@ -205,6 +205,7 @@ def _supervise(job_id: str, token: int, folder: Path, tmp: str, worker: Worker) 
                 logger.info("job %s: lease %d lost before publishing: outputs discarded", job_id, token)
                 return "taken"
             final = folder / "out"
+            (folder / "result.zip").unlink(missing_ok=True)  # of an earlier publication: made again on request
             shutil.rmtree(final, ignore_errors=True)
             (folder / tmp).rename(final)  # complete: all files at once
             report = json.loads((final / "report.json").read_text())

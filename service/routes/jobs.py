@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import io
 import json
 import logging
 import shutil
@@ -14,7 +13,7 @@ from pathlib import Path
 from typing import Annotated
 
 from fastapi import APIRouter, File, Form, HTTPException, Query, Request, Response, UploadFile
-from fastapi.responses import FileResponse, StreamingResponse
+from fastapi.responses import FileResponse
 from pydantic import Json
 from sqlalchemy import func, select, true
 
@@ -104,6 +103,8 @@ def create_job(
 
     A plain function: FastAPI runs it in its thread pool, so the copying, hashing and
     database work of one upload never holds up the event loop (or ``/healthz``)."""
+    if mesh.filename and (len(mesh.filename) > 255 or "\x00" in mesh.filename):
+        raise HTTPException(422, detail=f"mesh: the file name must be at most 255 characters, without NUL (got {len(mesh.filename)}: {mesh.filename[:40]!r}...)")
     suffix = Path(mesh.filename or "").suffix.lower()
     if suffix not in FORMATS or suffix == ".gltf":  # a glTF's buffers would be separate files
         raise HTTPException(422, detail=f"mesh: {mesh.filename!r} is not a single-file mesh (.obj .ply .stl .off .glb)")
@@ -187,13 +188,29 @@ def get_file(job: JobDep, name: str):
     return FileResponse(files[name], filename=name)
 
 
+# already compressed: stored as they are (deflating them again takes seconds per 100 MB and saves nothing)
+_STORED = {".png", ".jpg", ".jpeg", ".exr", ".zip", ".gz", ".ktx2"}
+
+
+def _result_zip(out: Path) -> Path:
+    """The job's ``result.zip`` beside ``out``, written once (to a temporary file, then
+    renamed) and served from disk; publishing a new ``out`` removes it."""
+    target = out.parent / "result.zip"
+    if target.is_file():
+        return target
+    tmp = out.parent / f"result.zip.{uuid.uuid4().hex}.tmp"
+    try:
+        with zipfile.ZipFile(tmp, "w") as z:
+            for p in sorted(out.iterdir()):
+                stored = p.suffix.lower() in _STORED
+                z.write(p, p.name, compress_type=zipfile.ZIP_STORED if stored else zipfile.ZIP_DEFLATED, compresslevel=None if stored else 1)
+        tmp.replace(target)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return target
+
+
 @router.get("/{job_id}/result.zip")
 def get_zip(job: JobDep):
-    out = _outputs(job)
-    buffer = io.BytesIO()
-    with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED) as z:
-        for p in sorted(out.iterdir()):
-            z.write(p, p.name)
-    buffer.seek(0)
-    headers = {"Content-Disposition": f'attachment; filename="{job.id}.zip"'}
-    return StreamingResponse(buffer, media_type="application/zip", headers=headers)
+    """Every output in one zip, streamed from a file on disk (constant memory, any size)."""
+    return FileResponse(_result_zip(_outputs(job)), media_type="application/zip", filename=f"{job.id}.zip")
