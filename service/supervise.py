@@ -79,8 +79,8 @@ class Supervisor:
             code = process.wait()
             if self._stopping.is_set():
                 return
-            failures = 0 if time.monotonic() - began > HEALTHY_SECONDS else failures + 1
-            delay = RESTART_DELAYS[min(failures, len(RESTART_DELAYS) - 1)]
+            failures = 1 if time.monotonic() - began > HEALTHY_SECONDS else failures + 1  # deaths in a row
+            delay = RESTART_DELAYS[min(failures, len(RESTART_DELAYS)) - 1]
             orphans = end_orphans()
             logger.error("the worker (pid %d) ended with exit code %s; %d of its processes ended; restarting it in %g s",
                          process.pid, code, len(orphans), delay)

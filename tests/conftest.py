@@ -3,11 +3,15 @@
 import contextlib
 import json
 import os
+import signal
+import socket
 import struct
 import subprocess
 import sys
+import time
 from pathlib import Path
 
+import httpx
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]  # the repository
@@ -71,19 +75,9 @@ def need(why: str):
     pytest.skip(why)
 
 
-def free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.fixture
 def postgres_url():
     """A fresh database on the shared PostgreSQL (dropped afterwards): its SQLAlchemy URL."""
-    import time
-
     try:
         import psycopg
 
@@ -115,8 +109,6 @@ class OwnRedis:
         self.process: subprocess.Popen | None = None
 
     def start(self):
-        import time
-
         import redis
 
         self.process = subprocess.Popen(["redis-server", "--port", str(self.port), "--bind", "127.0.0.1", "--save", "", "--appendonly", "no",
@@ -198,3 +190,62 @@ def own_postgres():
             server._ctl("-m", "immediate", "stop")
     finally:
         shutil.rmtree(folder, ignore_errors=True)
+
+
+# --- the service as real processes ------------------------------------------------------
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def start(args, data, extra_env=None, port=None):
+    env = {**os.environ, "BAKE_DATA_DIR": str(data), "BAKE_HEARTBEAT_SECONDS": "0.5", "BAKE_STALE_SECONDS": "5",
+           "BAKE_STOP_SECONDS": "2", **(extra_env or {})}
+    log = open(data / f"{args[0]}-{time.monotonic_ns()}.log", "wb")
+    proc = subprocess.Popen([sys.executable, "-m", "bake.cli", *args], cwd=ROOT, env=env, start_new_session=True, stdout=log, stderr=subprocess.STDOUT)
+    proc.log = log
+    if port:
+        end = time.monotonic() + 60
+        while True:
+            try:
+                httpx.get(f"http://127.0.0.1:{port}/healthz", timeout=1)
+                break
+            except httpx.HTTPError:
+                if proc.poll() is not None or time.monotonic() > end:
+                    stop(proc)
+                    pytest.fail(f"{args[0]} did not start: {open(log.name, errors='replace').read()[-2000:]}")
+                time.sleep(0.2)
+    return proc
+
+
+def stop(proc, sig=signal.SIGTERM):
+    try:
+        os.killpg(proc.pid, sig)
+        proc.wait(20)
+    except ProcessLookupError:  # the whole group has ended already
+        proc.wait()
+    except subprocess.TimeoutExpired:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+    proc.log.close()
+
+
+def upload(url, path, settings, name=None, headers=None):
+    with open(path, "rb") as f:
+        return httpx.post(f"{url}/v1/jobs", files={"mesh": (name or path.name, f)}, data={"settings": json.dumps(settings)},
+                          headers=headers, timeout=60)
+
+
+def wait(url, job_id, states=("done", "failed", "cancelled"), timeout=120):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        job = httpx.get(f"{url}/v1/jobs/{job_id}", timeout=10).json()
+        if job["state"] in states:
+            return job
+        time.sleep(0.3)
+    pytest.fail(f"job {job_id} still {job['state']} after {timeout} s")
+
+
