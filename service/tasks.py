@@ -174,7 +174,7 @@ def _supervise(job_id: str, token: int, folder: Path, tmp: str, worker: Worker) 
     s = get_settings()
     Session = db.sessions(s.database)
     end = time.monotonic() + s.job_seconds
-    state, error = "running", None
+    state, error, unreachable = "running", None, False
     reply: tuple[bool, object] | None = None if worker.send("bake", (str(folder), token)) else (False, worker.exit_reason())
     while reply is None:
         reply = worker.result(timeout=min(s.heartbeat_seconds, 0.5))
@@ -182,8 +182,13 @@ def _supervise(job_id: str, token: int, folder: Path, tmp: str, worker: Worker) 
             try:
                 with Session() as session:
                     state = db.beat(session, job_id, token, progress=_progress(folder / f"progress.{token}"))
+                if unreachable:
+                    logger.info("job %s: the jobs table answers again", job_id)
+                unreachable = False
             except DBAPIError as exc:  # a database outage: keep baking, the heartbeat resumes with it
-                logger.warning("job %s: heartbeat failed (%s)", job_id, type(exc.orig).__name__)
+                if not unreachable:
+                    logger.warning("job %s: heartbeat failed (%s): baking on", job_id, type(exc.orig).__name__)
+                unreachable = True
             if state != "running" or time.monotonic() > end:
                 error = f"the bake took longer than {s.job_seconds:g} s"
                 worker.end()  # the bake is abandoned with its process
@@ -198,7 +203,7 @@ def _supervise(job_id: str, token: int, folder: Path, tmp: str, worker: Worker) 
             error = f"internal error: {value}"
     if state != "running":
         return state  # cancelled, or taken from us (the reaper re-queued it; another bake holds it now)
-    wait = max(s.stale_seconds, 30.0)  # an outage shorter than this does not lose a finished bake
+    wait = s.job_seconds  # a finished bake waits out an outage as long as a bake may take
     if error is None:
         with Session() as session:
             if not _with_database(f"job {job_id}", lambda: db.holds(session, job_id, token), wait):
