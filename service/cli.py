@@ -92,3 +92,17 @@ def worker(workers: int | None = typer.Option(None, help="bakes at a time (defau
         returned = hand_back()
         if returned:
             logging.getLogger("texbake.service").info("handed %d running jobs back to the queue: %s", len(returned), ", ".join(returned))
+
+
+def gc():
+    """Delete expired jobs (done: BAKE_KEEP_HOURS, failed or cancelled: BAKE_KEEP_FAILED_HOURS)
+    with their folders, and left-overs of processes that died; the API does it every 10 minutes."""
+    try:
+        from .retention import collect
+        from .settings import get_settings
+    except ImportError as exc:
+        _need_service_extra(exc)
+    collected = collect(get_settings())
+    typer.echo(f"expired {len(collected.jobs)} jobs; removed {len(collected.leftovers)} left-overs")
+    for path in collected.leftovers:
+        typer.echo(f"  {path}")

@@ -33,6 +33,8 @@ class Settings(BaseSettings):
     stale_seconds: float = 30.0  # a running job without heartbeat for this long is re-queued
     requeue_seconds: float = 60.0  # a queued job missing from the queue for this long is enqueued again
     max_attempts: int = 3
+    keep_hours: float = 168.0  # a done job (row, folder, outputs) is deleted this long after it finished
+    keep_failed_hours: float = 24.0  # a failed or cancelled one this long after
 
     def job_dir(self, job_id: str) -> Path:
         """The folder of one job: its upload, ``job.json``, ``out.tmp.LEASE`` while baking, ``out``."""

@@ -249,11 +249,20 @@ def hand_back() -> list[str]:
 
 
 def reap_forever(stop) -> None:
-    """Reap at once, then every half ``stale_seconds`` until ``stop`` (a threading.Event) is set."""
+    """Reap at once, then every half ``stale_seconds`` until ``stop`` (a threading.Event)
+    is set; expire old jobs (:mod:`service.retention`) every ``GC_SECONDS``."""
+    from .retention import GC_SECONDS, collect
+
     interval = max(0.5, min(get_settings().stale_seconds, get_settings().requeue_seconds) / 2)
+    last_gc = -GC_SECONDS
     while True:
         try:
             reap_once()
+            if time.monotonic() - last_gc >= GC_SECONDS:
+                last_gc = time.monotonic()
+                collected = collect(get_settings())
+                if collected.jobs or collected.leftovers:
+                    logger.info("expired %d jobs, removed %d left-overs", len(collected.jobs), len(collected.leftovers))
         except Exception as exc:  # the database or the queue out of reach: say so, and try again next time
             logger.warning("reaping stale jobs failed: %s: %s", type(exc).__name__, exc)
         if stop.wait(interval):
