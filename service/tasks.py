@@ -119,10 +119,10 @@ def _give_back(worker: Worker) -> None:
             _idle.append(worker)
 
 
-def _progress(folder: Path) -> float | None:
-    """The fraction the bake in ``folder`` last reported (None before its first report)."""
+def _progress(file: Path) -> float | None:
+    """The fraction the bake last reported in ``file`` (None before its first report)."""
     try:
-        return float((folder / "progress").read_text())
+        return float(file.read_text())
     except (OSError, ValueError):
         return None
 
@@ -248,15 +248,22 @@ def hand_back() -> list[str]:
     return returned
 
 
-def reap_forever(stop) -> None:
+def reap_forever(stop, worker_slots: int | None = None) -> None:
     """Reap at once, then every half ``stale_seconds`` until ``stop`` (a threading.Event)
-    is set; expire old jobs (:mod:`service.retention`) every ``GC_SECONDS``."""
+    is set; expire old jobs (:mod:`service.retention`) every ``GC_SECONDS``. In a worker
+    (``worker_slots``: its bakes at a time), also record that it is alive, for ``/readyz``."""
+    import socket
+
     from .retention import GC_SECONDS, collect
 
     interval = max(0.5, min(get_settings().stale_seconds, get_settings().requeue_seconds) / 2)
     last_gc = -GC_SECONDS
+    me = f"{socket.gethostname()}:{os.getpid()}"
     while True:
         try:
+            if worker_slots is not None:
+                with db.sessions(get_settings().database)() as session:
+                    db.worker_seen(session, me, worker_slots)
             reap_once()
             if time.monotonic() - last_gc >= GC_SECONDS:
                 last_gc = time.monotonic()
