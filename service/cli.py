@@ -83,7 +83,7 @@ def worker(workers: int | None = typer.Option(None, help="bakes at a time (defau
     count = workers or settings.workers
     prestart(count)  # the first jobs find their bake processes warm
     stop = threading.Event()
-    threading.Thread(target=reap_forever, args=(stop,), daemon=True).start()  # re-queue dead workers' jobs
+    threading.Thread(target=reap_forever, args=(stop, count), daemon=True).start()  # re-queue dead workers' jobs
     try:  # threads are enough: each bake runs in its own child process
         queue().huey.create_consumer(workers=count, worker_type="thread", periodic=True,
                              graceful_signal="TERM", shutdown_timeout=settings.stop_seconds).run()

@@ -26,7 +26,7 @@ from datetime import datetime, timedelta, timezone
 from functools import lru_cache
 from typing import Any, cast
 
-from sqlalchemy import CursorResult, DateTime, Integer, Result, String, Text, create_engine, event, inspect, select, text, update
+from sqlalchemy import CursorResult, DateTime, Integer, Result, String, Text, create_engine, delete, event, inspect, select, text, update
 from sqlalchemy.engine import Engine
 from sqlalchemy.exc import IntegrityError, OperationalError, ProgrammingError
 from sqlalchemy.orm import DeclarativeBase, Mapped, Session, mapped_column, sessionmaker
@@ -73,6 +73,16 @@ class Job(Base):
 
 
 _creating = threading.Lock()
+
+
+class WorkerSeen(Base):
+    """A worker process's last sign of life (``/readyz`` counts the live ones)."""
+
+    __tablename__ = "workers"
+
+    id: Mapped[str] = mapped_column(String(128), primary_key=True)  # host:pid
+    slots: Mapped[int] = mapped_column(Integer, default=1)
+    seen: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=now)
 
 
 @lru_cache
@@ -234,3 +244,18 @@ def stranded(db: Session, grace_seconds: float) -> list[str]:
     (the caller re-enqueues those the queue does not hold)."""
     cutoff = now() - timedelta(seconds=grace_seconds)
     return list(db.scalars(select(Job.id).where(Job.state == "queued", Job.updated < cutoff).order_by(Job.created)))
+
+
+def worker_seen(db: Session, worker_id: str, slots: int) -> None:
+    """Record that a worker is alive (and forget workers not seen for a day)."""
+    if _rowcount(db.execute(update(WorkerSeen).where(WorkerSeen.id == worker_id).values(seen=now(), slots=slots))) == 0:
+        db.add(WorkerSeen(id=worker_id, slots=slots))
+    db.execute(delete(WorkerSeen).where(WorkerSeen.seen < now() - timedelta(days=1)))
+    db.commit()
+
+
+def live_workers(db: Session, within_seconds: float) -> tuple[int, int]:
+    """(workers, bake slots) seen in the last ``within_seconds``."""
+    cutoff = now() - timedelta(seconds=within_seconds)
+    rows = db.execute(select(WorkerSeen.slots).where(WorkerSeen.seen >= cutoff)).all()
+    return len(rows), sum(r.slots for r in rows)

@@ -73,10 +73,19 @@ def test_not_json_settings_and_unknown_routes(client, meshes):
     assert client.get("/v2/anything").status_code == 404
 
 
-def test_readiness_checks_queue_and_database(client, meshes):
-    assert client.get("/readyz").json() == {"ok": True, "queue": 0}  # a new data folder
+def test_readiness_checks_queue_database_workers_and_disk(client, meshes):
+    from service import db
+    from service.settings import get_settings
+
+    r = client.get("/readyz")  # a new data folder, no worker
+    assert r.status_code == 503 and r.json()["detail"] == "not ready: no worker is alive", r.json()
+    assert r.json()["database"] == r.json()["queue"] == "ok" and r.json()["queued"] == 0
+    with db.sessions(get_settings().database)() as session:
+        db.worker_seen(session, "host:1", 2)
     assert post(client, meshes / "suzanne.ply", {"texture": "wood"}).status_code == 202
-    assert client.get("/readyz").json() == {"ok": True, "queue": 1}  # no worker to take it
+    answer = client.get("/readyz").json()
+    assert answer["ok"] and answer["queued"] == 1 and (answer["workers"], answer["slots"]) == (1, 2), answer
+    assert answer["disk_free_mb"] > 0
 
 
 def test_a_texture_naming_a_server_path_is_an_unknown_name(client, meshes, tmp_path):
@@ -169,3 +178,14 @@ def test_database_down_is_a_503_with_retry_after(tmp_path, monkeypatch, meshes):
     finally:
         settings.get_settings.cache_clear()
         tasks.queue.cache_clear()
+
+
+def test_job_urls_use_the_configured_base_url_not_the_host_header(client, meshes, monkeypatch):
+    from service import settings
+
+    monkeypatch.setenv("BAKE_BASE_URL", "https://bake.example.org/")
+    settings.get_settings.cache_clear()
+    with open(meshes / "suzanne.ply", "rb") as f:
+        r = client.post("/v1/jobs", files={"mesh": ("suzanne.ply", f)}, headers={"Host": "evil.example.com"})
+    job = r.json()
+    assert r.status_code == 202 and job["url"] == f"https://bake.example.org/v1/jobs/{job['id']}" == r.headers["Location"]
