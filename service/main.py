@@ -5,6 +5,7 @@ from __future__ import annotations
 import errno
 import logging
 import threading
+import time
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI, HTTPException, Request
@@ -23,6 +24,7 @@ from .settings import get_settings
 from .tasks import reap_forever
 
 logger = logging.getLogger("texbake.service")
+access_log = logging.getLogger("texbake.access")
 
 
 class BodyLimit:
@@ -67,6 +69,30 @@ def unavailable(what: str) -> JSONResponse:
                         content={"detail": f"{what} is unavailable: try again in {RETRY_AFTER_SECONDS} s"})
 
 
+class AccessLog:
+    """One line per request on ``texbake.access``: client, method, path, status, seconds."""
+
+    def __init__(self, app):
+        self.app = app
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http":
+            return await self.app(scope, receive, send)
+        began, status = time.perf_counter(), 500  # what the client gets if nothing is sent
+
+        async def sending(message):
+            nonlocal status
+            if message["type"] == "http.response.start":
+                status = message["status"]
+            await send(message)
+
+        try:
+            await self.app(scope, receive, sending)
+        finally:
+            client = scope.get("client") or ("-", 0)
+            access_log.info("%s %s %s %d %.3f", client[0], scope["method"], scope["path"], status, time.perf_counter() - began)
+
+
 @asynccontextmanager
 async def lifespan(app: FastAPI):
     """The reaper, every half BAKE_STALE_SECONDS while the API runs: jobs whose worker died
@@ -87,6 +113,7 @@ def create_app() -> FastAPI:
                          description="Upload a mesh and a texture spec; get baked maps and a textured GLB.",
                          responses={"4XX": {"model": Problem, "description": "what is wrong, naming the field or the file"}})
     app.add_middleware(BodyLimit, limit=get_settings().max_upload_bytes + 1024 * 1024)  # room for the form
+    app.add_middleware(AccessLog)  # outermost: sees the 413s too
     app.include_router(jobs.router)
     app.include_router(meta.router)
 

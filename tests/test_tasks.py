@@ -69,7 +69,9 @@ def test_a_locked_sqlite_queue_loses_no_job(tmp_path, meshes):
         job = wait(url, r.json()["id"], timeout=120)
         assert job["state"] == "done" and job["attempts"] == 1, job
         with open(api.log.name) as log:
-            assert "the queue write failed" in log.read()
+            text = log.read()
+        assert "the queue write failed" in text
+        assert re.search(r"texbake\.access INFO 127\.0\.0\.1 POST /v1/jobs 202 [0-9.]+", text)  # the access log
     finally:
         if worker:
             stop(worker)

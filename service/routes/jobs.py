@@ -31,12 +31,19 @@ logger = logging.getLogger("texbake.service")
 _CHUNK = 1 << 20
 
 
+def job_url(job_id: str, request: Request) -> str:
+    """The job's URL: under ``BAKE_BASE_URL`` when set (what a client should see behind a
+    proxy, never what its Host header claims), else the request's own address."""
+    base = get_settings().base_url
+    return f"{base.rstrip('/')}/v1/jobs/{job_id}" if base else str(request.url_for("get_job", job_id=job_id))
+
+
 def _out(job: db.Job, request: Request) -> JobOut:
     out = get_settings().job_dir(job.id) / "out"
     files = sorted(p.name for p in out.iterdir()) if job.state == "done" and out.is_dir() else []
     data = job.as_dict()
     warnings = (data["report"] or {}).get("warnings", [])
-    return JobOut(url=str(request.url_for("get_job", job_id=job.id)), files=files, warnings=warnings, **data)
+    return JobOut(url=job_url(job.id, request), files=files, warnings=warnings, **data)
 
 
 def _safe_stem(filename: str | None) -> str:
@@ -144,7 +151,7 @@ def create_job(
             response.status_code = 200
     finally:
         tmp.unlink(missing_ok=True)
-    response.headers["Location"] = str(request.url_for("get_job", job_id=job.id))
+    response.headers["Location"] = job_url(job.id, request)
     return _out(job, request)
 
 
