@@ -441,9 +441,11 @@ def test_schemathesis_finds_no_server_error(server, tmp_path):
 
 def test_schemathesis_finds_no_server_error_on_postgresql(tmp_path, postgres_url):
     """The same against PostgreSQL, which refuses what SQLite takes (a NUL in a string, a
-    name longer than its column); no worker: nothing is baked."""
+    name longer than its column). A worker runs (else /readyz is rightly a 503), with small
+    limits: what is accepted bakes in a moment."""
     port = free_port()
-    api = start(["serve", "--port", str(port), "--workers", "0"], tmp_path, {"BAKE_DATABASE_URL": postgres_url}, port=port)
+    limits = {"BAKE_DATABASE_URL": postgres_url, "BAKE_MAX_SIZE": "128", "BAKE_MAX_SAMPLES": "2", "BAKE_MAX_FRAMES": "2"}
+    api = start(["serve", "--port", str(port), "--workers", "1"], tmp_path, limits, port=port)
     try:
         r = schemathesis(f"http://127.0.0.1:{port}", tmp_path)
         assert r.returncode == 0, r.stdout[-4000:] + r.stderr[-2000:]
