@@ -104,3 +104,11 @@ def test_parse_spec_reads_no_files(tmp_path):
             parse_spec(text)
         messages.add(str(error.value).replace(repr(text), "TEXT"))
     assert len(messages) == 1, messages
+
+
+def test_json_nested_too_deep_is_refused_before_parsing():
+    """json.loads recurses: 100000 levels would be a RecursionError, not a TextureError."""
+    deep = '{"name": "marble", "x": ' + '{"a": ' * 100_000 + "1" + "}" * 100_000 + "}"
+    with pytest.raises(TextureError, match="unknown texture"):
+        parse_spec(deep)
+    assert parse_spec('{"name": "marble", "turbulence": {"octaves": 3}}').turbulence.octaves == 3  # shallow JSON still parses
