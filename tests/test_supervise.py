@@ -30,13 +30,24 @@ def until(condition, timeout, what):
     return value
 
 
-def test_a_killed_worker_is_restarted_and_its_bakes_end_with_it(tmp_path, meshes):
+def serve_a_long_bake(tmp_path, meshes):
+    """``(serve's process, its URL, port, a job id)``: ``texbake serve`` with one worker,
+    baking a marble of several seconds."""
     port = free_port()
     api = start(["serve", "--port", str(port), "--workers", "1"], tmp_path, port=port)
     url = f"http://127.0.0.1:{port}"
     try:
         job_id = upload(url, meshes / "bunny.ply", {"texture": "marble", "size": 2048, "samples": 4}).json()["id"]
         wait(url, job_id, states=("running",), timeout=60)
+    except BaseException:
+        stop(api)
+        raise
+    return api, url, port, job_id
+
+
+def test_a_killed_worker_is_restarted_and_its_bakes_end_with_it(tmp_path, meshes):
+    api, url, _, job_id = serve_a_long_bake(tmp_path, meshes)
+    try:
         [worker] = [p for p in psutil.Process(api.pid).children() if "worker" in " ".join(p.cmdline())]
         bakes = {p.pid for p in worker.children(recursive=True)}
         assert bakes, "no bake process"
@@ -58,12 +69,8 @@ def test_a_killed_worker_is_restarted_and_its_bakes_end_with_it(tmp_path, meshes
 def test_sigterm_to_serve_alone_leaves_no_process(tmp_path, meshes):
     """uvicorn raised SIGTERM again after its shutdown, which ended serve before it stopped
     its worker: the pool kept running, and a restart made two."""
-    port = free_port()
-    api = start(["serve", "--port", str(port), "--workers", "1"], tmp_path, port=port)
-    url = f"http://127.0.0.1:{port}"
+    api, url, port, job_id = serve_a_long_bake(tmp_path, meshes)
     try:
-        job_id = upload(url, meshes / "bunny.ply", {"texture": "marble", "size": 2048, "samples": 4}).json()["id"]
-        wait(url, job_id, states=("running",), timeout=60)
         assert len(session_processes(api.pid)) >= 3  # serve, its worker, a bake process
         api.send_signal(signal.SIGTERM)  # serve alone, not its group
         assert api.wait(30) == 0
