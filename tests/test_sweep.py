@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from bake import estimate
-from bake.checks.sweep import COLUMNS, Row, Setting, pareto_front, prepare_mesh, run_sweep, write_all
+from bake.checks.sweep import COLUMNS, Row, Setting, compare, pareto_front, prepare_mesh, run_sweep, write_all
 from bake.errors import ParameterError
 from bake.imageio import read_image
 
@@ -65,6 +65,21 @@ def test_estimate_is_within_a_factor_2_of_the_measured_error(swept):
     for key, method in (((1, True), "probe"), ((4, False), "spread"), ((16, False), "spread")):
         r = by[key]
         assert r.method == method and 0.5 <= r.ratio <= 2.0, (key, r.estimate, r.rmse)
+
+
+def test_every_setting_is_scored_on_the_same_texels(swept):
+    _, info = swept
+    # the 1-sample bakes cover fewer edge texels than 16 samples: the shared set is theirs at most
+    assert 0 < info[96]["texels"] < 96 * 96
+
+
+def test_compare_scores_only_the_given_texels():
+    image, reference = np.zeros((2, 2, 3)), np.zeros((2, 2, 3))
+    image[0, 0] = 1.0  # an error on one texel only
+    covered = np.ones((2, 2), dtype=bool)
+    texels = np.array([[False, True], [True, True]])
+    assert compare(image, covered, reference, covered) == pytest.approx((0.5, 1.0))
+    assert compare(image, covered, reference, covered, texels) == (0.0, 0.0)
 
 
 def test_pareto_front_keeps_rows_nothing_beats():
