@@ -8,6 +8,7 @@ import trimesh
 
 import bake
 from bake.errors import ParameterError
+from bake.settings import BakeSettings
 
 
 def exact_points_at_texels(mesh, uv, faces, rows, cols, size):
@@ -158,6 +159,10 @@ def test_quality_presets_and_explicit_overrides(meshes):
     mixed = bake.bake_mesh(mesh, "marble", size=32, quality="final", samples=4, max_octaves=3)
     p = mixed.report["parameters"]
     assert (p["quality"], p["samples"], p["filtering"], p["max_octaves"]) == ("final", 4, False, 3)
+    assert BakeSettings(samples=16).quality_settings().filtering is False  # explicit samples: point samples
+    assert BakeSettings(samples=16, filtering=True).quality_settings().filtering is True  # unless asked for
+    assert BakeSettings(samples=1).quality_settings().filtering is True
+    assert BakeSettings(quality="draft", samples=4).quality_settings().filtering is False
     default = bake.bake_mesh(mesh, "marble", size=32, margin=2)
     named = bake.bake_mesh(mesh, "marble", size=32, margin=2, quality="default")
     assert np.array_equal(default.images["albedo"], named.images["albedo"])  # "default" is bake_mesh's defaults
