@@ -104,3 +104,20 @@ def test_parse_spec_reads_no_files(tmp_path):
             parse_spec(text)
         messages.add(str(error.value).replace(repr(text), "TEXT"))
     assert len(messages) == 1, messages
+
+
+@pytest.mark.parametrize("name", ["checker", "noise", "turbulence", "fbm", "marble", "wood", "flame", "position"])
+def test_nan_and_infinite_points_give_nan(name):
+    # NaN in, NaN out: no silent value of lattice point 0; the finite rows are untouched
+    bad = [[np.nan, 0.2, 0.3], [np.inf, 0.2, 0.3], [0.1, -np.inf, 0.3]]
+    good = [[0.1, 0.2, 0.3], [0.4, 0.5, 0.6]]
+    points = np.array([*bad, *good])
+    footprint = np.tile(np.array([[1e-3, 0, 0], [0, 1e-3, 0]]), (len(points), 1, 1))
+    for f in (None, footprint):
+        out = evaluate(name, points, f)
+        assert np.isnan(out[:3]).all() and np.isfinite(out[3:]).all()
+        assert np.array_equal(out[3:], evaluate(name, good, None if f is None else f[3:]))
+    nan_footprint = footprint.copy()
+    nan_footprint[3, 0, 0] = np.nan
+    out = evaluate(name, points, nan_footprint)
+    assert np.isnan(out[3]).all() and np.isfinite(out[4]).all()

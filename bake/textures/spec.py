@@ -7,6 +7,7 @@ command line and the service (as JSON).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from itertools import pairwise
 from typing import Annotated, ClassVar, Literal, get_args
@@ -81,6 +82,21 @@ class _Texture(BaseModel):
     def evaluate(self, points: np.ndarray, ctx: EvalContext) -> np.ndarray:
         """``(n, channels)`` float64 linear values at ``(n, 3)`` texture-space points."""
         raise NotImplementedError
+
+    def __call__(self, points: np.ndarray, ctx: EvalContext) -> np.ndarray:
+        """:meth:`evaluate`, with NaN in every channel where a point or its footprint is
+        not finite (NaN in, NaN out: such a point has no place in the pattern)."""
+        bad = ~np.isfinite(points).all(axis=1)
+        if ctx.dpdx is not None and ctx.dpdy is not None:
+            bad |= ~(np.isfinite(ctx.dpdx).all(axis=1) & np.isfinite(ctx.dpdy).all(axis=1))
+        if not bad.any():
+            return self.evaluate(points, ctx)
+        zero = np.zeros_like(points)
+        if ctx.dpdx is not None and ctx.dpdy is not None:
+            ctx = dataclasses.replace(ctx, dpdx=np.where(bad[:, None], zero, ctx.dpdx), dpdy=np.where(bad[:, None], zero, ctx.dpdy))
+        out = self.evaluate(np.where(bad[:, None], zero, points), ctx)
+        out[bad] = np.nan
+        return out
 
 
 class Position(_Texture):
