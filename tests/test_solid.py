@@ -56,13 +56,14 @@ def test_wood_rings_alternate_with_radius():
 
 
 def test_flame_shape():
+    # without bounds the object is the unit cube: the flame's axis stands on (0.5, 0, 0.5)
     spec = {"name": "flame", "half_width": 0.5, "height": 1.0, "turbulence_amount": 0.0}
-    inside = evaluate(spec, [[0.0, 0.1, 0.0]])[0]
-    edge = evaluate(spec, [[0.4, 0.1, 0.0]])[0]
-    above = evaluate(spec, [[0.0, 1.5, 0.0], [0.0, 1.0, 0.0], [0.0, -0.1, 0.0]])
+    inside = evaluate(spec, [[0.5, 0.1, 0.0]])[0]
+    edge = evaluate(spec, [[0.9, 0.1, 0.0]])[0]
+    above = evaluate(spec, [[0.5, 1.5, 0.0], [0.5, 1.0, 0.0], [0.5, -0.1, 0.0]])
     assert (inside > edge).all() and not above.any()
     # blue and green fall off faster than red
-    r, g, b = evaluate(spec, [[0.25, 0.0, 0.0]])[0] / inside
+    r, g, b = evaluate(spec, [[0.75, 0.0, 0.0]])[0] / inside
     assert r > g > b
 
 

@@ -299,14 +299,18 @@ class Wood(_Texture):
 class Flame(_Texture):
     """Watt and Watt's flame: ``(1 - y/h) flame_color(|x/b| + turbulence(x, t))``.
 
-    The flame spans (-b, 0) to (b, h) in the x-y plane; ``red``, ``green`` and ``blue``
-    are spline curves of ``|x/b| + turbulence``, highest at the centre, green and blue
-    falling off faster than red.
+    The flame spans (-b, 0) to (b, h) in the x-y plane about its axis, which stands
+    upright (along y) on the centre of the object's base: the middle of the bounding
+    box's bottom face (its min-y face). ``height`` h is the object's height (the box's
+    y extent) and ``half_width`` b half its width (x extent) unless given; ``transform``
+    moves, turns and scales the flame from there.
+    ``red``, ``green`` and ``blue`` are spline curves of ``|x/b| + turbulence``, highest
+    at the centre, green and blue falling off faster than red.
     """
 
     name: Literal["flame"] = "flame"
-    half_width: Annotated[float, Field(gt=0, le=1e6)] = 0.3
-    height: Annotated[float, Field(gt=0, le=1e6)] = 1.0
+    half_width: Annotated[float, Field(gt=0, le=1e6)] | None = Field(None, description="none: half the object's width")
+    height: Annotated[float, Field(gt=0, le=1e6)] | None = Field(None, description="none: the object's height")
     time: Annotated[float, Field(ge=-1e6, le=1e6)] = 0.0
     rise: Annotated[float, Field(ge=-1e3, le=1e3)] = 1.0
     turbulence_amount: Annotated[float, Field(ge=0, le=100)] = 0.6
@@ -318,11 +322,30 @@ class Flame(_Texture):
     def evaluate(self, points, ctx):
         from .solid import flame, spline
 
-        s, weight = flame(points, ctx.width, half_width=self.half_width, height=self.height, time=self.time, rise=self.rise,
+        base, half_width, height = self.frame(ctx.bounds)
+        s, weight = flame(points - base, ctx.width, half_width=half_width, height=height, time=self.time, rise=self.rise,
                           turbulence_amount=self.turbulence_amount, max_octaves=ctx.max_octaves,
                           **turbulence_args(self.turbulence))
         rgb = [spline(s, np.asarray(c.knots), np.asarray(c.values)[:, None])[:, 0] for c in (self.red, self.green, self.blue)]
         return np.clip(np.column_stack(rgb), 0.0, None) * weight[:, None]
+
+    def frame(self, bounds: np.ndarray | None) -> tuple[np.ndarray, float, float]:
+        """``(foot (3,), b, h)``: where the foot of the flame's axis lands in this texture's
+        space, the flame's half width and its height.
+
+        ``bounds``: ``(2, 3)`` bounding box of the object in the bake's texture space
+        (None: the unit cube). The flame's frame is that space moved to the centre of the
+        box's bottom (min-y) face, then placed by the spec's placement, so a transform
+        moves, turns and scales the flame from the object's base: the foot is returned as
+        the placement's linear part applied to it (the points subtract it). b and h are
+        ``half_width`` and ``height``, else half the box's x extent and its y extent.
+        """
+        box = np.array([[0.0] * 3, [1.0] * 3]) if bounds is None else np.asarray(bounds, dtype=np.float64)
+        foot = np.array([0.5 * (box[0, 0] + box[1, 0]), box[0, 1], 0.5 * (box[0, 2] + box[1, 2])])
+        ends, _, _ = self.placement()(np.array([foot, np.zeros(3)]), None, None)
+        b = self.half_width if self.half_width is not None else 0.5 * float(box[1, 0] - box[0, 0])
+        h = self.height if self.height is not None else float(box[1, 1] - box[0, 1])
+        return ends[0] - ends[1], b or 1.0, h or 1.0
 
 
 def turbulence_args(params: TurbulenceParams) -> dict:
