@@ -83,6 +83,16 @@ class _Texture(BaseModel):
         """``(n, channels)`` float64 linear values at ``(n, 3)`` texture-space points."""
         raise NotImplementedError
 
+    def placed_bounds(self, ctx: EvalContext) -> np.ndarray | None:
+        """``(2, 3)`` box in this texture's space that holds the object: its bounding box
+        (``ctx.bounds``) through the placement, boxed again; None without bounds."""
+        if ctx.bounds is None:
+            return None
+        lo, hi = np.asarray(ctx.bounds, dtype=np.float64)
+        corners = np.array([[(lo, hi)[(k >> axis) & 1][axis] for axis in range(3)] for k in range(8)])
+        placed, _, _ = self.placement()(corners, None, None)
+        return np.array([placed.min(axis=0), placed.max(axis=0)])
+
     def __call__(self, points: np.ndarray, ctx: EvalContext) -> np.ndarray:
         """:meth:`evaluate`, with NaN in every channel where a point or its footprint is
         not finite (NaN in, NaN out: such a point has no place in the pattern)."""
@@ -132,7 +142,7 @@ class Checker(_Texture):
         from .basic import checker
 
         dpdx, dpdy = (ctx.dpdx, ctx.dpdy) if self.filtered else (None, None)
-        return checker(points, self.box, self.color_even, self.color_odd, dpdx, dpdy)
+        return checker(points, self.box, self.color_even, self.color_odd, dpdx, dpdy, self.placed_bounds(ctx))
 
 
 def _check_knots(knots, values) -> None:
