@@ -260,7 +260,11 @@ WOOD_COLOURS = ColourMap(knots=(0.0, 1.0), colours=((0.55, 0.33, 0.14), (0.30, 0
 
 
 class Marble(_Texture):
-    """Perlin's marble: ``MarbleColor(sin(frequency * x + amplitude * turbulence(p)))``."""
+    """Perlin's marble: ``MarbleColor(sin(frequency * x + amplitude * turbulence(p)))``.
+
+    Filtered, the colour is the colour map's mean over the texel's phase spread
+    (``colour.wave_colours``), not the colour of the filtered value.
+    """
 
     name: Literal["marble"] = "marble"
     axis: Literal["x", "y", "z"] = "x"
@@ -270,18 +274,26 @@ class Marble(_Texture):
     colormap: ColourMap = MARBLE_COLOURS
 
     def evaluate(self, points, ctx):
-        from .solid import marble
+        from .solid import marble_phase
 
-        t = marble(points, ctx.width, axis="xyz".index(self.axis), frequency=self.frequency, amplitude=self.amplitude,
-                   max_octaves=ctx.max_octaves, **turbulence_args(self.turbulence))
-        return self.colormap(t)
+        phase, spread = marble_phase(points, ctx.width, axis="xyz".index(self.axis), frequency=self.frequency,
+                                     amplitude=self.amplitude, max_octaves=ctx.max_octaves, **turbulence_args(self.turbulence))
+        out = self.colormap(0.5 + 0.5 * np.sin(phase))
+        wide = np.flatnonzero(spread > 0)
+        if len(wide):  # the mean colour over the texel, not the colour of the mean
+            from .colour import wave_colours
+
+            out[wide] = wave_colours(self.colormap.knots, self.colormap.colours, phase[wide], spread[wide])
+        return out
 
 
 class Wood(_Texture):
     """Wood grain: rings ``D + A rings(r / M + K sin(N theta + B z))`` about a tilted axis.
 
     ``ring_width`` is M, ``wobble`` K, ``wobbles`` N, ``twist`` B, ``tilt`` the rotation T
-    of the ring axis (XYZ Euler degrees); D and A are the colour map's ends.
+    of the ring axis (XYZ Euler degrees); D and A are the colour map's ends. Filtered, the
+    colour is the two ends mixed by the share of ring 1 in the texel (the mean colour: the
+    point-sampled rings are only ever 0 or 1).
     """
 
     name: Literal["wood"] = "wood"
@@ -302,8 +314,13 @@ class Wood(_Texture):
     def evaluate(self, points, ctx):
         from .solid import wood
 
-        t = wood(points, ctx.width, ring_width=self.ring_width, wobble=self.wobble, wobbles=self.wobbles, twist=self.twist)
-        return self.colormap(t)
+        t = wood(points, ctx.width, ring_width=self.ring_width, wobble=self.wobble, wobbles=self.wobbles, twist=self.twist,
+                 dpdx=ctx.dpdx, dpdy=ctx.dpdy)
+        if ctx.width is None:
+            return self.colormap(t)
+        # the rings are 0 or 1: the mean colour over a texel is the colours of 0 and 1 mixed
+        ends = self.colormap(np.array([0.0, 1.0]))
+        return ends[0] + t[:, None] * (ends[1] - ends[0])
 
 
 class Flame(_Texture):
