@@ -16,8 +16,9 @@ from .noise import octave_sum
 def spline(t: np.ndarray, knots: np.ndarray, values: np.ndarray) -> np.ndarray:
     """Catmull-Rom spline through ``(k,)`` increasing knots and ``(k, c)`` values.
 
-    ``t``: ``(n,)``, clamped to the knot range. Returns ``(n, c)``. With two knots it is
-    a straight line.
+    ``t``: ``(n,)``, clamped to the knot range. Returns ``(n, c)``. The end values are
+    repeated as the outer control points, so with two knots it is not a straight line but
+    an ease curve, ``a + (b - a)(u + 3u^2 - 2u^3) / 2`` (0.25 -> 0.203 from 0 to 1).
     """
     t = np.clip(np.asarray(t, dtype=np.float64), knots[0], knots[-1])
     if len(knots) == 1:
@@ -36,7 +37,8 @@ def turbulence(points, width, *, scale=1.0, offset=0.0, octaves=8, lacunarity=2.
                basis="value", interpolation="linear", signed=False, seed=0, max_octaves=None) -> np.ndarray:
     """Perlin's turbulence ``sum_k gain^k noise(lacunarity^k * (s p + o))``, normalised.
 
-    Unsigned (the lecture's form, noise in [0, 1]) it lies in [0, 1]; ``signed`` gives
+    Unsigned (the lecture's form, noise in [0, 1]) it lies in [0, 1] (Catmull-Rom noise
+    overshoots to about [-0.10, 1.11], and so may the sum); ``signed`` gives
     fBm, ``sum_k gain^k (2 noise - 1)``, normalised into [-1, 1]. ``max_octaves`` caps
     the octaves evaluated; the rest add their mean (the normalisation is unchanged).
     """
