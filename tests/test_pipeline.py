@@ -190,9 +190,13 @@ def test_filtering_precision_and_octave_cap_change_only_what_they_should(meshes)
 def test_report_carries_an_error_estimate(meshes):
     one = bake.bake_mesh(meshes / "suzanne.ply", "marble", size=48).report["error_estimate"]
     assert one["method"] == "probe" and one["rmse"] > 0 and one["texels"] > 100 and one["map"] == "albedo"
+    low, high = one["rmse_interval"]
+    assert 0 <= low <= one["rmse"] <= high
     point = bake.bake_mesh(meshes / "suzanne.ply", "marble", size=48, filtering=False).report["error_estimate"]
-    many = bake.bake_mesh(meshes / "suzanne.ply", "marble", size=48, samples=4, filtering=False).report["error_estimate"]
-    assert many["method"] == "spread" and 0 < many["rmse"] < point["rmse"]
+    many = bake.bake_mesh(meshes / "suzanne.ply", "marble", size=48, samples=16).report["error_estimate"]
+    assert many["probe_grid"] == [8, 16] and 0 < many["rmse"] < point["rmse"]
+    filtered = bake.bake_mesh(meshes / "suzanne.ply", "marble", size=48, samples=64, filtering=True).report["error_estimate"]
+    assert filtered["rmse"] > 0  # issue 12: the old probe read exactly 0 here
 
 
 def test_progress_is_reported_from_start_to_end(meshes):

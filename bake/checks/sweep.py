@@ -86,7 +86,7 @@ class Row:
     rmse: float
     max_abs: float
     estimate: float  # the bake's own error estimate (report.json "error_estimate")
-    method: str  # how it was estimated: "spread" or "probe"
+    method: str  # how it was estimated ("probe")
     pareto: bool = False  # no other setting is both faster and more accurate
 
     @property
@@ -264,8 +264,8 @@ def markdown(rows: list[Row], info: dict | None = None) -> str:
         "written; the runs go round the settings); tiles s: the tile loop alone (lookup, surface, texture, accumulate). "
         "RMSE and max abs: linear colour, three channels, the same texels for every setting of a size: those "
         "covered by the reference and by every setting's bake at that size. "
-        "Estimate: the bake's own `report.json` `error_estimate` (spread: checkerboard halves of each texel's "
-        "strata; probe: a 4x4 point-sampled reference at up to 1024 random texels; see `bake/estimate.py`).",
+        "Estimate: the bake's own `report.json` `error_estimate` (a point-sampled probe of up to 4096 covered "
+        "texels, stratified into chart edges and inside, less its own noise; see `bake/estimate.py`).",
     ]
     for sz, ref in sorted((info or {}).items()):
         lines.append("")
