@@ -68,7 +68,7 @@ class BakeSettings(BaseModel):
 
     texture: Texture = Field("checker", validate_default=True, description="texture: a name or a spec object (see `texbake textures`)")
     size: Texels | tuple[Texels, Texels] = Field(1024, description="image size in texels: one number (square), or width and height")
-    quality: Literal["draft", "default", "final"] | None = Field(
+    quality: Literal["default", "final"] | None = Field(
         None, description="preset of samples, filtering, precision and octave cap (none: 'default'); those set explicitly override it")
     samples: int = Field(1, ge=1, le=1024, description="samples per texel, stratified (default: the preset's)")
     filtering: StrictBool = Field(True, description="antialias by the texel footprint (default: the preset's; off when samples > 1 is given without it)")

@@ -162,7 +162,7 @@ def test_quality_presets_and_explicit_overrides(meshes):
     assert BakeSettings(samples=16).quality_settings().filtering is False  # explicit samples: point samples
     assert BakeSettings(samples=16, filtering=True).quality_settings().filtering is True  # unless asked for
     assert BakeSettings(samples=1).quality_settings().filtering is True
-    assert BakeSettings(quality="draft", samples=4).quality_settings().filtering is False
+    assert BakeSettings(quality="default", samples=4).quality_settings().filtering is False
     default = bake.bake_mesh(mesh, "marble", size=32, margin=2)
     named = bake.bake_mesh(mesh, "marble", size=32, margin=2, quality="default")
     assert np.array_equal(default.images["albedo"], named.images["albedo"])  # "default" is bake_mesh's defaults
