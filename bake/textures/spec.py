@@ -127,7 +127,8 @@ class Position(_Texture):
 class Checker(_Texture):
     """The lecture's checkerboard: boxes of size (Cx, Cy, Cz) in two colours.
 
-    Uses ``floor`` (no anomaly at 0) and a closed-form box filter over the texel footprint.
+    Uses ``floor`` (no anomaly at 0) and a closed-form filter over the texel's footprint
+    parallelogram, cut to the object's bounding box (``basic.checker_parity``).
     """
 
     name: Literal["checker"] = "checker"
