@@ -1,4 +1,4 @@
-"""UV atlas: keep the mesh's own UVs when usable, or unwrap with xatlas.
+"""UV atlas: keep the mesh's own UVs when usable, or unwrap: charts, then xatlas' packer.
 
 xatlas hangs on some inputs (an infinite vertex, a mesh 1e20 units across), returns NaN
 UVs on others and segfaults on some (``trimesh.creation.icosphere(6)`` in one piece). So
@@ -6,14 +6,16 @@ it only ever runs in worker processes (``bake._unwrap_worker``, fresh interprete
 one wall-clock deadline, on a copy of the mesh normalised to a unit box in float64 before
 the cast to float32, and whatever comes back is checked.
 
-The unwrap has two stages. Charting: the mesh is cut into spatially coherent patches of
-about ``PATCH_FACES`` faces (one patch for small meshes) that the workers chart in
-parallel. Packing: each patch's charts are brought to one texel density (scaled by
-sqrt(3D area / UV area) of the patch), faces whose UV triangle collapsed get a small chart
-of their own, and all charts are packed together in a single xatlas packing pass at the
-texture's resolution and padding (one ``add_uv_mesh`` per patch). When that fails (crash, deadline, bad UVs) a one-piece
-attempt is retried in patches, and as a last resort every triangle gets its own cell of a
-grid ("fallback-grid"); ``Atlas.reason`` says what failed.
+The unwrap has two stages. Charting, one of two ways: planar charts (:mod:`bake.charts`:
+faces grouped by normal direction, each island projected onto its plane; CAD parts and
+large meshes), or xatlas' own charts (small organic meshes: the mesh cut into spatially
+coherent patches of about ``PATCH_FACES`` faces that the workers chart in parallel, each
+patch brought to one texel density). Packing: faces whose chart collapsed or that were
+left out get a small chart of their own, and all charts are packed together in a single
+xatlas packing pass at the texture's resolution and padding (one ``add_uv_mesh`` per
+mesh of charts). When one charting fails (crash, deadline, bad UVs) the other is tried;
+only when both have does every triangle get its own cell of a grid ("fallback-grid");
+``Atlas.reason`` says what failed.
 """
 
 from __future__ import annotations
@@ -24,14 +26,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .charts import planar_charts, prefer_planar
 from .errors import AtlasError, ParameterError
-from .uvcoverage import overlap
+from .uvcoverage import covering_faces, overlap
 from .uvgeometry import areas, uv_areas, uv_jacobian
 from .workers import Pool
 
 MODES = ("auto", "unwrap", "keep")
+CHARTINGS = ("auto", "xatlas", "planar")
 OVERLAP_LIMIT = 0.01  # a mesh's UVs under which more of the covered texels overlap are not kept
 OVERLAP_GRID = 2048  # overlap is measured on the bake's texel grid, at most this fine
+PLANAR_GAIN = 1.3  # "auto" takes planar charts over xatlas' on a small organic mesh when they use this much more texture
+PROXY_FACES = 32  # charts of more faces are packed by the triangulation of their outline
+BARE_LIMIT = 0.01  # a warning when more of the surface lies on charts without a texel centre
 PATCH_FACES = 2000  # faces per patch of the parallel unwrap
 CHART_ITERATIONS = 1  # xatlas ChartOptions.max_iterations: half the time of 4, same quality here
 UV_EPS = 1e-6  # tolerance of the unit-square test of UVs
@@ -48,7 +55,7 @@ class Atlas:
     vmapping: np.ndarray  # (k,) int64: atlas vertex -> mesh vertex
     faces: np.ndarray  # (m, 3) int64: faces in atlas-vertex indices, same order as the mesh's
     uv: np.ndarray  # (k, 2) float64 in [0, 1], OpenGL convention (v up)
-    method: str  # "kept" | "xatlas" | "xatlas-patches" | "fallback-grid"
+    method: str  # "kept" | "planar" | "xatlas" | "xatlas-patches" | "fallback-grid"
     reason: str  # why this method (and what failed before it)
     stats: dict = field(default_factory=dict)  # charts, utilisation, stretch, overlap, seconds
     warnings: list[str] = field(default_factory=list)  # what a user should know of this atlas
@@ -85,6 +92,18 @@ def uv_problem(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray | None) -
     return None
 
 
+def chart_labels(uv_faces: np.ndarray, k: int) -> np.ndarray:
+    """``(m,)`` the chart of each face: connected pieces of the UV mesh (faces sharing one
+    of the ``k`` UV vertices)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    m = len(uv_faces)
+    rows = np.repeat(np.arange(m), 3)
+    graph = coo_matrix((np.ones(3 * m), (rows, uv_faces.ravel() + m)), shape=(m + k, m + k))
+    return connected_components(graph, directed=False)[1][:m]
+
+
 def atlas_stats(vertices, faces, uv_faces, uv) -> dict:
     """Chart count, utilisation and stretch of an atlas (``uv_faces`` index ``uv``).
 
@@ -97,14 +116,7 @@ def atlas_stats(vertices, faces, uv_faces, uv) -> dict:
     with anisotropic distortion and with uneven texel density between faces (faces with
     zero UV area are left out).
     """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    k, m = len(uv), len(uv_faces)
-    rows = np.repeat(np.arange(m), 3)
-    graph = coo_matrix((np.ones(3 * m), (rows, uv_faces.ravel() + m)), shape=(m + k, m + k))
-    _, labels = connected_components(graph, directed=False)
-    charts = len(np.unique(labels[:m]))
+    charts = len(np.unique(chart_labels(uv_faces, len(uv))))
 
     ps, pt, det = uv_jacobian(vertices, faces, uv, uv_faces)  # dP/du, dP/dv
     ok = np.abs(det) > 0  # faces of zero UV area are left out
@@ -153,7 +165,7 @@ WORKER = [sys.executable, "-m", "bake._unwrap_worker"]
 
 def _describe(why: str, deadline: float) -> str:
     if why == "timeout":
-        return f"xatlas timed out after {deadline:g} s"
+        return f"xatlas timed out after {deadline:.3g} s"
     if why.startswith("exit code"):
         return f"xatlas crashed ({why})"
     return f"xatlas failed ({why})"
@@ -236,15 +248,22 @@ def _flat_triangles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return flat
 
 
-def _unwrap(vertices, faces, size, padding, end, deadline, workers, patch_faces):
-    """xatlas atlas ``(vmapping, faces, uv, method, charting_patches)``; raises ``_XatlasFailed``."""
-    pos = _normalised(vertices)
+def _good_faces(pos: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Indices of the faces that keep an area in float32 (xatlas' precision); the rest
+    would give NaNs or collapse, and get a small chart of their own (:func:`_pack`)."""
+    return np.flatnonzero(areas(pos.astype(np.float32), faces) > 0)
+
+
+def _chart_xatlas(pos, faces, good, pool, deadline, patch_faces):
+    """xatlas' charts of the ``good`` faces: ``(meshes, patch count)``, meshes as
+    :func:`_pack` takes them (faces whose chart collapsed are left out); raises
+    ``_XatlasFailed``.
+
+    Meshes of more than ``2 * patch_faces`` faces are charted in spatial patches, in
+    parallel; each patch's charts are brought to one texel density (world units of
+    ``pos``).
+    """
     pos32 = pos.astype(np.float32)
-    m = len(faces)
-    # Faces that are degenerate in float32 are kept away from xatlas (they give NaNs)
-    # and get a small chart of their own below.
-    area32 = areas(pos32, faces)  # in float64, of the float32 positions
-    good = np.flatnonzero(area32 > 0)
     if patch_faces is None or len(good) <= 2 * patch_faces:
         patches = [good] if len(good) else []
     else:
@@ -254,60 +273,164 @@ def _unwrap(vertices, faces, size, padding, end, deadline, workers, patch_faces)
         used, local = np.unique(faces[p], return_inverse=True)
         used_of.append(used)
         jobs.append(("chart", (pos32[used], local.reshape(-1, 3).astype(np.uint32), CHART_ITERATIONS)))
-
-    with Pool(WORKER, min(workers, max(1, len(jobs))), end) as pool:
-        done = pool.run(jobs)
-        for (ok, value), p in zip(done, patches, strict=True):
-            if not ok:
-                what = _describe(value, deadline)
-                raise _XatlasFailed(what if len(patches) == 1 else f"{what} on a patch of {len(p)} faces")
-
-        # Each patch's charts at one texel density (world units of ``pos``), one UV mesh
-        # per patch: xatlas' add_uv_mesh merges touching or overlapping charts of one
-        # mesh, so charts of different patches must not share a mesh.
-        meshes = []  # (face ids, atlas vertex -> mesh vertex, uv, local faces)
-        lost = [np.setdiff1d(np.arange(m), good)]
-        for (_, (vmap, idx, uv)), p, used in zip(done, patches, used_of, strict=True):
-            idx = idx.astype(np.int64)
-            if idx.shape != (len(p), 3) or not np.isfinite(uv).all():
-                raise _XatlasFailed("xatlas returned bad UVs for a patch")
-            a_uv = uv_areas(uv, idx)
-            if not a_uv.sum() > 0:
-                raise _XatlasFailed("xatlas returned UVs of zero area for a patch")
-            keep = a_uv > 0
-            lost.append(p[~keep])
-            if keep.any():
-                scale = np.sqrt(areas(pos, faces[p]).sum() / a_uv.sum())
-                meshes.append((p[keep], used[vmap.astype(np.int64)], uv * scale, idx[keep]))
-        # Faces left out or collapsed to zero UV area: a chart each, about 2 texels wide.
-        lost = np.concatenate(lost)
-        if len(lost):
-            total = max(areas(pos, faces).sum(), 1e-30)
-            texel = np.sqrt(total / 0.7) / size  # world units per texel, roughly
-            flat = _flat_triangles(pos, faces[lost])
-            flat *= (2 * texel / flat.max(axis=(1, 2)))[:, None, None]
-            flat[:, :, 0] += (np.arange(len(lost)) * 4 * texel)[:, None]
-            meshes.append((lost, faces[lost].reshape(-1), flat.reshape(-1, 2), np.arange(3 * len(lost)).reshape(-1, 3)))
-
-        pack_in = [(uv.astype(np.float32), idx.astype(np.uint32)) for _, _, uv, idx in meshes]
-        ((ok, value),) = pool.run([("pack", (pack_in, size, padding))])
+    done = pool.run(jobs)
+    for (ok, value), p in zip(done, patches, strict=True):
         if not ok:
-            raise _XatlasFailed(f"{_describe(value, deadline)} while packing")
+            what = _describe(value, deadline)
+            raise _XatlasFailed(what if len(patches) == 1 else f"{what} on a patch of {len(p)} faces")
+    meshes = []
+    for (_, (vmap, idx, uv)), p, used in zip(done, patches, used_of, strict=True):
+        idx = idx.astype(np.int64)
+        if idx.shape != (len(p), 3) or not np.isfinite(uv).all():
+            raise _XatlasFailed("xatlas returned bad UVs for a patch")
+        a_uv = uv_areas(uv, idx)
+        if not a_uv.sum() > 0:
+            raise _XatlasFailed("xatlas returned UVs of zero area for a patch")
+        keep = a_uv > 0
+        if keep.any():
+            scale = np.sqrt(areas(pos, faces[p]).sum() / a_uv.sum())
+            meshes.append((p[keep], used[vmap.astype(np.int64)], uv * scale, idx[keep]))
+    return meshes, len(patches)
+
+
+def _chart_planar(pos, faces, good, size):
+    """Planar charts (:mod:`bake.charts`) of the ``good`` faces: ``(meshes, chart count,
+    flat share)``, meshes as :func:`_pack` takes them, in world units of ``pos``.
+
+    Slivers under a thousandth of a texel high (at the density a ``size``-texel atlas
+    would have) are left out: xatlas' float32 UVs can collapse them, and they hold no
+    texel centre anyway; they get charts of their own.
+    """
+    c = planar_charts(pos, faces[good], grid=size)
+    a_uv = uv_areas(c.uv, c.faces)
+    tri = c.uv[c.faces]
+    longest = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2).max(axis=1)
+    texel = np.sqrt(a_uv.sum() / 0.5) / size
+    keep = 2 * a_uv > 1e-3 * texel * longest
+    if not keep.any():
+        return [], 0, c.flat
+    used, local = np.unique(c.faces[keep], return_inverse=True)  # vertices of the faces kept
+    return [(good[keep], c.vmapping[used], c.uv[used], local.reshape(-1, 3))], int(c.labels.max()) + 1, c.flat
+
+
+def _pack(pos, faces, meshes, size, padding, pool, deadline):
+    """Pack charted UV meshes into one atlas ``(vmapping, faces, uv)`` of all ``faces``.
+
+    ``meshes``: ``(face ids, chart vertex -> mesh vertex, uv, faces in chart vertices)``
+    at one texel density. Faces in none of them get a chart each, about two
+    texels wide. One xatlas packing pass at the texture's resolution and padding (one
+    ``add_uv_mesh`` per mesh: xatlas merges touching or overlapping charts of one mesh).
+    """
+    m = len(faces)
+    charted = np.zeros(m, dtype=bool)
+    for face_ids, *_ in meshes:
+        charted[face_ids] = True
+    lost = np.flatnonzero(~charted)
+    if len(lost):
+        total = max(areas(pos, faces).sum(), 1e-30)
+        texel = np.sqrt(total / 0.7) / size  # world units per texel, roughly
+        flat = _flat_triangles(pos, faces[lost])
+        flat *= (2 * texel / flat.max(axis=(1, 2)))[:, None, None]
+        flat[:, :, 0] += (np.arange(len(lost)) * 4 * texel)[:, None]
+        meshes = [*meshes, (lost, faces[lost].reshape(-1), flat.reshape(-1, 2), np.arange(3 * len(lost)).reshape(-1, 3))]
+
+    meshes = [_compact(*mesh) for mesh in meshes]
+    texel = np.sqrt(sum(float(uv_areas(uv, idx).sum()) for _, _, uv, idx in meshes) / 0.5) / size  # UV units, roughly
+    proxies = [_proxy(uv, idx, 0.25 * texel) for _, _, uv, idx in meshes]
+    pack_in = [(uv[used].astype(np.float32), tri.astype(np.uint32)) for (_, _, uv, _), (used, tri, _) in zip(meshes, proxies, strict=True)]
+    ((ok, value),) = pool.run([("pack", (pack_in, size, padding))])
+    if not ok:
+        raise _XatlasFailed(f"{_describe(value, deadline)} while packing")
     packed, _info = value
     if len(packed) != len(meshes):
         raise _XatlasFailed("xatlas' packing lost meshes")
     maps, uvs, out_faces, offset = [], [], np.full((m, 3), -1, dtype=np.int64), 0
-    for (face_ids, vmap, _, _), (vm2, idx2, uv2) in zip(meshes, packed, strict=True):
-        if idx2.shape != (len(face_ids), 3):
-            raise _XatlasFailed("xatlas' packing changed the faces")
-        maps.append(vmap[vm2.astype(np.int64)])
-        uvs.append(uv2)
-        out_faces[face_ids] = idx2.astype(np.int64) + offset
-        offset += len(uv2)
-    vmapping = np.concatenate(maps)
-    idx, uv = out_faces, np.concatenate(uvs)
-    method = "xatlas-patches" if len(patches) > 1 else "xatlas"
-    return vmapping, idx.astype(np.int64), uv.astype(np.float64), method, len(patches)
+    for (face_ids, vmap, uv, idx), (used, _, chart), (vm2, _, uv2) in zip(meshes, proxies, packed, strict=True):
+        uvs.append(_place(uv, chart, used[vm2.astype(np.int64)], uv2.astype(np.float64)))
+        maps.append(vmap)
+        out_faces[face_ids] = idx + offset
+        offset += len(uv)
+    return np.concatenate(maps), out_faces, np.concatenate(uvs)
+
+
+def _compact(face_ids, vmap, uv, idx):
+    """A UV mesh for :func:`_pack` without the vertices no face uses."""
+    used, local = np.unique(idx, return_inverse=True)
+    return face_ids, vmap[used], uv[used], local.reshape(-1, 3)
+
+
+def _proxy(uv: np.ndarray, faces: np.ndarray, tolerance: float):
+    """What the packer gets for a UV mesh: ``(used (u,), triangles (t, 3) into used,
+    chart (k,))``: each chart of more than ``PROXY_FACES`` faces as the ear-cut
+    triangulation of its outline simplified within ``tolerance`` (a quarter texel:
+    :func:`bake.charts.outline_triangles`; xatlas rasterises each triangle over its
+    bounding box, so a fan of 4000 slivers costs it seconds), the others as they are;
+    ``chart``: each vertex's chart."""
+    from .charts import outline_triangles
+
+    chart = np.zeros(len(uv), dtype=np.int64)
+    face_chart = chart_labels(faces, len(uv))
+    chart[faces] = face_chart[:, None]
+    order = np.argsort(face_chart, kind="stable")
+    starts = np.flatnonzero(np.r_[True, face_chart[order][1:] != face_chart[order][:-1]])
+    parts = []
+    for members in np.split(order, starts[1:]):
+        tri = outline_triangles(uv, faces[members], tolerance) if len(members) > PROXY_FACES else None
+        parts.append(faces[members] if tri is None else tri)
+    tri = np.concatenate(parts)
+    used, local = np.unique(tri, return_inverse=True)
+    return used, local.reshape(-1, 3), chart
+
+
+def _place(uv: np.ndarray, chart: np.ndarray, source: np.ndarray, placed: np.ndarray) -> np.ndarray:
+    """``uv`` (k, 2) moved chart by chart as the packer moved the ``source`` vertices to
+    ``placed``: a chart whose vertices were all placed as placed, the others (packed by
+    their outline) by the affine map that fits the placed ones best by least squares
+    (xatlas rotates, scales, and turns a chart a quarter by swapping u and v, a mirror);
+    raises ``_XatlasFailed`` if that map does not fit."""
+    k = int(chart.max()) + 1
+    c = chart[source]
+    n = np.bincount(c, minlength=k)
+    if (n[np.unique(chart)] == 0).any():
+        raise _XatlasFailed("xatlas' packing lost a chart")
+    x = np.column_stack([uv[source], np.ones(len(source))])  # (s, 3)
+    gram = np.zeros((k, 3, 3))
+    rhs = np.zeros((k, 3, 2))
+    np.add.at(gram, c, x[:, :, None] * x[:, None, :])
+    np.add.at(rhs, c, x[:, :, None] * placed[:, None, :])
+    maps = np.linalg.pinv(gram) @ rhs  # (k, 3, 2): each chart's affine map
+    err = np.linalg.norm(np.einsum("si,sij->sj", x, maps[c]) - placed, axis=1)
+    whole = n >= np.bincount(chart, minlength=k)  # every vertex placed: xatlas' own placement
+    lo = np.full((k, 2), np.inf)
+    hi = np.full((k, 2), -np.inf)
+    np.minimum.at(lo, c, placed)
+    np.maximum.at(hi, c, placed)
+    extent = (hi - lo).max(axis=1)
+    worst = np.zeros(k)
+    np.maximum.at(worst, c, err)
+    if (~whole & (worst > 1e-3 * extent + 1e-7)).any():
+        raise _XatlasFailed("xatlas' packing distorted a chart")
+    out = np.einsum("ki,kij->kj", np.column_stack([uv, np.ones(len(uv))]), maps[chart])
+    direct = whole[c]
+    out[source[direct]] = placed[direct]
+    return out
+
+
+def _unwrap(vertices, faces, size, padding, end, deadline, workers, patch_faces, charting):
+    """An atlas ``(vmapping, faces, uv, method, detail)`` charted by ``charting``
+    ("xatlas" or "planar") and packed by xatlas; raises ``_XatlasFailed``."""
+    pos = _normalised(vertices)
+    good = _good_faces(pos, faces)
+    if charting == "planar":
+        with Pool(WORKER, 1, end) as pool:
+            meshes, charts, flat = _chart_planar(pos, faces, good, size)
+            vm, fa, uv = _pack(pos, faces, meshes, size, padding, pool, deadline)
+        return vm, fa, uv, "planar", {"planar_charts": charts, "flat_share": round(flat, 4)}
+    n_patches = 1 if patch_faces is None or len(good) <= 2 * patch_faces else -(-len(good) // patch_faces)
+    with Pool(WORKER, min(workers, max(1, n_patches)), end) as pool:
+        meshes, n_patches = _chart_xatlas(pos, faces, good, pool, deadline, patch_faces)
+        vm, fa, uv = _pack(pos, faces, meshes, size, padding, pool, deadline)
+    return vm, fa, uv, "xatlas-patches" if n_patches > 1 else "xatlas", {"patches": n_patches}
 
 
 def _grid_atlas(vertices: np.ndarray, faces: np.ndarray, padding: float):
@@ -328,6 +451,34 @@ def _grid_atlas(vertices: np.ndarray, faces: np.ndarray, padding: float):
     return faces.reshape(-1).astype(np.int64), np.arange(3 * m, dtype=np.int64).reshape(m, 3), uv
 
 
+def _try_planar(vertices, faces, size, padding, end, workers):
+    """A planar atlas ``(vmapping, faces, uv, method, detail)`` by ``end``, or None."""
+    try:
+        atlas = _unwrap(vertices, faces, size, padding, end, end - time.monotonic(), workers, None, "planar")
+    except _XatlasFailed:
+        return None
+    return atlas if _problem(*atlas[:3], len(faces), len(vertices), faces) is None else None
+
+
+def _attempts(vertices, faces, charting: str, patch_faces: int | None) -> tuple[list[tuple[str, int | None]], str]:
+    """The unwraps to try in turn, ``(charting, faces per patch)``, and why that order.
+
+    xatlas in one piece or in patches, then in smaller patches (icosphere(6) crashes it
+    in one piece; smaller patches may get through), and planar charts, first or last
+    as ``charting`` asks ("auto": see :func:`bake.charts.prefer_planar`).
+    """
+    xatlas = [("xatlas", patch_faces)]
+    if patch_faces is None and len(faces) > 2 * PATCH_FACES:
+        xatlas.append(("xatlas", PATCH_FACES))
+    elif patch_faces is not None and len(faces) > 2 * patch_faces:
+        xatlas.append(("xatlas", max(250, patch_faces // 4)))
+    if charting == "auto":
+        planar_first, why = prefer_planar(vertices, faces)
+    else:
+        planar_first, why = charting == "planar", f"charting={charting!r}"
+    return ([("planar", None), *xatlas] if planar_first else [*xatlas, ("planar", None)]), why
+
+
 def make_atlas(
     vertices: np.ndarray,
     faces: np.ndarray,
@@ -338,6 +489,7 @@ def make_atlas(
     padding: int = 2,
     deadline: float = 120.0,
     workers: int = 2,
+    charting: str = "auto",
     _patch_faces: int | None = PATCH_FACES,
 ) -> Atlas:
     """A UV atlas for ``(n, 3)`` float64 vertices and ``(m, 3)`` int faces.
@@ -346,21 +498,29 @@ def make_atlas(
     :func:`uv_problem`) that do not overlap (more than ``OVERLAP_LIMIT`` of the covered
     texel centres under two or more faces, measured on the bake's grid) and unwraps
     otherwise, saying why; "unwrap" always unwraps; "keep" requires usable UVs
-    (:class:`AtlasError` otherwise) and keeps overlapping ones with a warning. ``size`` (texels of the square texture)
-    and ``padding`` (texels between charts) set xatlas' packing; ``deadline`` bounds the
-    wall time of all xatlas work, in ``workers`` processes. Meshes of more than
-    ``2 * PATCH_FACES`` faces are charted in patches in parallel (``_patch_faces=None``:
-    in one piece, for tests). If xatlas fails the result is a "fallback-grid" atlas and
-    ``reason`` says what failed. ``stats``: see :func:`atlas_stats`, plus ``overlap`` (the
-    share of covered texels under two or more faces) and ``seconds``. ``warnings``: what a
-    user should know (overlapping UVs kept, the fallback grid).
+    (:class:`AtlasError` otherwise) and keeps overlapping ones with a warning. ``size``
+    (texels of the square texture) and ``padding`` (texels between charts) set the
+    packing; ``deadline`` bounds the wall time of all xatlas work, in ``workers``
+    processes. ``charting``: "planar" (:mod:`bake.charts`), "xatlas" (its own charts;
+    meshes of more than ``2 * PATCH_FACES`` faces in patches, in parallel;
+    ``_patch_faces=None``: in one piece, for tests) or "auto"
+    (:func:`bake.charts.prefer_planar`); the other is tried when the first fails, and
+    a "fallback-grid" atlas only when both have. ``reason`` says why the UVs were not
+    kept, which charting was used and why, and what failed. ``stats``: see
+    :func:`atlas_stats`, plus ``overlap`` (the share of covered texels under two or
+    more faces), ``bare_area`` (the share of the surface on charts that hold no texel
+    centre at ``size``; None above 8192), ``seconds``, and ``patches`` or ``planar_charts``
+    and ``flat_share``. ``warnings``: what a user should know (overlapping UVs kept, the
+    fallback grid, over ``BARE_LIMIT`` of the surface on bare charts).
 
-    Long because it is the atlas stage's decision list (keep, unwrap whole, unwrap in
-    patches, fall back), each step depending on why the one before failed.
+    Long because it is the atlas stage's decision list (keep, unwrap one way, the other
+    way, fall back), each step depending on why the one before failed.
     """
     start = time.perf_counter()
     if mode not in MODES:
         raise ParameterError("uv", f"expected one of {', '.join(MODES)}, got {mode!r}")
+    if charting not in CHARTINGS:
+        raise ParameterError("charting", f"expected one of {', '.join(CHARTINGS)}, got {charting!r}")
     for name, value, ok in (
         ("size", size, isinstance(size, (int, np.integer)) and 1 <= size <= 65536),
         ("padding", padding, isinstance(padding, (int, np.integer)) and 0 <= padding <= 64),
@@ -383,8 +543,21 @@ def make_atlas(
     def stats_of(vm, fa, u):
         s = atlas_stats(vertices, faces, fa, u)
         s["overlap"], _ = overlap(u, fa, min(size, OVERLAP_GRID))
+        s["bare_area"] = None
+        if size <= 8192:  # the surface on charts that hold no texel centre: their texels are all margin
+            a3, chart = areas(vertices, faces), chart_labels(fa, len(u))
+            held = np.zeros(chart.max() + 1, dtype=bool)
+            held[chart[covering_faces(u, fa, size)]] = True
+            s["bare_area"] = float(a3[~held[chart]].sum() / max(a3.sum(), 1e-300))
         s["seconds"] = time.perf_counter() - start
         return s
+
+    def bare_warning(stats) -> list[str]:
+        share = stats["bare_area"]
+        if share is None or share <= BARE_LIMIT:
+            return []
+        return [f"{share:.0%} of the surface lies on charts that hold no texel centre at {size}x{size}: they show "
+                "only the margin's colours (bake larger, or unwrap)"]
 
     if mode != "unwrap":
         problem = uv_problem(vertices, faces, uv)
@@ -399,7 +572,8 @@ def make_atlas(
             vm = np.arange(len(vertices), dtype=np.int64)
             reason = "the mesh's UVs are usable" if overlapping is None else "uv='keep'"
             warnings = [] if overlapping is None else [f"{overlapping}: those texels show one face's texture on all of them"]
-            return Atlas(vm, faces, uv, "kept", reason, stats_of(vm, faces, uv), warnings)
+            stats = stats_of(vm, faces, uv)
+            return Atlas(vm, faces, uv, "kept", reason, stats, warnings + bare_warning(stats))
         if mode == "keep":
             raise AtlasError(f"uv='keep' but {problem}")
         why = problem or overlapping
@@ -407,32 +581,45 @@ def make_atlas(
         why = "uv='unwrap'"
 
     end = time.monotonic() + deadline
-    failures = []
-    attempts = [_patch_faces]
-    if _patch_faces is None and len(faces) > 2 * PATCH_FACES:
-        attempts.append(PATCH_FACES)  # e.g. icosphere(6) crashes xatlas in one piece
-    elif _patch_faces is not None and len(faces) > 2 * _patch_faces:
-        attempts.append(max(250, _patch_faces // 4))  # smaller patches may get through
-    for patch_faces in attempts:
-        if time.monotonic() >= end:
-            break
+    failures: list[str] = []
+    attempts, order = _attempts(vertices, faces, charting, _patch_faces)
+    for i, (charting_i, patch_faces) in enumerate(attempts):
+        now = time.monotonic()
+        if now >= end or (charting_i == "xatlas" and any("timed out" in f for f in failures)):
+            continue
+        # xatlas' charting may take 3/4 of what is left when planar charts are still to come
+        until = now + 0.75 * (end - now) if ("planar", None) in attempts[i + 1:] else end
         try:
-            vm, fa, u, method, _ = _unwrap(vertices, faces, size, padding, end, deadline, workers, patch_faces)
+            vm, fa, u, method, detail = _unwrap(vertices, faces, size, padding, until, until - now, workers,
+                                                patch_faces, charting_i)
         except _XatlasFailed as exc:
             failures.append(str(exc))
-            if "timed out" in str(exc):
-                break
             continue
         bad = _problem(vm, fa, u, len(faces), len(vertices), faces)
         if bad is None:
-            retried = f" (after: {'; '.join(failures)})" if failures else ""
-            return Atlas(vm, fa, u, method, f"{why}{retried}", stats_of(vm, fa, u))
-        failures.append(f"xatlas returned an unusable atlas: {bad}")
+            found = charting_i, (vm, fa, u, method, detail)
+            break
+        failures.append(f"{charting_i} charting gave an unusable atlas: {bad}")
+    else:
+        found = None
+    if found is not None and charting == "auto" and found[0] == "xatlas" and time.monotonic() < end:
+        # a small organic mesh: planar charts too, kept if they use the texture much better
+        planar = _try_planar(vertices, faces, size, padding, end, workers)
+        used = [float(uv_areas(c[2], c[1]).sum()) for c in (found[1], planar) if c is not None]
+        if planar is not None and used[1] > PLANAR_GAIN * used[0]:
+            order += f"; planar charts used instead: they cover {used[1]:.2f} of the texture, xatlas' {used[0]:.2f}"
+            found = "planar", planar
+    if found is not None:
+        charting_i, (vm, fa, u, method, detail) = found
+        retried = f" (after: {'; '.join(failures)})" if failures else ""
+        stats = {**stats_of(vm, fa, u), **detail}
+        return Atlas(vm, fa, u, method, f"{why}; {charting_i} charts: {order}{retried}", stats, bare_warning(stats))
 
     vm, fa, u = _grid_atlas(vertices, faces, padding / size)
     bad = _problem(vm, fa, u, len(faces), len(vertices), faces)
     if bad is not None:
         raise AtlasError(f"no atlas could be made ({'; '.join(failures)}; grid atlas: {bad})")
-    reason = f"{why}; {'; '.join(failures) or 'xatlas was not run'}; used fallback"
+    reason = f"{why}; {'; '.join(failures) or f'the unwrap deadline of {deadline:g} s passed'}; used fallback"
     warning = f"fallback atlas: one chart per triangle ({reason}); texel density varies and charts are tiny"
-    return Atlas(vm, fa, u, "fallback-grid", reason, stats_of(vm, fa, u), [warning])
+    stats = stats_of(vm, fa, u)
+    return Atlas(vm, fa, u, "fallback-grid", reason, stats, [warning, *bare_warning(stats)])

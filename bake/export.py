@@ -1,4 +1,5 @@
-"""The baked mesh: GLB with the map bound as base colour, and OBJ + MTL.
+"""The baked mesh: GLB with the maps bound to its material (base colour, and normal and
+emissive where baked), and OBJ + MTL.
 
 Vertices are written as they are, one per atlas vertex (seam vertices stay split).
 UVs come in with v up (OpenGL, trimesh, OBJ); glTF puts the image origin at the top left,
@@ -9,7 +10,9 @@ GLB layout (glTF 2.0 binary): a 12-byte header, a JSON chunk padded with spaces 
 multiple of 4 bytes, a BIN chunk padded with zeros; inside the BIN chunk every buffer
 view starts on a 4-byte boundary. The sampler clamps to the edge: a baked atlas has
 margins around its charts, not a repeating pattern, and REPEAT would let bilinear and
-mipmap filtering at the image border blend in texels from the opposite border.
+mipmap filtering at the image border blend in texels from the opposite border. glTF
+reads a base colour and an emissive image as sRGB and a normal map as linear data, whatever
+the PNG's colour chunks say; the maps' PNGs say the same (``bake.imageio``).
 """
 
 from __future__ import annotations
@@ -65,28 +68,51 @@ def _mesh_arrays(vertices, faces, uv, normals):
     return v, f, t, n
 
 
-def write_glb(path, vertices, faces, uv, texture, *, normals=None, name: str = "baked") -> dict:
-    """Write a GLB: one mesh, its UVs, and ``texture`` as base colour.
+SLOTS = ("baseColor", "normal", "emissive")  # the material's texture slots write_glb fills
 
-    ``vertices``: ``(k, 3)`` float (written as float32); ``faces``: ``(m, 3)`` int;
-    ``uv``: ``(k, 2)`` float, v up; ``texture``: a PNG file's path or its bytes;
-    ``normals``: optional ``(k, 3)`` normals (normalised here). Indices are uint16 below
-    65535 vertices, else uint32. Returns path, bytes, vertices, faces.
 
-    One function, not several: it lays out one binary buffer and the JSON that indexes
-    it, offset by offset, and reads best top to bottom.
-    """
-    path = Path(path)
-    v, f, t, n = _mesh_arrays(vertices, faces, uv, normals)
+def _png(path: Path, slot: str, texture) -> bytes:
     if isinstance(texture, (bytes, bytearray, memoryview)):
         png = bytes(texture)
     else:
         try:
             png = Path(texture).read_bytes()
         except OSError as exc:
-            raise OutputError(f"{path}: cannot read the texture {texture}: {exc.strerror or exc}") from None
+            raise OutputError(f"{path}: cannot read the {slot} texture {texture}: {exc.strerror or exc}") from None
     if not png.startswith(_PNG_SIGNATURE):
-        raise ParameterError("texture", "expected a PNG image (file or bytes)")
+        raise ParameterError("texture", f"{slot}: expected a PNG image (file or bytes)")
+    return png
+
+
+def write_glb(path, vertices, faces, uv, textures, *, normals=None, tangents=None, name: str = "baked") -> dict:
+    """Write a GLB: one mesh, its UVs, and its material's textures.
+
+    ``vertices``: ``(k, 3)`` float (written as float32); ``faces``: ``(m, 3)`` int;
+    ``uv``: ``(k, 2)`` float, v up; ``textures``: a PNG (file path or bytes), bound as
+    base colour, or a dict of PNGs by slot: ``baseColor`` (required; sRGB colour),
+    ``normal`` (a tangent-space normal map, +Y up: linear data) and ``emissive`` (sRGB,
+    with ``emissiveFactor`` 1); slots given the same PNG share one image. ``normals``:
+    optional ``(k, 3)`` normals (normalised here); ``tangents``: optional ``(k, 4)``
+    tangents, unit xyz orthogonal to the normals and w = +-1 (``bake.tangents``; needs
+    ``normals``). Indices are uint16 below 65535 vertices, else uint32. Returns path,
+    bytes, vertices, faces.
+
+    One function, not several: it lays out one binary buffer and the JSON that indexes
+    it, offset by offset, and reads best top to bottom.
+    """
+    path = Path(path)
+    v, f, t, n = _mesh_arrays(vertices, faces, uv, normals)
+    slots = dict(textures) if isinstance(textures, dict) else {"baseColor": textures}
+    unknown = sorted(set(slots) - set(SLOTS))
+    if unknown or "baseColor" not in slots:
+        raise ParameterError("textures", f"expected a baseColor PNG and optionally {', '.join(SLOTS[1:])}, got {sorted(slots)}")
+    pngs = {slot: _png(path, slot, texture) for slot, texture in slots.items()}
+    if tangents is not None:
+        tangents = np.asarray(tangents, dtype=np.float64)
+        if n is None or tangents.shape != (len(v), 4) or not np.isfinite(tangents).all():
+            raise ParameterError("tangents", f"expected ({len(v)}, 4) finite values with normals, got shape {tangents.shape}")
+        if not (np.abs(np.linalg.norm(tangents[:, :3], axis=1) - 1) < 1e-6).all() or not np.isin(tangents[:, 3], (-1.0, 1.0)).all():
+            raise ParameterError("tangents", "xyz must be unit length and w +1 or -1")
 
     positions = np.ascontiguousarray(v, dtype=np.float32)
     texcoord = np.ascontiguousarray(np.column_stack([t[:, 0], 1.0 - t[:, 1]]), dtype=np.float32)
@@ -122,21 +148,33 @@ def write_glb(path, vertices, faces, uv, texture, *, normals=None, name: str = "
     attributes = {"POSITION": add_accessor(positions, "VEC3", _FLOAT, _ARRAY_BUFFER, minmax=True)}
     if n is not None:
         attributes["NORMAL"] = add_accessor(np.ascontiguousarray(n, dtype=np.float32), "VEC3", _FLOAT, _ARRAY_BUFFER)
+    if tangents is not None:
+        tangent32 = tangents.astype(np.float32)
+        tangent32[:, :3] /= np.linalg.norm(tangent32[:, :3], axis=1, keepdims=True)  # unit length in float32 too
+        attributes["TANGENT"] = add_accessor(np.ascontiguousarray(tangent32), "VEC4", _FLOAT, _ARRAY_BUFFER)
     attributes["TEXCOORD_0"] = add_accessor(texcoord, "VEC2", _FLOAT, _ARRAY_BUFFER)
     index_accessor = add_accessor(indices, "SCALAR", index_type, _ELEMENT_ARRAY_BUFFER)
-    image_view = add_view(png)
+    images: list[bytes] = list(dict.fromkeys(pngs.values()))  # one image (and texture) per distinct PNG
+    image_views = [add_view(png) for png in images]
+    texture = {slot: {"index": images.index(png)} for slot, png in pngs.items()}
     binary = b"".join(blobs)
 
+    material: dict = {"name": f"{name}_baked",
+                      "pbrMetallicRoughness": {"baseColorTexture": texture["baseColor"], "metallicFactor": 0.0, "roughnessFactor": 1.0}}
+    if "normal" in texture:
+        material["normalTexture"] = texture["normal"]
+    if "emissive" in texture:
+        material["emissiveTexture"], material["emissiveFactor"] = texture["emissive"], [1.0, 1.0, 1.0]
     doc = {
         "asset": {"version": "2.0", "generator": "texbake"},
         "scene": 0,
         "scenes": [{"nodes": [0]}],
         "nodes": [{"mesh": 0, "name": name}],
         "meshes": [{"name": name, "primitives": [{"attributes": attributes, "indices": index_accessor, "material": 0, "mode": _TRIANGLES}]}],
-        "materials": [{"name": f"{name}_baked", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.0, "roughnessFactor": 1.0}}],
-        "textures": [{"sampler": 0, "source": 0}],
+        "materials": [material],
+        "textures": [{"sampler": 0, "source": i} for i in range(len(images))],
         "samplers": [{"magFilter": _LINEAR, "minFilter": _LINEAR_MIPMAP_LINEAR, "wrapS": _CLAMP, "wrapT": _CLAMP}],
-        "images": [{"bufferView": image_view, "mimeType": "image/png"}],
+        "images": [{"bufferView": view, "mimeType": "image/png"} for view in image_views],
         "accessors": accessors,
         "bufferViews": views,
         "buffers": [{"byteLength": len(binary)}],

@@ -21,8 +21,10 @@ OpenImageIO 3.2 names (its built-in config): ``srgb_rec709_scene`` and
 ``lin_rec709_scene`` are canonical; ``"sRGB"`` and ``"linear"`` are accepted aliases, but
 ``"scene_linear"`` is the ACEScg *role* (it is stored as ``lin_ap1_scene``: wrong
 primaries) and ``"Raw"`` is stored as ``data`` in EXR. PNG has no way to say "data": such
-a PNG is written without colour chunks and reads back as sRGB, so ``read_image`` also
-looks at the ``texbake:ColorSpace`` text field written beside it.
+a PNG is written as linear (a ``gAMA`` chunk of 1.0, no ``sRGB`` or ``cHRM`` chunk, so
+that an image viewer does not decode it as sRGB) with a ``texbake:ColorSpace`` text field
+saying ``data``, which ``read_image`` looks at (glTF ignores a PNG's colour chunks: the slot
+says how it is read).
 
 A file is written under a temporary name beside its final one (same folder, so the
 rename is atomic), flushed to the disk, read back in full and compared with what was
@@ -174,7 +176,8 @@ def write_image(path, pixels, *, fmt: str | None = None, bits: int | None = None
 
     with replacing(path, _EXTENSION[fmt]) as tmp:
         spec = oiio.ImageSpec(w, h, c, _typedesc(data.dtype))
-        spec.attribute("oiio:ColorSpace", "Raw" if stored == DATA else stored)
+        # PNG data: OpenImageIO writes gAMA 1.0 for a linear PNG and no colour chunk for Raw
+        spec.attribute("oiio:ColorSpace", (LINEAR if fmt == "png" else "Raw") if stored == DATA else stored)
         spec.attribute("Software", "texbake")
         if stored == DATA:
             spec.attribute("texbake:ColorSpace", DATA)  # PNG, TIFF cannot say it otherwise

@@ -58,7 +58,7 @@ class Maps:
             with stage("bump"):
                 q, dqdx, dqdy = mapping.to_space(s.points, s.dpdx, s.dpdy)
                 height_of = lambda x: evaluate(settings.bump, x, bounds=mapping.bounds, max_octaves=quality.max_octaves) @ LUMINANCE
-                values["normal"] = normal_map(height_of, q, dqdx, dqdy, s.normals, settings.bump_strength)
+                values["normal"] = normal_map(height_of, q, dqdx, dqdy, s.normals, settings.bump_strength, frame=s.frame)
         return values
 
     def accumulate(self, tile: Tile, texel: np.ndarray, values: dict[str, np.ndarray]) -> None:

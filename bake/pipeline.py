@@ -31,6 +31,7 @@ from .normals import split_normals
 from .report import bake_report
 from .samples import Sampler
 from .settings import BakeSettings
+from .tangents import vertex_tangents
 from .texels import Tile, sample_offsets, sample_uv, tiles
 from .textures.mapping import TextureMapping
 
@@ -44,6 +45,7 @@ class BakedMesh:
     uv: np.ndarray  # (k, 2) float64, v up
     name: str
     normals: np.ndarray | None = None  # (k, 3) float64 unit shading normals, split at hard edges
+    tangents: np.ndarray | None = None  # (k, 4) float64 tangents (xyz, w = +-1) the normal map was baked in, if one was
 
 
 @dataclass
@@ -147,14 +149,19 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
     report_progress(0.05)
     with timer.stage("atlas"):
         atlas = make_atlas(mesh.vertices, mesh.faces, mesh.uv, mode=settings.uv, size=max(width, height),
-                           deadline=settings.unwrap_deadline, workers=workers)
+                           deadline=settings.unwrap_deadline, workers=workers, charting=settings.charting)
     lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
     mapping = TextureMapping.for_mesh(lo, hi, settings.texture_space, quality.precision)
     reach = settings.cage if settings.cage is not None else 0.05 * float(np.linalg.norm(hi - lo))
+    with timer.stage("normals"):  # of the output mesh; a normal map is baked in its tangent frame
+        source_vertex, faces, normals = split_normals(mesh.vertices[atlas.vmapping], atlas.faces)
+        out_vertices, out_uv = mesh.vertices[atlas.vmapping][source_vertex], atlas.uv[source_vertex]
+        tangents = None if settings.bump is None else vertex_tangents(out_vertices, faces, out_uv, normals)
     with timer.stage("prepare"):
         maps = Maps(settings, quality, width, height, mapping)
         sampler = Sampler(mesh.vertices, mesh.faces, atlas.uv, atlas.faces, width, height, normals=maps.needs_normals,
-                          source=None if src is None else (src.vertices, src.faces), reach=reach)
+                          source=None if src is None else (src.vertices, src.faces), reach=reach,
+                          frame=None if tangents is None else (normals[faces], tangents[faces]))
     report_progress(0.3)
     cast, transfer_missed = _bake_tiles(sampler, maps, quality, settings.seed, timer, workers, tile_samples,
                                         lambda done: report_progress(0.3 + 0.6 * done))
@@ -168,13 +175,11 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
     if settings.frames is not None:
         images["flipbook"] = flipbook([images[name] for name in maps.colours])
 
-    with timer.stage("normals"):
-        source_vertex, faces, normals = split_normals(mesh.vertices[atlas.vmapping], atlas.faces)
     counts = {"cast": int(cast), "transfer_missed": int(transfer_missed), "hits": int(maps.hits.sum(dtype=np.int64))}
     source_info = None if src is None else {"path": src.path, "sha256": src.sha256, "faces": int(len(src.faces)), "cage": reach}
     report = bake_report(mesh, (lo, hi), source_info, settings, quality, atlas, covered, filled, counts, error_estimate,
                          timer.seconds)
-    baked = BakedMesh(mesh.vertices[atlas.vmapping][source_vertex], faces, atlas.uv[source_vertex], mesh.name, normals)
+    baked = BakedMesh(out_vertices, faces, out_uv, mesh.name, normals, tangents)
     report_progress(1.0)
     return BakeResult(images, covered, filled, baked, report, settings)
 

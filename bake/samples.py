@@ -28,7 +28,8 @@ class Samples:
     ``(n, 3)`` float64 object-space point and footprint (one texel right, one down);
     ``normals``: ``(n, 3)`` float64 unit normals of the target surface, or None when the
     sampler was made without them; ``transfer_missed``: UV points whose transfer rays
-    found no source.
+    found no source; ``frame``: ``(n, 3, 3)`` float64 tangent frames (rows T, B, N) of the
+    output mesh, or None when the sampler was made without one.
     """
 
     index: np.ndarray
@@ -37,6 +38,7 @@ class Samples:
     dpdx: np.ndarray
     dpdy: np.ndarray
     transfer_missed: int = 0
+    frame: np.ndarray | None = None
 
 
 class Sampler:
@@ -45,14 +47,17 @@ class Sampler:
     ``vertices`` ``(n, 3)`` and ``faces`` ``(m, 3)`` of the mesh; ``uv`` ``(k, 2)`` and
     ``uv_faces`` ``(m, 3)`` of its atlas; ``width``, ``height``: the image size;
     ``normals``: also interpolate smooth normals (a transfer always does); ``source``: a
-    ``(vertices, faces)`` pair to transfer from, with rays of at most ``reach``.
+    ``(vertices, faces)`` pair to transfer from, with rays of at most ``reach``; ``frame``:
+    corner normals and tangents of the output mesh (``surface.SurfaceMap``).
     """
 
     def __init__(self, vertices, faces, uv, uv_faces, width: int, height: int, *, normals: bool = False,
-                 source: tuple[np.ndarray, np.ndarray] | None = None, reach: float = 0.0):
+                 source: tuple[np.ndarray, np.ndarray] | None = None, reach: float = 0.0,
+                 frame: tuple[np.ndarray, np.ndarray] | None = None):
         self.width, self.height = width, height
         self.lookup = UVLookup(uv, uv_faces)
-        self.surface = SurfaceMap(vertices, faces, uv, uv_faces, width, height, normals=normals or source is not None)
+        self.surface = SurfaceMap(vertices, faces, uv, uv_faces, width, height, normals=normals or source is not None,
+                                  frame=frame)
         self.caster = None
         if source is not None:
             from .transfer import SourceMesh
@@ -74,11 +79,11 @@ class Sampler:
             bary = self.lookup.barycentric(uvs[index], face)
         with stage("surface"):
             s = self.surface.samples(face, bary)
-        samples = Samples(index, s.points, s.normals, s.dpdx, s.dpdy)
+        samples = Samples(index, s.points, s.normals, s.dpdx, s.dpdy, frame=s.frame)
         if self.caster is None:
             return samples
         with stage("transfer"):
             assert s.normals is not None  # a transfer's surface map has normals
             points, found = self.caster.project(s.points, s.normals, self.reach)
             return Samples(index[found], points[found], s.normals[found], s.dpdx[found], s.dpdy[found],
-                           transfer_missed=int((~found).sum()))
+                           transfer_missed=int((~found).sum()), frame=None if s.frame is None else s.frame[found])

@@ -22,8 +22,12 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
 
     Maps: ``albedo.<fmt>`` (or one per frame and ``flipbook``), ``lit``, ``normal`` when
     baked, and ``coverage.png`` (1 where the atlas covers a texel); mesh: ``<name>.glb``
-    with the albedo (of the first frame) bound as base colour (and ``<name>.obj`` + MTL
-    if ``obj``); ``report.json`` last, so its presence means the rest is complete.
+    with the albedo (of the first frame) bound as base colour, the normal map (if baked)
+    as normal texture with the tangents it was baked in, and, for a texture that emits
+    light (the flame), the albedo as emissive too (PNG copies ``<map>_gltf.png`` when the
+    format is not PNG); ``<name>.obj`` + MTL if ``obj``; ``report.json`` last, so its
+    presence means the rest is complete. Colour maps are sRGB; the normal map and the
+    coverage are data (a linear PNG: ``bake.imageio``).
     """
     fmt = fmt.lower().lstrip(".")
     fmt = "tif" if fmt == "tiff" else fmt
@@ -44,13 +48,21 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
         written[name] = write_image(folder / f"{name}.{fmt}", pixels, bits=bits, colorspace=kind)
     written["coverage"] = write_image(folder / "coverage.png", result.coverage[:, :, None].astype("float32"), colorspace="data")
 
+    # the GLB's textures (glTF embeds PNG or JPEG only: PNG copies of other formats)
     colour = "albedo" if "albedo" in result.images else min(n for n in result.images if n.startswith("albedo_"))
-    texture = folder / f"{colour}.png"
-    if fmt != "png":  # glTF takes PNG or JPEG only
-        texture = folder / f"{colour}_gltf.png"
-        written[f"{colour}_gltf"] = write_image(texture, result.images[colour])
+    slot_maps = {"baseColor": colour, **({"normal": "normal"} if "normal" in result.images else {})}
+    slots = {}
+    for slot, name in slot_maps.items():
+        slots[slot] = folder / f"{name}.png"
+        if fmt != "png":
+            slots[slot] = folder / f"{name}_gltf.png"
+            written[f"{name}_gltf"] = write_image(slots[slot], result.images[name], colorspace="data" if name == "normal" else "linear")
+    if result.settings.texture.emits:  # the flame: its colour is light
+        slots["emissive"] = slots["baseColor"]
+    texture = slots["baseColor"]
     m = result.mesh
-    written["glb"] = write_glb(folder / f"{m.name}.glb", m.vertices, m.faces, m.uv, texture, normals=m.normals, name=m.name)
+    written["glb"] = write_glb(folder / f"{m.name}.glb", m.vertices, m.faces, m.uv, slots, normals=m.normals, tangents=m.tangents,
+                               name=m.name)
     if obj:
         written["obj"] = write_obj(folder / f"{m.name}.obj", m.vertices, m.faces, m.uv, texture.name, normals=m.normals)
 

@@ -76,6 +76,10 @@ class BakeSettings(BaseModel):
     max_octaves: int | None = Field(None, ge=1, le=30, description="cap on the octaves of noise-based textures; none: the spec's own (default: the preset's)")
     margin: int = Field(16, ge=0, le=4096, description="texels of margin filled around charts")
     uv: Literal["auto", "unwrap", "keep"] = Field("auto", description="keep the mesh's UVs when usable (auto), always unwrap, or require them")
+    charting: Literal["auto", "planar", "xatlas"] = Field(
+        "auto", description="how an unwrap cuts charts: planar (faces grouped by normal, as Smart UV Project), xatlas "
+        "(fewer seams and less stretch on small organic meshes, slower), or auto: planar for CAD-like meshes and "
+        "meshes of over 10k faces, xatlas otherwise")
     texture_space: Literal["unit", "object"] = Field("unit", description="unit: the bounding box scaled to start at 0 with its longest side 1; object: coordinates as they are")
     shading: Literal["decal", "ambient-diffuse", "full"] = Field("decal", description="decal: albedo only; the others also bake a lit map")
     light: tuple[Finite, Finite, Finite] = Field((0.3, 0.5, 0.8), description="light direction x, y, z for lit maps")

@@ -5,6 +5,8 @@ A texel sample (face, barycentric coordinates) becomes a surface point in object
 ``dpdy``, the change of the surface point when the sample moves one texel right or one
 texel down. They are the columns of the per-face UV-to-surface Jacobian divided by the
 image size. A face whose UV triangle is degenerate gets a zero (finite) footprint.
+Where a normal map is baked, each sample also gets the output mesh's tangent frame
+(``bake.tangents``), interpolated as a glTF viewer does.
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .tangents import sample_frames
 from .uvgeometry import edges, uv_jacobian
 
 # Footprints are clamped to this many object-space units per texel (finite, never NaN).
@@ -27,6 +30,7 @@ class SurfaceSamples:
     normals: np.ndarray | None  # (n, 3) float64, unit length (zero for a degenerate face)
     dpdx: np.ndarray  # (n, 3) float64, one texel to the right
     dpdy: np.ndarray  # (n, 3) float64, one texel down
+    frame: np.ndarray | None = None  # (n, 3, 3) float64 rows T, B, N of the output mesh's tangent frame
 
 
 def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -53,10 +57,13 @@ class SurfaceMap:
     ``vertices``: ``(n, 3)`` float64 object-space positions; ``faces``: ``(m, 3)`` int
     indices into ``vertices``; ``uv_faces``: ``(m, 3)`` indices into ``uv`` (``(k, 2)``)
     for the same faces; ``width``, ``height``: image size in texels; ``normals``: also
-    interpolate smooth normals.
+    interpolate smooth normals; ``frame``: ``(corner normals (m, 3, 3), corner tangents
+    (m, 3, 4))`` of the output mesh's faces (the same faces, row for row), to interpolate
+    its tangent frame.
     """
 
-    def __init__(self, vertices, faces, uv, uv_faces, width: int, height: int, normals: bool = False):
+    def __init__(self, vertices, faces, uv, uv_faces, width: int, height: int, normals: bool = False,
+                 frame: tuple[np.ndarray, np.ndarray] | None = None):
         vertices = np.asarray(vertices, dtype=np.float64)
         faces = np.asarray(faces, dtype=np.int64)
         self._p0, self._e1, self._e2 = edges(vertices, faces)
@@ -66,12 +73,13 @@ class SurfaceMap:
         self._dpdy = np.clip(-dpdv / height, -_MAX_FOOTPRINT, _MAX_FOOTPRINT)
         # (m, 3, 3) corner normals, only when asked for (transfer rays need them)
         self._vn = vertex_normals(vertices, faces)[faces] if normals else None
+        self._frame = frame
 
     def samples(self, face: np.ndarray, bary: np.ndarray) -> SurfaceSamples:
         """Surface samples for ``(n,)`` faces and ``(n, 3)`` barycentric coordinates.
 
         ``normals`` are smooth interpolated normals, or None if the map was made
-        without them.
+        without them; ``frame`` likewise.
         """
         b = bary
         points = self._p0[face] + b[:, 1:2] * self._e1[face] + b[:, 2:3] * self._e2[face]
@@ -80,4 +88,5 @@ class SurfaceMap:
             n = np.einsum("ni,nij->nj", b, self._vn[face])
             length = np.linalg.norm(n, axis=1, keepdims=True)
             n = np.divide(n, length, out=np.zeros_like(n), where=length > 0)
-        return SurfaceSamples(points, n, self._dpdx[face], self._dpdy[face])
+        frame = None if self._frame is None else sample_frames(self._frame[0][face], self._frame[1][face], b)
+        return SurfaceSamples(points, n, self._dpdx[face], self._dpdy[face], frame)

@@ -19,7 +19,38 @@ def _edge_owns(ax, ay, bx, by) -> bool:
 
 
 @nb.njit(cache=True, nogil=True)
-def _count(uv, faces, size, counts):
+def _edge(ax, ay, bx, by, px, py):
+    """The edge function of a -> b at p, computed from the edge's lesser end whichever way
+    it runs: exactly antisymmetric, so the top-left rule gives a centre on an edge two
+    faces share to exactly one of them (from either end the rounding would differ)."""
+    if ax > bx or (ax == bx and ay > by):
+        return -((ax - bx) * (py - by) - (ay - by) * (px - bx))
+    return (bx - ax) * (py - ay) - (by - ay) * (px - ax)
+
+
+@nb.njit(cache=True, nogil=True)
+def _span(x0, y0, x1, y1, x2, y2, py):
+    """``(lo, hi)``: the x-interval of the row at ``py`` inside the counter-clockwise
+    triangle, from each edge's crossing (so a sliver's row is not walked end to end);
+    the exact test is still made texel by texel."""
+    lo, hi = -np.inf, np.inf
+    for xa, ya, xb, yb in ((x1, y1, x2, y2), (x2, y2, x0, y0), (x0, y0, x1, y1)):
+        dy = yb - ya  # inside: (xb - xa) * (py - ya) - dy * (px - xa) >= 0
+        if dy == 0.0:
+            continue
+        root = xa + (xb - xa) * (py - ya) / dy
+        if dy > 0.0:
+            hi = min(hi, root)
+        else:
+            lo = max(lo, root)
+    return lo, hi
+
+
+@nb.njit(cache=True, nogil=True)
+def _raster(uv, faces, size, counts, flags, count):
+    """``count``: add each face to ``counts`` of the centres it covers and flag the faces
+    that cover one; else flag the faces that cover a centre ``counts`` has more than one
+    face over."""
     for f in range(faces.shape[0]):
         x0, y0 = uv[faces[f, 0], 0] * size, (1.0 - uv[faces[f, 0], 1]) * size
         x1, y1 = uv[faces[f, 1], 0] * size, (1.0 - uv[faces[f, 1], 1]) * size
@@ -36,14 +67,28 @@ def _count(uv, faces, size, counts):
         own0, own1, own2 = _edge_owns(x1, y1, x2, y2), _edge_owns(x2, y2, x0, y0), _edge_owns(x0, y0, x1, y1)
         for r in range(r0, r1 + 1):
             py = r + 0.5
-            for c in range(c0, c1 + 1):
+            lo, hi = _span(x0, y0, x1, y1, x2, y2, py)  # the row's inside, give or take a texel
+            for c in range(max(c0, int(np.floor(lo - 0.5))), min(c1, int(np.ceil(hi - 0.5))) + 1):
                 px = c + 0.5
-                w0 = (x2 - x1) * (py - y1) - (y2 - y1) * (px - x1)
-                w1 = (x0 - x2) * (py - y2) - (y0 - y2) * (px - x2)
-                w2 = (x1 - x0) * (py - y0) - (y1 - y0) * (px - x0)
+                w0 = _edge(x1, y1, x2, y2, px, py)
+                w1 = _edge(x2, y2, x0, y0, px, py)
+                w2 = _edge(x0, y0, x1, y1, px, py)
                 if ((w0 > 0 or (w0 == 0 and own0)) and (w1 > 0 or (w1 == 0 and own1))
                         and (w2 > 0 or (w2 == 0 and own2))):
-                    counts[r, c] += 1
+                    if count:
+                        counts[r, c] += 1
+                        flags[f] = True
+                    elif counts[r, c] > 1:
+                        flags[f] = True
+
+
+def _counts(uv: np.ndarray, faces: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    uv = np.ascontiguousarray(uv, dtype=np.float64)
+    faces = np.ascontiguousarray(faces, dtype=np.int64)
+    counts = np.zeros((size, size), dtype=np.uint16)
+    covering = np.zeros(len(faces), dtype=np.bool_)
+    _raster(uv, faces, int(size), counts, covering, True)
+    return uv, faces, counts, covering
 
 
 def coverage_counts(uv: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
@@ -51,9 +96,20 @@ def coverage_counts(uv: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
 
     ``uv``: ``(k, 2)`` float in the unit square (v up); ``faces``: ``(m, 3)`` int into it.
     """
-    counts = np.zeros((size, size), dtype=np.uint16)
-    _count(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(faces, dtype=np.int64), int(size), counts)
-    return counts
+    return _counts(uv, faces, size)[2]
+
+
+def covering_faces(uv: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
+    """``(m,)`` bool: the faces that hold at least one texel centre."""
+    return _counts(uv, faces, size)[3]
+
+
+def overlapping_faces(uv: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
+    """``(m,)`` bool: the faces that cover a texel centre another face covers too."""
+    uv, faces, counts, _ = _counts(uv, faces, size)
+    flags = np.zeros(len(faces), dtype=np.bool_)
+    _raster(uv, faces, int(size), counts, flags, False)
+    return flags
 
 
 def overlap(uv: np.ndarray, faces: np.ndarray, size: int) -> tuple[float, int]:

@@ -4,8 +4,10 @@
 A worker is a fresh interpreter, ``python -m MODULE ARG...``: not a fork and not
 multiprocessing, so the caller's ``__main__`` is never re-imported, it works from pool
 processes too, and a hang or a crash in native code (xatlas, a bake) takes down only the
-worker, which the parent then sees die or kills at its deadline. The worker asks Linux to
-kill it when its parent dies (:func:`die_with_parent`).
+worker, which the parent then sees die or kills at its deadline. A worker dies with its
+parent (:func:`die_with_parent`): Linux kills it when the parent thread that started it
+ends, and it watches its parent's pid besides, which covers a parent that died while the
+worker started and a parent thread that is not the one that lives longest.
 
 Protocol: the parent writes one line per job to the worker's stdin, the path of a file
 holding a pickled ``(kind, args)``; the worker answers on stdout with an 8-byte
@@ -24,6 +26,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -32,14 +35,32 @@ _ROOT = str(Path(__file__).resolve().parents[1])  # the folder that holds the pa
 _PARENTS_SIGNALS = {signal.SIGINT, signal.SIGTERM}  # a worker leaves them to its parent
 
 
+_PARENT_ENV = "TEXBAKE_WORKER_PARENT"  # the pid of the process that started this worker
+PARENT_POLL_SECONDS = 0.5
+
+
 def die_with_parent() -> None:
-    """Ask Linux to kill this process when its parent dies (a hung job never returns)."""
+    """End this process when its parent dies (a hung job never returns, and an orphaned
+    bake must not keep baking): ``PR_SET_PDEATHSIG``, then a thread that checks every
+    ``PARENT_POLL_SECONDS`` that the parent is still the one named in ``TEXBAKE_WORKER_PARENT``."""
     try:
         import ctypes
 
         ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):  # not Linux: the parent still kills it at the deadline
+    except (OSError, AttributeError):  # not Linux: the poll below, and the parent kills it at the deadline
         pass
+    parent = int(os.environ.get(_PARENT_ENV) or 0)
+    if not parent:
+        return
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(PARENT_POLL_SECONDS)
+        os._exit(70)  # re-parented: the parent is gone
+
+    if os.getppid() != parent:
+        os._exit(70)  # it died while this process started
+    threading.Thread(target=watch, name="parent-watch", daemon=True).start()
 
 
 def serve(jobs: dict[str, Callable[..., object]]) -> None:
@@ -77,6 +98,7 @@ class Worker:
     def __init__(self, command: Sequence[str], folder: str, *, stderr=subprocess.DEVNULL):
         env = dict(os.environ)
         env["PYTHONPATH"] = os.pathsep.join(p for p in (_ROOT, env.get("PYTHONPATH")) if p)
+        env[_PARENT_ENV] = str(os.getpid())
         self.folder = folder
         # The child starts with SIGINT and SIGTERM blocked (a thread's signal mask survives
         # fork and exec) until serve() ignores them: a group signal during its imports waits

@@ -24,7 +24,7 @@ BEGIN, END = "<!-- bench:begin -->", "<!-- bench:end -->"
 # (command as documented, extra arguments for --quick)
 COMMANDS = [
     ("bench/bench_bake.py", ["--runs", "1", "--skip-8k"]),
-    ("bench/bench_unwrap.py", ["--runs", "1", "--quick"]),
+    ("bench/bench_unwrap.py", ["--runs", "1", "--only", "gear"]),
     ("bench/bench_textures.py", ["--runs", "1", "--points", "500000"]),
     ("bench/bench_service.py", ["--jobs", "4", "--uploads", "4"]),
     ("bench/bench_error.py", ["--sizes", "256", "--repeats", "1", "--textures", "marble"]),

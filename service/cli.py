@@ -22,30 +22,44 @@ def serve(
     port: int = typer.Option(8000, envvar="BAKE_PORT", help="port to listen on"),
     workers: int | None = typer.Option(None, help="embedded bake workers (default BAKE_WORKERS, 2; 0: none, API only)"),
 ):
-    """Run the HTTP API with an embedded worker pool (SQLite queue and jobs by default)."""
-    import atexit
-    import subprocess
+    """Run the HTTP API with an embedded worker pool (SQLite queue and jobs by default).
+
+    The worker is watched and restarted when it dies; SIGTERM or SIGINT stops the API,
+    then the worker (its running bakes finish within BAKE_STOP_SECONDS or go back to the
+    queue), and leaves no process behind.
+    """
+    import logging
+    import signal
 
     try:
         import uvicorn
 
         from .main import create_app
         from .settings import get_settings
+        from .supervise import Supervisor
     except ImportError as exc:
         _need_service_extra(exc)
 
-    if host not in ("127.0.0.1", "localhost", "::1") and not get_settings().api_keys:
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    settings = get_settings()
+    if host not in ("127.0.0.1", "localhost", "::1") and not settings.api_keys:
         print(f"texbake serve: listening on {host} with no API keys: anyone who can reach it can bake (set BAKE_API_KEYS)", file=sys.stderr)
+    supervisor = None
     if workers != 0:
         command = [sys.executable, "-m", "bake.cli", "worker"] + ([] if workers is None else ["--workers", str(workers)])
-        pool = subprocess.Popen(command)
-
-        def stop_pool():
-            pool.terminate()  # the worker's graceful stop: finish or hand back its bakes
-            pool.wait(get_settings().stop_seconds + 10)
-
-        atexit.register(stop_pool)
-    uvicorn.run(create_app(), host=host, port=port, log_level="warning")
+        supervisor = Supervisor(command, settings.stop_seconds)
+        supervisor.start()
+    # uvicorn stops on SIGTERM/SIGINT, then raises the signal again with the handlers it
+    # found: these, which let this function go on to stop the worker (the default ones
+    # would end the process first and leave the worker running).
+    app = create_app()
+    for signum in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(signum, lambda *_: None)
+    try:
+        uvicorn.run(app, host=host, port=port, log_level="warning")
+    finally:
+        if supervisor is not None:
+            supervisor.stop()
 
 
 def worker(workers: int | None = typer.Option(None, help="bakes at a time (default BAKE_WORKERS, 2)")):
@@ -69,7 +83,7 @@ def worker(workers: int | None = typer.Option(None, help="bakes at a time (defau
     count = workers or settings.workers
     prestart(count)  # the first jobs find their bake processes warm
     stop = threading.Event()
-    threading.Thread(target=reap_forever, args=(stop,), daemon=True).start()  # re-queue dead workers' jobs
+    threading.Thread(target=reap_forever, args=(stop, count), daemon=True).start()  # re-queue dead workers' jobs
     try:  # threads are enough: each bake runs in its own child process
         queue().huey.create_consumer(workers=count, worker_type="thread", periodic=True,
                              graceful_signal="TERM", shutdown_timeout=settings.stop_seconds).run()
@@ -78,3 +92,17 @@ def worker(workers: int | None = typer.Option(None, help="bakes at a time (defau
         returned = hand_back()
         if returned:
             logging.getLogger("texbake.service").info("handed %d running jobs back to the queue: %s", len(returned), ", ".join(returned))
+
+
+def gc():
+    """Delete expired jobs (done: BAKE_KEEP_HOURS, failed or cancelled: BAKE_KEEP_FAILED_HOURS)
+    with their folders, and left-overs of processes that died; the API does it every 10 minutes."""
+    try:
+        from .retention import collect
+        from .settings import get_settings
+    except ImportError as exc:
+        _need_service_extra(exc)
+    collected = collect(get_settings())
+    typer.echo(f"expired {len(collected.jobs)} jobs; removed {len(collected.leftovers)} left-overs")
+    for path in collected.leftovers:
+        typer.echo(f"  {path}")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import hmac
+import re
 from typing import Annotated
 
 from fastapi import Depends, HTTPException, Request
@@ -13,6 +14,7 @@ from sqlalchemy.orm import Session
 from . import db
 from .settings import Settings, get_settings
 
+JOB_ID = re.compile(r"[0-9a-f]{32}")  # uuid4().hex
 SettingsDep = Annotated[Settings, Depends(get_settings)]
 
 
@@ -43,7 +45,10 @@ ClientDep = Annotated[str, Depends(client_id)]
 
 
 def get_job_or_404(job_id: str, session: SessionDep, client: ClientDep, settings: SettingsDep) -> db.Job:
-    """The job; with API keys, only the key that created it sees it."""
+    """The job; with API keys, only the key that created it sees it. An id that is not
+    32 hex digits is no job, asked of no database (a NUL, say, which PostgreSQL refuses)."""
+    if not JOB_ID.fullmatch(job_id):
+        raise HTTPException(404, detail=f"no job {job_id[:64]!r}")
     job = session.get(db.Job, job_id)
     if job is None or (settings.api_keys and job.client != client):
         raise HTTPException(404, detail=f"no job {job_id!r}")

@@ -1,28 +1,50 @@
 """Health checks for containers and orchestrators: ``python -m service.health api|worker``.
 
 ``api`` asks the API's ``/healthz`` (on ``BAKE_PORT``, 8000 by default); ``worker`` checks
-that the jobs table and the queue answer (what ``/readyz`` checks). Exit code 0 when
-healthy, else 1 with the reason on one line.
+that the jobs table and the queue answer. Exit code 0 when healthy, else 1 with the reason
+on one line. :func:`ready` is ``/readyz``'s answer.
 """
 
 from __future__ import annotations
 
+import logging
 import os
+import shutil
 import sys
 import urllib.request
 
+logger = logging.getLogger("texbake.service")
 
-def ready() -> int:
-    """Raise if the jobs table or the queue does not answer; else the queue's length."""
+
+def ready() -> dict:
+    """What ``/readyz`` reports: each dependency ``ok`` or ``unavailable`` (the reason goes
+    to the log, never to the client), the queue's length, live workers and their bake
+    slots, free disk in the data folder; ``ok`` when all are up, a worker is alive and the
+    disk has ``BAKE_MIN_FREE_MB``."""
     from sqlalchemy import text
 
     from . import db
     from .settings import get_settings
     from .tasks import queue
 
-    with db.sessions(get_settings().database)() as session:
-        session.execute(text("SELECT 1"))
-    return queue().huey.pending_count()
+    s = get_settings()
+    answer: dict = {"database": "ok", "queue": "ok", "queued": None, "workers": None, "slots": None}
+    try:
+        with db.sessions(s.database)() as session:
+            session.execute(text("SELECT 1"))
+            answer["workers"], answer["slots"] = db.live_workers(session, s.stale_seconds)
+    except Exception as exc:  # any reason: the check's answer
+        logger.warning("readiness: the jobs database: %s: %s", type(exc).__name__, exc)
+        answer["database"] = "unavailable"
+    try:
+        answer["queued"] = queue().huey.pending_count()
+    except Exception as exc:
+        logger.warning("readiness: the queue: %s: %s", type(exc).__name__, exc)
+        answer["queue"] = "unavailable"
+    answer["disk_free_mb"] = shutil.disk_usage(s.data_dir).free >> 20
+    answer["ok"] = (answer["database"] == answer["queue"] == "ok" and bool(answer["workers"])
+                    and answer["disk_free_mb"] >= s.min_free_mb)
+    return answer
 
 
 def main(argv: list[str]) -> int:
@@ -33,7 +55,11 @@ def main(argv: list[str]) -> int:
             with urllib.request.urlopen(f"http://127.0.0.1:{port}/healthz", timeout=5) as answer:
                 answer.read()
         elif what == "worker":
-            ready()
+            answer = ready()
+            down = [name for name in ("database", "queue") if answer[name] != "ok"]
+            if down:
+                print(f"unhealthy: {' and '.join(down)} unavailable", file=sys.stderr)
+                return 1
         else:
             print(f"usage: python -m service.health api|worker (got {what!r})", file=sys.stderr)
             return 2

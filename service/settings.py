@@ -18,6 +18,7 @@ class Settings(BaseSettings):
     data_dir: Path = Field(Path.home() / ".texbake", description="uploads, outputs, SQLite queue and jobs")
     redis_url: str | None = Field(None, description="Redis for the queue (default: SQLite in data_dir)")
     database_url: str | None = Field(None, description="SQLAlchemy URL of the jobs table (default: SQLite)")
+    base_url: str | None = Field(None, description="the API's public URL, for job URLs (default: the request's, Host header included)")
     api_keys: list[str] = Field(default_factory=list, description="bearer tokens; empty: no authentication")
     max_upload_bytes: int = 256 * 1024 * 1024
     max_faces: int = 2_000_000
@@ -31,10 +32,14 @@ class Settings(BaseSettings):
     stop_seconds: float = 20.0  # on SIGTERM, running bakes get this long to finish, then go back to the queue
     heartbeat_seconds: float = 2.0
     stale_seconds: float = 30.0  # a running job without heartbeat for this long is re-queued
+    requeue_seconds: float = 60.0  # a queued job missing from the queue for this long is enqueued again
     max_attempts: int = 3
+    min_free_mb: int = 1024  # /readyz says not ready with less free space in data_dir
+    keep_hours: float = 168.0  # a done job (row, folder, outputs) is deleted this long after it finished
+    keep_failed_hours: float = 24.0  # a failed or cancelled one this long after
 
     def job_dir(self, job_id: str) -> Path:
-        """The folder of one job: its upload, ``job.json``, ``out.tmp`` while baking, ``out``."""
+        """The folder of one job: its upload, ``job.json``, ``out.tmp.LEASE`` while baking, ``out``."""
         return self.data_dir / "jobs" / job_id
 
     @property

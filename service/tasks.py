@@ -33,6 +33,8 @@ from pathlib import Path
 
 from huey import Huey, crontab
 from huey.api import TaskWrapper
+from huey.exceptions import RetryTask
+from sqlalchemy.exc import DBAPIError
 
 from bake.workers import Worker
 
@@ -41,12 +43,16 @@ from .queue import make_huey
 from .settings import Settings, get_settings
 
 logger = logging.getLogger("texbake.service")
+jobs_log = logging.getLogger("texbake.jobs")
 
 
 @dataclass(frozen=True)
 class Queue:
     huey: Huey
     bake: TaskWrapper  # calling it with a job id enqueues that job
+
+
+CLAIM_RETRY_SECONDS = 2.0  # a bake that cannot reach the jobs table to claim its job tries again this much later
 
 
 @functools.lru_cache
@@ -61,9 +67,20 @@ def enqueue_bake(job_id: str) -> None:
     queue().bake(job_id)
 
 
+def state_changed(job_id: str, state: str, detail: str = "") -> None:
+    """The one log line of a job's change of state (``texbake.jobs``)."""
+    jobs_log.info("job %s %s%s", job_id, state, f": {detail}" if detail else "", extra={"job": job_id, "state": state})
+
+
+def queued_ids() -> set[str]:
+    """The job ids the queue holds: waiting, or scheduled to be tried again."""
+    huey = queue().huey
+    return {str(task.args[0]) for task in huey.pending() + huey.scheduled() if task.name == "run_bake" and task.args}
+
+
 _idle: list[Worker] = []  # bake processes started and waiting for a job
 _idle_lock = threading.Lock()
-_running: dict[str, int] = {}  # job id -> pid of the bake process baking it (this worker's)
+_running: dict[str, tuple[int, int]] = {}  # job id -> (pid of the bake process baking it, lease), this worker's
 JOBS_PER_PROCESS = 50  # then a fresh process: no memory creeps from job to job
 
 
@@ -102,10 +119,10 @@ def _give_back(worker: Worker) -> None:
             _idle.append(worker)
 
 
-def _progress(folder: Path) -> float | None:
-    """The fraction the bake in ``folder`` last reported (None before its first report)."""
+def _progress(file: Path) -> float | None:
+    """The fraction the bake last reported in ``file`` (None before its first report)."""
     try:
-        return float((folder / "progress").read_text())
+        return float(file.read_text())
     except (OSError, ValueError):
         return None
 
@@ -114,34 +131,64 @@ def run_bake(job_id: str) -> str:
     """The task: bake one job (see the module's notes); returns the job's final state."""
     s = get_settings()
     Session = db.sessions(s.database)
-    with Session() as session:
-        job = db.claim(session, job_id)
-        if job is None:
-            return "not queued"
-    folder = s.job_dir(job_id)
-    shutil.rmtree(folder / "out.tmp", ignore_errors=True)
-    (folder / "progress").unlink(missing_ok=True)
-    worker = _take_bake_process(s)
-    _running[job_id] = worker.pid
     try:
-        return _supervise(job_id, folder, worker)
+        with Session() as session:
+            job = db.claim(session, job_id)
+    except DBAPIError as exc:  # the jobs table is out of reach: try again later, never drop the job
+        logger.warning("job %s: cannot claim it (%s): trying again in %g s", job_id, type(exc.orig).__name__, CLAIM_RETRY_SECONDS)
+        raise RetryTask(delay=CLAIM_RETRY_SECONDS) from None
+    if job is None:
+        return "not queued"
+    state_changed(job_id, "running", f"attempt {job.attempts}, lease {job.lease}")
+    folder = s.job_dir(job_id)
+    tmp = f"out.tmp.{job.lease}"  # this lease's own: two bakes of one job never share a folder
+    shutil.rmtree(folder / tmp, ignore_errors=True)
+    worker = _take_bake_process(s)
+    _running[job_id] = (worker.pid, job.lease)
+    try:
+        return _supervise(job_id, job.lease, folder, tmp, worker)
     finally:
         _running.pop(job_id, None)
         _give_back(worker)
+        shutil.rmtree(folder / tmp, ignore_errors=True)
+        (folder / f"progress.{job.lease}").unlink(missing_ok=True)
 
 
-def _supervise(job_id: str, folder: Path, worker: Worker) -> str:
-    """Beat the job's heartbeat while its bake runs; stop it when cancelled or late."""
+def _with_database(what: str, call, seconds: float):
+    """``call()``, tried again for up to ``seconds`` while the jobs table is out of reach."""
+    end, delay = time.monotonic() + seconds, 0.2
+    while True:
+        try:
+            return call()
+        except DBAPIError as exc:
+            if time.monotonic() + delay > end:
+                raise
+            logger.warning("%s: the jobs table is out of reach (%s): trying again in %.1f s", what, type(exc.orig).__name__, delay)
+            time.sleep(delay)
+            delay = min(5.0, delay * 2)
+
+
+def _supervise(job_id: str, token: int, folder: Path, tmp: str, worker: Worker) -> str:
+    """Beat the job's heartbeat while its bake runs; stop it when cancelled, taken or late;
+    publish its outputs only while holding the lease."""
     s = get_settings()
     Session = db.sessions(s.database)
     end = time.monotonic() + s.job_seconds
-    state, error = "running", None
-    reply: tuple[bool, object] | None = None if worker.send("bake", (str(folder),)) else (False, worker.exit_reason())
+    state, error, unreachable = "running", None, False
+    reply: tuple[bool, object] | None = None if worker.send("bake", (str(folder), token)) else (False, worker.exit_reason())
     while reply is None:
         reply = worker.result(timeout=min(s.heartbeat_seconds, 0.5))
         if reply is None:
-            with Session() as session:
-                state = db.beat(session, job_id, progress=_progress(folder))
+            try:
+                with Session() as session:
+                    state = db.beat(session, job_id, token, progress=_progress(folder / f"progress.{token}"))
+                if unreachable:
+                    logger.info("job %s: the jobs table answers again", job_id)
+                unreachable = False
+            except DBAPIError as exc:  # a database outage: keep baking, the heartbeat resumes with it
+                if not unreachable:
+                    logger.warning("job %s: heartbeat failed (%s): baking on", job_id, type(exc.orig).__name__)
+                unreachable = True
             if state != "running" or time.monotonic() > end:
                 error = f"the bake took longer than {s.job_seconds:g} s"
                 worker.end()  # the bake is abandoned with its process
@@ -154,18 +201,28 @@ def _supervise(job_id: str, folder: Path, worker: Worker) -> str:
             error = f"the bake's process died without a word (a crash in native code, or killed; {value})"
         else:
             error = f"internal error: {value}"
-    with Session() as session:
-        if state != "running":
-            return state  # cancelled (or taken from us by the reaper)
-        if error is None:
+    if state != "running":
+        return state  # cancelled, or taken from us (the reaper re-queued it; another bake holds it now)
+    wait = s.job_seconds  # a finished bake waits out an outage as long as a bake may take
+    if error is None:
+        with Session() as session:
+            if not _with_database(f"job {job_id}", lambda: db.holds(session, job_id, token), wait):
+                logger.info("job %s: lease %d lost before publishing: outputs discarded", job_id, token)
+                return "taken"
             final = folder / "out"
+            (folder / "result.zip").unlink(missing_ok=True)  # of an earlier publication: made again on request
             shutil.rmtree(final, ignore_errors=True)
-            (folder / "out.tmp").rename(final)  # complete: all files at once
+            (folder / tmp).rename(final)  # complete: all files at once
             report = json.loads((final / "report.json").read_text())
-            db.finish(session, job_id, "done", report=report)
-            return "done"
-        db.finish(session, job_id, "failed", error=error)
-        return "failed"
+            if _with_database(f"job {job_id}", lambda: db.finish(session, job_id, token, "done", report=report), wait):
+                state_changed(job_id, "done")
+                return "done"
+            return "taken"
+    with Session() as session:
+        if _with_database(f"job {job_id}", lambda: db.finish(session, job_id, token, "failed", error=error), wait):
+            state_changed(job_id, "failed", error or "")
+            return "failed"
+    return "taken"
 
 
 def hand_back() -> list[str]:
@@ -177,34 +234,66 @@ def hand_back() -> list[str]:
     """
     s = get_settings()
     returned = []
-    for job_id, pid in list(_running.items()):
-        with db.sessions(s.database)() as session:
-            if db.release(session, job_id):
-                returned.append(job_id)
+    for job_id, (pid, token) in list(_running.items()):
         try:
-            os.kill(pid, signal.SIGKILL)
+            os.kill(pid, signal.SIGKILL)  # first: a bake that ends now cannot publish a released job
         except ProcessLookupError:
             pass
+        with db.sessions(s.database)() as session:
+            if db.release(session, job_id, token):
+                returned.append(job_id)
+                state_changed(job_id, "queued", "handed back by a stopping worker")
     for job_id in returned:
         enqueue_bake(job_id)
     return returned
 
 
-def reap_forever(stop) -> None:
-    """Reap every half ``stale_seconds`` until ``stop`` (a threading.Event) is set."""
-    interval = max(0.5, get_settings().stale_seconds / 2)
-    while not stop.wait(interval):
+def reap_forever(stop, worker_slots: int | None = None) -> None:
+    """Reap at once, then every half ``stale_seconds`` until ``stop`` (a threading.Event)
+    is set; expire old jobs (:mod:`service.retention`) every ``GC_SECONDS``. In a worker
+    (``worker_slots``: its bakes at a time), also record that it is alive, for ``/readyz``."""
+    import socket
+
+    from .retention import GC_SECONDS, collect
+
+    interval = max(0.5, min(get_settings().stale_seconds, get_settings().requeue_seconds) / 2)
+    last_gc = -GC_SECONDS
+    me = f"{socket.gethostname()}:{os.getpid()}"
+    while True:
         try:
+            if worker_slots is not None:
+                with db.sessions(get_settings().database)() as session:
+                    db.worker_seen(session, me, worker_slots)
             reap_once()
-        except Exception:  # a database hiccup: say so, and try again next time
-            logger.exception("reaping stale jobs failed")
+            if time.monotonic() - last_gc >= GC_SECONDS:
+                last_gc = time.monotonic()
+                collected = collect(get_settings())
+                if collected.jobs or collected.leftovers:
+                    logger.info("expired %d jobs, removed %d left-overs", len(collected.jobs), len(collected.leftovers))
+        except Exception as exc:  # the database or the queue out of reach: say so, and try again next time
+            logger.warning("reaping stale jobs failed: %s: %s", type(exc).__name__, exc)
+        if stop.wait(interval):
+            return
 
 
 def reap_once() -> tuple[list[str], list[str]]:
-    """Re-queue jobs whose worker died (stale heartbeat), fail those out of attempts."""
+    """Re-queue jobs whose worker died (stale heartbeat), fail those out of attempts, and
+    enqueue again queued jobs that the queue lost (not in it after ``requeue_seconds``:
+    a queue write that failed, a flushed Redis, a task dropped). Returns (re-queued, failed)."""
     s = get_settings()
     with db.sessions(s.database)() as session:
         requeued, failed = db.reap(session, s.stale_seconds, s.max_attempts)
+        candidates = db.stranded(session, s.requeue_seconds)
     for job_id in requeued:
+        state_changed(job_id, "queued", "its worker stopped answering")
+    for job_id in failed:
+        state_changed(job_id, "failed", "its worker stopped answering too many times")
+    lost = []
+    if candidates:
+        held = queued_ids()
+        lost = [job_id for job_id in candidates if job_id not in held]
+    for job_id in requeued + lost:
         enqueue_bake(job_id)
-    return requeued, failed
+    for job_id in lost:
+        logger.warning("job %s: queued but not in the queue: enqueued again", job_id)
+    return requeued + lost, failed

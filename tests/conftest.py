@@ -1,12 +1,17 @@
 """Fixtures and helpers shared by the test modules (import helpers with ``from conftest import ...``)."""
 
+import contextlib
 import json
 import os
+import signal
+import socket
 import struct
 import subprocess
 import sys
+import time
 from pathlib import Path
 
+import httpx
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]  # the repository
@@ -52,3 +57,195 @@ def glb_with_accessor(count):
     binary = bytes(44)
     body = struct.pack("<I4s", len(j), b"JSON") + j + struct.pack("<I4s", len(binary), b"BIN\x00") + binary
     return struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body
+
+
+# --- Redis and PostgreSQL servers -------------------------------------------------------
+# Tests of the service against the real servers: the machine's shared ones (a database of
+# its own on PostgreSQL 127.0.0.1:5432), or instances a test starts itself (redis-server,
+# initdb/pg_ctl) to stop, flush or restart them. Without them the test is skipped, and
+# fails under CI (CI=true or TEXBAKE_REQUIRE_SERVICES=1).
+
+PG_BIN = Path("/usr/lib/postgresql/15/bin")
+
+
+def need(why: str):
+    """Skip for ``why``, or fail under CI."""
+    if os.environ.get("TEXBAKE_REQUIRE_SERVICES") or os.environ.get("CI", "").lower() in ("1", "true", "yes"):
+        pytest.fail(why)
+    pytest.skip(why)
+
+
+@pytest.fixture
+def postgres_url():
+    """A fresh database on the shared PostgreSQL (dropped afterwards): its SQLAlchemy URL."""
+    try:
+        import psycopg
+
+        with psycopg.connect("host=127.0.0.1 port=5432 user=postgres dbname=postgres", connect_timeout=3, autocommit=True) as conn:
+            name = f"texbake_test_{os.getpid()}_{time.monotonic_ns() % 10**9}"
+            conn.execute(f'CREATE DATABASE "{name}"')
+    except Exception as exc:  # any reason at all: report it
+        need(f"PostgreSQL 127.0.0.1:5432 needed: {type(exc).__name__}: {exc}")
+    url = f"postgresql+psycopg://postgres@127.0.0.1:5432/{name}"
+    yield url
+    from sqlalchemy.orm import close_all_sessions
+
+    from service import db
+
+    close_all_sessions()  # the test's sessions give their connections back, which go with the engine
+    db.sessions(url).kw["bind"].dispose()
+    db.sessions.cache_clear()
+    with psycopg.connect("host=127.0.0.1 port=5432 user=postgres dbname=postgres", autocommit=True) as conn:
+        conn.execute(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)')
+
+
+class OwnRedis:
+    """A redis-server of the test's own on a free port, no persistence: stop() and start()
+    again give an empty one, as a restarted Redis without its dump does."""
+
+    def __init__(self, folder: Path):
+        self.port, self.folder = free_port(), folder
+        self.url = f"redis://127.0.0.1:{self.port}/0"
+        self.process: subprocess.Popen | None = None
+
+    def start(self):
+        import redis
+
+        self.process = subprocess.Popen(["redis-server", "--port", str(self.port), "--bind", "127.0.0.1", "--save", "", "--appendonly", "no",
+                                         "--dir", str(self.folder)], stdout=subprocess.DEVNULL)
+        client = redis.Redis(port=self.port)
+        for _ in range(100):
+            try:
+                client.ping()
+                return self
+            except redis.ConnectionError:
+                time.sleep(0.05)
+        raise RuntimeError(f"redis-server on port {self.port} did not start")
+
+    def stop(self):
+        if self.process is not None:
+            self.process.kill()
+            self.process.wait()
+            self.process = None
+
+    def flush(self):
+        import redis
+
+        redis.Redis(port=self.port).flushall()
+
+
+@pytest.fixture
+def own_redis(tmp_path_factory):
+    import shutil
+
+    if shutil.which("redis-server") is None:
+        need("redis-server needed (to start a Redis of the test's own)")
+    server = OwnRedis(tmp_path_factory.mktemp("redis")).start()
+    yield server
+    server.stop()
+
+
+class OwnPostgres:
+    """A PostgreSQL cluster of the test's own (initdb, pg_ctl) on a free port; as root, it
+    runs as the ``postgres`` user (PostgreSQL refuses root)."""
+
+    def __init__(self, folder: Path):
+        self.port, self.folder = free_port(), folder
+        self.url = f"postgresql+psycopg://postgres@127.0.0.1:{self.port}/postgres"
+        self._as = ["runuser", "-u", "postgres", "--"] if os.geteuid() == 0 else []
+        if self._as:
+            import shutil
+
+            shutil.chown(folder, "postgres")
+        subprocess.run([*self._as, str(PG_BIN / "initdb"), "-D", str(folder / "db"), "-A", "trust", "-U", "postgres", "--no-sync"],
+                       check=True, capture_output=True)
+
+    def _ctl(self, *args):
+        subprocess.run([*self._as, str(PG_BIN / "pg_ctl"), "-D", str(self.folder / "db"), "-w", *args], check=True, capture_output=True)
+
+    def start(self):
+        options = f"-p {self.port} -k {self.folder} -c listen_addresses=127.0.0.1 -c fsync=off -c max_connections=200"
+        self._ctl("-o", options, "-l", str(self.folder / "log"), "start")
+        return self
+
+    def stop(self):
+        self._ctl("-m", "fast", "stop")
+
+
+@pytest.fixture
+def own_postgres():
+    import shutil
+    import tempfile
+
+    if not (PG_BIN / "initdb").exists():
+        need(f"PostgreSQL's initdb and pg_ctl needed in {PG_BIN}")
+    folder = Path(tempfile.mkdtemp(prefix="texbake-pg-"))  # not under pytest's 0700 folders: the postgres user works here
+    try:
+        server = OwnPostgres(folder).start()
+        yield server
+        from service import db
+
+        db.sessions.cache_clear()
+        with contextlib.suppress(subprocess.CalledProcessError):
+            server._ctl("-m", "immediate", "stop")
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+# --- the service as real processes ------------------------------------------------------
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def start(args, data, extra_env=None, port=None):
+    env = {**os.environ, "BAKE_DATA_DIR": str(data), "BAKE_HEARTBEAT_SECONDS": "0.5", "BAKE_STALE_SECONDS": "5",
+           "BAKE_STOP_SECONDS": "2", **(extra_env or {})}
+    log = open(data / f"{args[0]}-{time.monotonic_ns()}.log", "wb")
+    proc = subprocess.Popen([sys.executable, "-m", "bake.cli", *args], cwd=ROOT, env=env, start_new_session=True, stdout=log, stderr=subprocess.STDOUT)
+    proc.log = log
+    if port:
+        end = time.monotonic() + 60
+        while True:
+            try:
+                httpx.get(f"http://127.0.0.1:{port}/healthz", timeout=1)
+                break
+            except httpx.HTTPError:
+                if proc.poll() is not None or time.monotonic() > end:
+                    stop(proc)
+                    pytest.fail(f"{args[0]} did not start: {open(log.name, errors='replace').read()[-2000:]}")
+                time.sleep(0.2)
+    return proc
+
+
+def stop(proc, sig=signal.SIGTERM):
+    try:
+        os.killpg(proc.pid, sig)
+        proc.wait(20)
+    except ProcessLookupError:  # the whole group has ended already
+        proc.wait()
+    except subprocess.TimeoutExpired:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+    proc.log.close()
+
+
+def upload(url, path, settings, name=None, headers=None):
+    with open(path, "rb") as f:
+        return httpx.post(f"{url}/v1/jobs", files={"mesh": (name or path.name, f)}, data={"settings": json.dumps(settings)},
+                          headers=headers, timeout=60)
+
+
+def wait(url, job_id, states=("done", "failed", "cancelled"), timeout=120):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        job = httpx.get(f"{url}/v1/jobs/{job_id}", timeout=10).json()
+        if job["state"] in states:
+            return job
+        time.sleep(0.3)
+    pytest.fail(f"job {job_id} still {job['state']} after {timeout} s")
+
+

@@ -278,3 +278,85 @@ def test_a_baked_glb_has_shading_normals_and_validates(meshes, tmp_path):
     assert np.abs(np.linalg.norm(m.normals, axis=1) - 1).max() < 1e-12
     report = assert_valid(tmp_path / "fandisk.glb")
     assert report["issues"]["numWarnings"] == 0, report["issues"]["messages"]
+
+
+def test_glb_texture_slots_and_tangents(tmp_path):
+    """Normal and emissive slots next to the base colour; one image per distinct PNG."""
+    v, f, uv, normals = unwelded_cube()
+    colour = encode_png_bytes(np.full((4, 4, 3), 0.25, np.float32))
+    normal_map = encode_png_bytes(np.full((4, 4, 3), 0.5, np.float32), colorspace="data")
+    tangents = np.column_stack([np.cross(normals, [0.6, 0.0, 0.8]), np.ones(len(v))])
+    tangents[:, :3] /= np.linalg.norm(tangents[:, :3], axis=1, keepdims=True)
+    write_glb(tmp_path / "c.glb", v, f, uv, {"baseColor": colour, "normal": normal_map, "emissive": colour},
+              normals=normals, tangents=tangents)
+    doc, binary = glb_parts(tmp_path / "c.glb")
+    (material,) = doc["materials"]
+    assert material["pbrMetallicRoughness"]["baseColorTexture"] == {"index": 0} == material["emissiveTexture"]
+    assert material["normalTexture"] == {"index": 1} and material["emissiveFactor"] == [1.0, 1.0, 1.0]
+    assert [t["source"] for t in doc["textures"]] == [0, 1] and len(doc["images"]) == 2
+    assert view_bytes(doc, binary, doc["images"][1]["bufferView"]) == normal_map
+    prim = doc["meshes"][0]["primitives"][0]
+    acc = doc["accessors"][prim["attributes"]["TANGENT"]]
+    assert acc["type"] == "VEC4" and acc["count"] == len(v)
+    got = np.frombuffer(view_bytes(doc, binary, acc["bufferView"]), np.float32).reshape(-1, 4)
+    assert np.allclose(got, tangents, rtol=0, atol=1e-7)  # float32
+    report = assert_valid(tmp_path / "c.glb")
+    assert report["issues"]["numWarnings"] == 0, report["issues"]["messages"]
+
+
+def test_glb_bad_slots_and_tangents(tmp_path):
+    v, f, uv, normals = unwelded_cube()
+    png = encode_png_bytes(np.zeros((2, 2, 3), np.float32))
+    with pytest.raises(ParameterError, match="baseColor"):
+        write_glb(tmp_path / "a.glb", v, f, uv, {"normal": png})
+    with pytest.raises(ParameterError, match="occlusion"):
+        write_glb(tmp_path / "a.glb", v, f, uv, {"baseColor": png, "occlusion": png})
+    with pytest.raises(ParameterError, match="normal: expected a PNG"):
+        write_glb(tmp_path / "a.glb", v, f, uv, {"baseColor": png, "normal": b"not a png"})
+    tangents = np.tile([1.0, 0.0, 0.0, 1.0], (len(v), 1))
+    with pytest.raises(ParameterError, match="tangents"):
+        write_glb(tmp_path / "a.glb", v, f, uv, png, tangents=tangents)  # no normals
+    with pytest.raises(ParameterError, match="tangents"):
+        write_glb(tmp_path / "a.glb", v, f, uv, png, normals=normals, tangents=tangents * 2)
+    assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize(("settings", "maps"), [
+    ({"texture": "marble", "bump": "turbulence"}, {"baseColor": "albedo.png", "normal": "normal.png"}),
+    ({"texture": "flame", "frames": [0, 0.5], "shading": "full"}, {"baseColor": "albedo_0000.png", "emissive": "albedo_0000.png"}),
+    ({"texture": "marble", "bump": "noise", "format": "exr"}, {"baseColor": "albedo_gltf.png", "normal": "normal_gltf.png"}),
+    ({"texture": "flame", "format": "tif", "bits": 32}, {"baseColor": "albedo_gltf.png", "emissive": "albedo_gltf.png"}),
+], ids=["bump", "flame-frames", "exr-bump", "tif-flame"])
+def test_every_baked_glb_variant_binds_its_maps_and_validates(meshes, tmp_path, settings, maps):
+    """The normal map as normalTexture (with the tangents it was baked in), the flame as
+    emissive, PNG copies for other formats; each embedded image is the map's PNG, the
+    normal map's tagged linear; Khronos validator 0 errors, 0 warnings."""
+    result = bake.bake_mesh(meshes / "suzanne.ply", size=32, margin=2, **settings)
+    result.save(tmp_path)
+    doc, binary = glb_parts(tmp_path / "suzanne.glb")
+    (material,) = doc["materials"]
+    slots = {"baseColor": material["pbrMetallicRoughness"]["baseColorTexture"], **{
+        slot: material[f"{slot}Texture"] for slot in ("normal", "emissive") if f"{slot}Texture" in material}}
+    assert set(slots) == set(maps)
+    for slot, ref in slots.items():
+        image = doc["images"][doc["textures"][ref["index"]]["source"]]
+        assert view_bytes(doc, binary, image["bufferView"]) == (tmp_path / maps[slot]).read_bytes()
+    assert material.get("emissiveFactor") == ([1.0, 1.0, 1.0] if "emissive" in maps else None)
+    attributes = doc["meshes"][0]["primitives"][0]["attributes"]
+    assert ("TANGENT" in attributes) == ("normal" in maps) and "NORMAL" in attributes
+    if "normal" in maps:
+        assert png_chunks(tmp_path / maps["normal"]).get(b"gAMA") == struct.pack(">I", 100000)  # gamma 1.0: linear
+        assert b"sRGB" not in png_chunks(tmp_path / maps["normal"])
+    assert b"sRGB" in png_chunks(tmp_path / maps["baseColor"])
+    report = assert_valid(tmp_path / "suzanne.glb")
+    assert report["issues"]["numWarnings"] == 0, report["issues"]["messages"]
+
+
+def png_chunks(path):
+    """``{chunk type: data}`` of a PNG's chunks (the last of each type)."""
+    data, p, chunks = Path(path).read_bytes(), 8, {}
+    while p < len(data):
+        n, kind = struct.unpack_from(">I4s", data, p)
+        chunks[kind] = data[p + 8 : p + 8 + n]
+        p += 12 + n
+    return chunks

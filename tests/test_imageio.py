@@ -134,6 +134,28 @@ def test_data_and_srgb_inputs(tmp_path, name, bits):
     assert np.abs(read_image(tmp_path / name) - expect).max() <= 4 * tol + 1e-6
 
 
+@pytest.mark.parametrize("bits", [8, 16])
+def test_a_data_png_says_linear_and_a_colour_png_srgb(tmp_path, bits):
+    """Viewers read a PNG without colour chunks as sRGB: a data PNG carries gAMA 1.0 (linear)
+    and no sRGB or cHRM chunk; a colour PNG its sRGB chunk."""
+    import struct
+
+    def chunks(path):
+        data, p, found = path.read_bytes(), 8, {}
+        while p < len(data):
+            n, kind = struct.unpack_from(">I4s", data, p)
+            found[kind] = data[p + 8 : p + 8 + n]
+            p += 12 + n
+        return found
+
+    write_image(tmp_path / "data.png", ramp(), bits=bits, colorspace="data")
+    data = chunks(tmp_path / "data.png")
+    assert data[b"gAMA"] == struct.pack(">I", 100000) and b"sRGB" not in data and b"cHRM" not in data
+    write_image(tmp_path / "colour.png", ramp(), bits=bits)
+    colour = chunks(tmp_path / "colour.png")
+    assert b"sRGB" in colour and colour[b"gAMA"] == struct.pack(">I", 45455)  # 1 / 2.2
+
+
 def test_srgb_functions_invert():
     x = np.linspace(0, 1, 1001)
     assert np.abs(srgb_decode(srgb_encode(x)) - x).max() < 4e-15  # float64 round-off: measured 4.4e-16

@@ -73,10 +73,19 @@ def test_not_json_settings_and_unknown_routes(client, meshes):
     assert client.get("/v2/anything").status_code == 404
 
 
-def test_readiness_checks_queue_and_database(client, meshes):
-    assert client.get("/readyz").json() == {"ok": True, "queue": 0}  # a new data folder
+def test_readiness_checks_queue_database_workers_and_disk(client, meshes):
+    from service import db
+    from service.settings import get_settings
+
+    r = client.get("/readyz")  # a new data folder, no worker
+    assert r.status_code == 503 and r.json()["detail"] == "not ready: no worker is alive", r.json()
+    assert r.json()["database"] == r.json()["queue"] == "ok" and r.json()["queued"] == 0
+    with db.sessions(get_settings().database)() as session:
+        db.worker_seen(session, "host:1", 2)
     assert post(client, meshes / "suzanne.ply", {"texture": "wood"}).status_code == 202
-    assert client.get("/readyz").json() == {"ok": True, "queue": 1}  # no worker to take it
+    answer = client.get("/readyz").json()
+    assert answer["ok"] and answer["queued"] == 1 and (answer["workers"], answer["slots"]) == (1, 2), answer
+    assert answer["disk_free_mb"] > 0
 
 
 def test_a_texture_naming_a_server_path_is_an_unknown_name(client, meshes, tmp_path):
@@ -130,3 +139,54 @@ def test_every_library_feature_can_be_asked_for(client, meshes):
     assert r.status_code == 422 and "has no time to animate" in r.json()["detail"]
     r = post(client, meshes / "suzanne.ply", {"frames": list(range(100)), "texture": "flame"})
     assert r.status_code == 422 and "settings.frames: 100 is over this server's limit" in r.json()["detail"]
+
+
+def test_what_a_client_sends_gets_a_4xx_never_a_500(client, meshes):
+    """Nesting bounded before parsing, lengths and NULs checked before the database sees them."""
+    deep = '{"name": "marble", "x": ' + '{"a":' * 100_000 + "1" + "}" * 100_000 + "}"  # json.loads: RecursionError
+    for settings in ({"texture": deep}, "[" * 100_000 + "]" * 100_000):
+        with open(meshes / "suzanne.ply", "rb") as f:
+            r = client.post("/v1/jobs", files={"mesh": ("suzanne.ply", f)}, data={"settings": settings if isinstance(settings, str) else json.dumps(settings)})
+        assert r.status_code == 422 and r.json()["detail"].startswith("settings"), r.text[:300]
+    mesh = (meshes / "suzanne.ply").read_bytes()
+    for name in (b"a" * 300 + b".ply", b"nul\x00.ply"):  # a raw NUL: httpx would percent-encode it
+        body = b'--b\r\nContent-Disposition: form-data; name="mesh"; filename="' + name + b'"\r\n\r\n' + mesh + b"\r\n--b--\r\n"
+        r = client.post("/v1/jobs", content=body, headers={"Content-Type": "multipart/form-data; boundary=b"})
+        assert r.status_code == 422 and "at most 255 characters, without NUL" in r.json()["detail"], r.text[:300]
+    for job_id in ("%00", "x" * 5000, "0123"):
+        r = client.get(f"/v1/jobs/{job_id}")
+        assert r.status_code == 404 and r.json()["detail"].startswith("no job"), r.text[:300]
+
+
+def test_database_down_is_a_503_with_retry_after(tmp_path, monkeypatch, meshes):
+    """PostgreSQL that refuses connections (nothing listens on the port): every route that
+    needs the jobs table answers 503 in JSON with Retry-After; /healthz still answers."""
+    from conftest import free_port
+
+    from service import settings, tasks
+    from service.main import create_app
+
+    monkeypatch.setenv("BAKE_DATA_DIR", str(tmp_path))
+    monkeypatch.setenv("BAKE_DATABASE_URL", f"postgresql+psycopg://postgres@127.0.0.1:{free_port()}/none?connect_timeout=2")
+    settings.get_settings.cache_clear()
+    tasks.queue.cache_clear()
+    try:
+        with TestClient(create_app()) as c:
+            for r in (c.get("/v1/jobs"), c.get(f"/v1/jobs/{'0' * 32}"), post(c, meshes / "suzanne.ply", {})):
+                assert r.status_code == 503 and r.headers["Retry-After"] == "10", r.text
+                assert r.json()["detail"] == "the jobs database is unavailable: try again in 10 s"
+            assert c.get("/healthz").status_code == 200
+    finally:
+        settings.get_settings.cache_clear()
+        tasks.queue.cache_clear()
+
+
+def test_job_urls_use_the_configured_base_url_not_the_host_header(client, meshes, monkeypatch):
+    from service import settings
+
+    monkeypatch.setenv("BAKE_BASE_URL", "https://bake.example.org/")
+    settings.get_settings.cache_clear()
+    with open(meshes / "suzanne.ply", "rb") as f:
+        r = client.post("/v1/jobs", files={"mesh": ("suzanne.ply", f)}, headers={"Host": "evil.example.com"})
+    job = r.json()
+    assert r.status_code == 202 and job["url"] == f"https://bake.example.org/v1/jobs/{job['id']}" == r.headers["Location"]

@@ -242,3 +242,11 @@ def test_filtered_checker_is_cut_to_the_objects_box():
     # a face on the box's max face (x = 1, a cell plane) shows the cell inside, like one on x = 0
     on_faces = [[0.0, 0.3, 0.3], [1.0, 0.3, 0.3]]
     assert evaluate("checker", on_faces, bounds=[[0, 0, 0], [1, 1, 1]])[:, 0].tolist() == [0.9, 0.05]
+
+
+def test_json_nested_too_deep_is_refused_before_parsing():
+    """json.loads recurses: 100000 levels would be a RecursionError, not a TextureError."""
+    deep = '{"name": "marble", "x": ' + '{"a": ' * 100_000 + "1" + "}" * 100_000 + "}"
+    with pytest.raises(TextureError, match="unknown texture"):
+        parse_spec(deep)
+    assert parse_spec('{"name": "marble", "turbulence": {"octaves": 3}}').turbulence.octaves == 3  # shallow JSON still parses

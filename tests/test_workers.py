@@ -68,3 +68,27 @@ def test_a_pool_runs_jobs_and_stops_at_its_deadline(command):
         assert pool.run([("sleep", (60,)), ("add", (1, 1)), ("sleep", (60,)), ("add", (2, 2))]) == [
             (False, "timeout"), (True, 2), (False, "timeout"), (False, "timeout")]
         assert time.monotonic() - began < 6
+
+
+def test_a_worker_dies_with_its_parent_even_while_it_starts(command, tmp_path):
+    """kill -9 of the parent while its worker is still importing (before the worker could
+    ask Linux for a signal on the parent's death): the worker ends by itself."""
+    import subprocess
+
+    import psutil
+
+    parent = subprocess.Popen([sys.executable, "-c", f"""
+import sys, time
+from bake.workers import Worker
+w = Worker({command(start=2.0)!r}, {str(tmp_path)!r})
+print(w.pid, flush=True)
+time.sleep(60)
+"""], stdout=subprocess.PIPE, text=True)
+    pid = int(parent.stdout.readline())
+    parent.kill()
+    parent.wait()
+    parent.stdout.close()
+    child = psutil.Process(pid)
+    assert child.ppid() != parent.pid  # re-parented
+    child.wait(10)  # raises TimeoutExpired if it outlives its parent by 10 s (2 s start + 0.5 s poll)
+    assert not psutil.pid_exists(pid) or child.status() == psutil.STATUS_ZOMBIE

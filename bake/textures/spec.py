@@ -66,6 +66,7 @@ class _Texture(BaseModel):
     )
     model: Transform = Field(Transform(), description="modelling transform: object to world")
     channels: ClassVar[int] = 3  # of the colour it gives
+    emits: ClassVar[bool] = False  # light, not a surface colour: the GLB binds its map as emissive too
 
     def placement(self) -> Placement:
         """Object space to this texture's space: the object moved through a world-space
@@ -337,6 +338,7 @@ class Flame(_Texture):
     """
 
     name: Literal["flame"] = "flame"
+    emits: ClassVar[bool] = True
     half_width: Annotated[float, Field(gt=0, le=1e6)] | None = Field(None, description="none: half the object's width")
     height: Annotated[float, Field(gt=0, le=1e6)] | None = Field(None, description="none: the object's height")
     time: Annotated[float, Field(ge=-1e6, le=1e6)] = 0.0
@@ -445,6 +447,31 @@ def json_schema() -> dict:
     return _ADAPTER.json_schema()
 
 
+MAX_NESTING = 32  # of JSON text given as a spec: deeper is refused before parsing (json.loads recurses)
+
+
+def _nesting(text: str) -> int:
+    """The deepest nesting of ``{`` and ``[`` in JSON ``text``, outside strings (no parse)."""
+    depth = deepest = 0
+    in_string = escaped = False
+    for c in text:
+        if in_string:
+            if escaped:
+                escaped = False
+            elif c == "\\":
+                escaped = True
+            elif c == '"':
+                in_string = False
+        elif c == '"':
+            in_string = True
+        elif c in "{[":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif c in "}]":
+            depth -= 1
+    return deepest
+
+
 def parse_spec(value) -> _Texture:
     """A texture spec from a spec object, a dict, a texture name or JSON text.
 
@@ -459,7 +486,7 @@ def parse_spec(value) -> _Texture:
         if text in TEXTURES:
             return _ADAPTER.validate_python({"name": text})
         try:
-            value = json.loads(text) if text.startswith("{") else None
+            value = json.loads(text) if text.startswith("{") and _nesting(text) <= MAX_NESTING else None
         except json.JSONDecodeError:
             value = None
         if not isinstance(value, dict):

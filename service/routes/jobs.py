@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import io
 import json
+import logging
 import shutil
 import uuid
 import zipfile
@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Annotated
 
 from fastapi import APIRouter, File, Form, HTTPException, Query, Request, Response, UploadFile
-from fastapi.responses import FileResponse, StreamingResponse
+from fastapi.responses import FileResponse
 from pydantic import Json
 from sqlalchemy import func, select, true
 
@@ -24,10 +24,18 @@ from .. import db
 from ..deps import ClientDep, JobDep, SessionDep, SettingsDep
 from ..schemas import BakeSettings, JobOut, JobPage
 from ..settings import get_settings
-from ..tasks import enqueue_bake
+from ..tasks import enqueue_bake, state_changed
 
 router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
+logger = logging.getLogger("texbake.service")
 _CHUNK = 1 << 20
+
+
+def job_url(job_id: str, request: Request) -> str:
+    """The job's URL: under ``BAKE_BASE_URL`` when set (what a client should see behind a
+    proxy, never what its Host header claims), else the request's own address."""
+    base = get_settings().base_url
+    return f"{base.rstrip('/')}/v1/jobs/{job_id}" if base else str(request.url_for("get_job", job_id=job_id))
 
 
 def _out(job: db.Job, request: Request) -> JobOut:
@@ -35,7 +43,7 @@ def _out(job: db.Job, request: Request) -> JobOut:
     files = sorted(p.name for p in out.iterdir()) if job.state == "done" and out.is_dir() else []
     data = job.as_dict()
     warnings = (data["report"] or {}).get("warnings", [])
-    return JobOut(url=str(request.url_for("get_job", job_id=job.id)), files=files, warnings=warnings, **data)
+    return JobOut(url=job_url(job.id, request), files=files, warnings=warnings, **data)
 
 
 def _safe_stem(filename: str | None) -> str:
@@ -102,6 +110,8 @@ def create_job(
 
     A plain function: FastAPI runs it in its thread pool, so the copying, hashing and
     database work of one upload never holds up the event loop (or ``/healthz``)."""
+    if mesh.filename and (len(mesh.filename) > 255 or "\x00" in mesh.filename):
+        raise HTTPException(422, detail=f"mesh: the file name must be at most 255 characters, without NUL (got {len(mesh.filename)}: {mesh.filename[:40]!r}...)")
     suffix = Path(mesh.filename or "").suffix.lower()
     if suffix not in FORMATS or suffix == ".gltf":  # a glTF's buffers would be separate files
         raise HTTPException(422, detail=f"mesh: {mesh.filename!r} is not a single-file mesh (.obj .ply .stl .off .glb)")
@@ -115,19 +125,33 @@ def create_job(
         digest.update(json.dumps(_resolved(options), sort_keys=True).encode())
         if settings.api_keys:  # with keys, each client has its own jobs
             digest.update(client.encode())
-        job, created = db.create_job(session, key=digest.hexdigest(), client=client, mesh_name=mesh.filename or "mesh", settings=options)
+        # the folder first, the row second: a job in the table always has its upload
+        job_id = uuid.uuid4().hex
+        folder = settings.job_dir(job_id)
+        folder.mkdir(parents=True)
+        name = _safe_stem(mesh.filename) + suffix  # outputs are named after it
+        shutil.move(tmp, folder / name)
+        (folder / "job.json").write_text(json.dumps({"mesh": name, "settings": options}))
+        try:
+            job, created = db.create_job(session, job_id=job_id, key=digest.hexdigest(), client=client,
+                                         mesh_name=mesh.filename or "mesh", settings=options)
+        except BaseException:
+            shutil.rmtree(folder, ignore_errors=True)
+            raise
+        if not created:  # the same upload's job exists already
+            shutil.rmtree(folder, ignore_errors=True)
         if created:
-            folder = settings.job_dir(job.id)
-            folder.mkdir(parents=True)
-            name = _safe_stem(mesh.filename) + suffix  # outputs are named after it
-            shutil.move(tmp, folder / name)
-            (folder / "job.json").write_text(json.dumps({"mesh": name, "settings": options}))
-            enqueue_bake(job.id)
+            state_changed(job.id, "queued", f"{name}, client {client}")
+            try:
+                enqueue_bake(job.id)
+            except Exception as exc:  # the job is in the table: the reaper enqueues it once the queue answers
+                logger.warning("job %s: the queue write failed (%s: %s): the reaper enqueues it within %g s",
+                               job.id, type(exc).__name__, exc, settings.requeue_seconds)
         else:
             response.status_code = 200
     finally:
         tmp.unlink(missing_ok=True)
-    response.headers["Location"] = str(request.url_for("get_job", job_id=job.id))
+    response.headers["Location"] = job_url(job.id, request)
     return _out(job, request)
 
 
@@ -171,13 +195,29 @@ def get_file(job: JobDep, name: str):
     return FileResponse(files[name], filename=name)
 
 
+# already compressed: stored as they are (deflating them again takes seconds per 100 MB and saves nothing)
+_STORED = {".png", ".jpg", ".jpeg", ".exr", ".zip", ".gz", ".ktx2"}
+
+
+def _result_zip(out: Path) -> Path:
+    """The job's ``result.zip`` beside ``out``, written once (to a temporary file, then
+    renamed) and served from disk; publishing a new ``out`` removes it."""
+    target = out.parent / "result.zip"
+    if target.is_file():
+        return target
+    tmp = out.parent / f"result.zip.{uuid.uuid4().hex}.tmp"
+    try:
+        with zipfile.ZipFile(tmp, "w") as z:
+            for p in sorted(out.iterdir()):
+                stored = p.suffix.lower() in _STORED
+                z.write(p, p.name, compress_type=zipfile.ZIP_STORED if stored else zipfile.ZIP_DEFLATED, compresslevel=None if stored else 1)
+        tmp.replace(target)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return target
+
+
 @router.get("/{job_id}/result.zip")
 def get_zip(job: JobDep):
-    out = _outputs(job)
-    buffer = io.BytesIO()
-    with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED) as z:
-        for p in sorted(out.iterdir()):
-            z.write(p, p.name)
-    buffer.seek(0)
-    headers = {"Content-Disposition": f'attachment; filename="{job.id}.zip"'}
-    return StreamingResponse(buffer, media_type="application/zip", headers=headers)
+    """Every output in one zip, streamed from a file on disk (constant memory, any size)."""
+    return FileResponse(_result_zip(_outputs(job)), media_type="application/zip", filename=f"{job.id}.zip")

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from fastapi import APIRouter, HTTPException
+from fastapi import APIRouter
+from fastapi.responses import JSONResponse
 
 from bake.textures.spec import catalogue, json_schema
 
@@ -24,9 +25,14 @@ async def healthz():
 
 @router.get("/readyz")
 def readyz():
-    """Readiness: the jobs table and the queue answer."""
-    try:
-        queued = ready()
-    except Exception as exc:  # the answer is the check's result
-        raise HTTPException(503, detail=f"not ready: {type(exc).__name__}: {exc}") from None
-    return {"ok": True, "queue": queued}
+    """Readiness: the jobs table and the queue answer, a worker is alive, the disk has
+    room (503 naming what is missing, without internals)."""
+    answer = ready()
+    if answer["ok"]:
+        return answer
+    missing = [f"the {name} is unavailable" for name in ("database", "queue") if answer[name] != "ok"]
+    if answer["database"] == "ok" and not answer["workers"]:
+        missing.append("no worker is alive")
+    if not missing:
+        missing.append(f"{answer['disk_free_mb']} MB free on the data folder's disk")
+    return JSONResponse(status_code=503, headers={"Retry-After": "10"}, content={"detail": "not ready: " + "; ".join(missing), **answer})
