@@ -6,35 +6,29 @@ point-sampled texture (every octave, float64) over the part of the texel the sur
 covers. That is what a converged supersampled bake gives, and what ``bake.checks.sweep``
 measures against.
 
-Two methods; the bake uses the one that can see its error:
+One method for every setting, the ``probe``: covered texels (all of them in images of up
+to ``4 * PROBE_TEXELS`` covered texels, else ``PROBE_TEXELS`` drawn in two seeded strata,
+up to half on chart edges, where partly covered texels carry most of the error, the rest
+inside the charts) are evaluated again with a jittered point grid (:func:`probe_grid`:
+4 x 4 for one sample a texel, twice the bake's grid for more, at most 16 x 16; on chart
+edges of a several-sample bake twice that again), point-sampled, float64, every octave:
+a small local reference. Per texel, the squared difference from the bake less the
+probe's own noise (the squared difference of the means of the grid's two checkerboard
+halves, over 4: strata are independent, so for a colour linear across the texel this is
+unbiased for the variance of the probe's mean) estimates that texel's squared error, the
+bake's bias (a point sample is not the texel mean; filtering blurs and replaces fine
+octaves by their mean) and its noise together. The stratified mean is the MSE, with a
+standard error from the strata's spreads: the report gives ``rmse`` (never 0 when the
+probe sees an error: an MSE below its own standard error reads as that) and
+``rmse_interval`` (about 95 %).
 
-``spread`` (``samples = k * k`` with ``k`` even, point sampling, no octave cap): the
-bake is then an unbiased stratified estimate of the texel mean, so its error is its
-noise. The samples of a texel (one per stratum of a jittered ``k x k`` grid) are split
-like the squares of a checkerboard into two halves with means ``A`` and ``B``. Strata
-are independent, so the variance of the texel mean ``(A + B) / 2`` is exactly
-``(Var A + Var B) / 4``, and ``E[(A - B)^2] = Var A + Var B`` whenever both halves have
-the same expected mean, which holds for any colour linear across the texel (only
-curvature within a texel makes it an overestimate). The estimate is
-``sqrt(mean over covered texels and channels of (A - B)^2 / 4)``. The plain standard
-error ``s / sqrt(n)`` would treat stratified samples as independent ones and overstate
-the error about ``k`` times on smooth textures.
-
-``probe`` (one sample a texel, footprint filtering, an octave cap, or any other sample
-count): here the error is mostly bias (a point sample is not the texel mean; filtering
-blurs and replaces fine octaves by their mean), which no spread of the samples shows.
-A fixed random subset of covered texels (``PROBE_TEXELS``, seeded) is evaluated again
-with a jittered 4 x 4 grid, point-sampled, float64, every octave: a small local
-reference. With ``D^2`` the mean squared difference between the bake and the probe and
-``N^2`` the probe's own noise (its checkerboard spread, as above; the probe's jitter is
-independent of the bake's), the estimate is ``sqrt(max(D^2 - N^2, 0))``. The cost is
-fixed (16 samples on at most ``PROBE_TEXELS`` texels): a few percent of a 1-sample
-bake at 1024^2, less at larger sizes, more than the bake itself below about 128^2.
-
-Texels on chart edges that a single sample hit show no spread; the ``spread`` method
-gives them the mean per-sample variance of the other partly covered texels. Both
-methods are statistical: the probe's estimate scatters between seeds, most on hard edges
-such as the checker's (figures: README, Benchmarks).
+Why not the spread of the bake's own samples (the method this replaced for ``k x k``
+point samples): on partly covered texels and where the colour curves within a texel the
+two checkerboard halves differ by more than noise, and at 64-256^2 that read up to 5.4
+times the error. Measured (``bake.checks.sweep``, Suzanne, marble and checker, 64-512^2,
+1 filtered, 4, 16 point, 64 filtered samples, three seeds each): estimate / RMSE
+0.61-1.37. The cost: 16 samples on each of up to ``PROBE_TEXELS`` texels for a 1-sample
+bake (about 6 % of one at 1024^2, more than the bake itself below about 128^2).
 """
 
 from __future__ import annotations
@@ -45,21 +39,13 @@ import numpy as np
 
 from .texels import Tile, sample_offsets, sample_uv
 
-PROBE_TEXELS = 1024
+PROBE_TEXELS = 4096  # texels probed (at most; all of them when there are up to 4 times as many)
 PROBE_GRID = 4  # the probe samples a jittered PROBE_GRID x PROBE_GRID grid per texel
 
 HOW = {
-    "spread": "RMSE against the converged texel means, linear colour, from the spread of each texel's samples: "
-              "(A - B)^2 / 4 of the means of its two checkerboard halves of strata",
-    "probe": "RMSE against the converged texel means, linear colour, from a 4x4 point-sampled float64 probe of "
-             "up to 1024 random covered texels, less the probe's own noise",
+    "probe": "RMSE against the converged texel means, linear colour, from a point-sampled float64 probe of the "
+             "covered texels (up to 4096, stratified: chart edges and inside), less the probe's own noise",
 }
-
-
-def method_for(samples: int, filtering: bool, max_octaves: int | None) -> str:
-    """``"spread"`` when the bake is unbiased and its samples pair up, else ``"probe"``."""
-    k = int(round(np.sqrt(samples)))
-    return "spread" if k * k == samples and k % 2 == 0 and not filtering and max_octaves is None else "probe"
 
 
 def checker_halves(samples: int) -> np.ndarray:
@@ -86,41 +72,23 @@ def half_means(values: np.ndarray, texel: np.ndarray, sample: np.ndarray, sample
     return mean[:, 1], mean[:, 0], n[:, 1], n[:, 0], squares
 
 
-def spread_sums(values, texel, sample, samples: int, count: int) -> np.ndarray:
-    """Sums over the texels of one tile for :func:`spread_estimate`.
-
-    Returns ``[sum of squared errors, texels, sum of per-sample variances of partial
-    texels, partial texels with 2+ samples, texels with one sample]`` (float64 (5,)).
-    Texels with samples on both checkerboard halves give ``(A - B)^2 / 4``; partly
-    covered texels with samples on one half only give the plain ``s^2 / n``.
-    """
-    a, b, na, nb, squares = half_means(values, texel, sample, samples, count)
-    n = na + nb
-    ok = (na > 0) & (nb > 0)
-    total = (na[:, None] * a + nb[:, None] * b)
-    var = (squares - total**2 / np.maximum(n, 1)[:, None]) / np.maximum(n - 1, 1)[:, None]  # per-sample s^2
-    partial = ~ok & (n >= 2)
-    return np.array([
-        ((a[ok] - b[ok]) ** 2).sum() / 4.0 + (np.maximum(var[partial], 0) / n[partial, None]).sum(),
-        (ok | partial).sum(),
-        np.maximum(var[partial], 0).sum(),
-        partial.sum(),
-        (n == 1).sum(),
-    ], dtype=np.float64)
+def probe_grid(samples: int) -> int:
+    """Side of the probe's jittered grid for a bake of ``samples`` a texel: at least
+    ``PROBE_GRID``, else twice the bake's grid (so the probe's own noise is a quarter of a
+    point-sampled bake's), at most 16."""
+    return int(min(16, max(PROBE_GRID, 2 * int(np.ceil(np.sqrt(samples))))))
 
 
-def spread_estimate(sums, channels: int = 3) -> dict:
-    """The ``spread`` estimate from the sums of :func:`spread_sums` over all tiles.
-
-    Texels a single sample hit (on chart edges) show no spread: each is given the mean
-    per-sample variance of the partly covered texels that have two or more.
-    """
-    sq, texels, partial_var, partial, single = (float(x) for x in sums)
-    if single and partial:
-        sq += single * partial_var / partial
-    rmse = float(np.sqrt(sq / max((texels + single) * channels, 1)))
-    return {"method": "spread", "how": HOW["spread"], "rmse": rmse, "texels": int(texels + single),
-            "single_sample_texels": int(single)}
+def chart_edges(covered: np.ndarray) -> np.ndarray:
+    """``(h, w)`` bool: covered texels with an uncovered texel (or the image's border)
+    among their 8 neighbours; the partly covered texels on chart edges are among them."""
+    padded = np.pad(covered, 1, constant_values=False)
+    inner = np.ones_like(covered)
+    h, w = covered.shape
+    for dr in (0, 1, 2):
+        for dc in (0, 1, 2):
+            inner &= padded[dr:dr + h, dc:dc + w]
+    return covered & ~inner
 
 
 def probe_estimate(
@@ -130,37 +98,86 @@ def probe_estimate(
     *,
     seed: int = 0,
     texels: int = PROBE_TEXELS,
+    grid: int = PROBE_GRID,
+    edge_grid: int | None = None,
 ) -> dict:
     """The ``probe`` estimate of the error of ``image`` (``(h, w, c)``, ``covered``: ``(h, w)`` bool).
 
     ``reference_at(uv)`` takes ``(n, 2)`` UV points and returns ``(hit (n,) bool,
     values (hit.sum(), c))``: the point-sampled, float64, every-octave texture there.
+    Texels are drawn in two strata (seeded), chart-edge texels (:func:`chart_edges`; up
+    to half of ``texels``) and the others (every covered texel when there are at most
+    ``4 * texels``), and each probed with a jittered point grid, ``grid x grid`` inside
+    the charts and ``edge_grid x edge_grid`` (default ``grid``) on their edges, where
+    partly covered texels make the probe's own noise hard to tell. Per probed texel,
+    ``e = d^2 - n^2``: its squared difference from the bake less the probe's own noise
+    (half the squared difference of the means of the grid's two checkerboard halves, or
+    ``s^2 / n`` where only one half has samples), an unbiased estimate of the texel's
+    squared error. The stratified mean of ``e`` is the MSE, with its standard error
+    ``se`` from the strata's spreads; ``rmse`` is ``sqrt(max(MSE, se))`` (never 0 when
+    the probe sees an error: an MSE below its own uncertainty reads as that),
+    ``rmse_interval`` is ``sqrt`` of ``MSE -+ 2 se`` (about 95 %).
     """
     height, width = covered.shape
     rng = np.random.default_rng([seed, 0x9E37])  # not the bake's own jitter
-    where = np.flatnonzero(covered.ravel())
-    if len(where) == 0:
-        return {"method": "probe", "how": HOW["probe"], "rmse": 0.0, "texels": 0, "probe_rmse": 0.0, "probe_noise": 0.0}
-    pick = np.sort(rng.choice(where, size=min(texels, len(where)), replace=False))
-    samples = PROBE_GRID * PROBE_GRID
-    offsets = sample_offsets(samples, int(rng.integers(2**31)))
-    hit, values = reference_at(sample_uv(Tile(0, height), pick, width, height, offsets))
+    edge = chart_edges(covered)
+    strata = [np.flatnonzero(edge.ravel()), np.flatnonzero((covered & ~edge).ravel())]
+    total = sum(len(s) for s in strata)
+    if total == 0:
+        return {"method": "probe", "how": HOW["probe"], "rmse": 0.0, "rmse_interval": [0.0, 0.0], "texels": 0,
+                "probe_grid": [grid, edge_grid or grid], "probe_rmse": 0.0, "probe_noise": 0.0}
+    if total <= 4 * texels:  # a small image: probe every texel (no sampling error)
+        texels = total
+    take_edge = min(len(strata[0]), texels // 2) if texels < total else len(strata[0])
+    counts = [take_edge, min(len(strata[1]), texels - take_edge)]
+    mse = var = d2_all = n2_all = 0.0
+    probed = 0
+    for stratum, m, side in zip(strata, counts, (edge_grid or grid, grid), strict=True):
+        if m == 0:
+            continue
+        pick = np.sort(rng.choice(stratum, size=m, replace=False))
+        d2, n2 = _probe_texels(reference_at, image, pick, side, int(rng.integers(2**31)))
+        ok = ~np.isnan(d2)
+        e = (d2 - n2)[ok]
+        if len(e) == 0:
+            continue
+        probed += len(e)
+        weight = len(stratum) / total
+        mse += weight * float(e.mean())
+        d2_all += weight * float(d2[ok].mean())
+        n2_all += weight * float(n2[ok].mean())
+        if len(e) > 1:  # no finite-population correction: each e also carries the probe's own noise
+            var += weight**2 * float(e.var(ddof=1)) / len(e)
+    se = float(np.sqrt(var))
+    return {
+        "method": "probe",
+        "how": HOW["probe"],
+        "rmse": float(np.sqrt(max(mse, se, 0.0))),
+        "rmse_interval": [float(np.sqrt(max(mse - 2 * se, 0.0))), float(np.sqrt(max(mse + 2 * se, 0.0)))],
+        "texels": probed,
+        "probe_grid": [grid, edge_grid or grid],
+        "probe_rmse": float(np.sqrt(d2_all)),  # bake against the probe, probe noise included
+        "probe_noise": float(np.sqrt(n2_all)),
+    }
+
+
+def _probe_texels(reference_at, image: np.ndarray, pick: np.ndarray, side: int, seed: int):
+    """``(d2, n2)`` ``(m,)`` per texel of ``pick`` (flat indices): the squared difference of
+    the bake from a ``side x side`` point probe (NaN where the probe hit nothing) and the
+    probe's own noise (see :func:`probe_estimate`)."""
+    height, width = image.shape[:2]
+    samples = side * side
+    hit, values = reference_at(sample_uv(Tile(0, height), pick, width, height, sample_offsets(samples, seed)))
     index = np.flatnonzero(hit)
     texel, sample = index // samples, index % samples
     count = np.bincount(texel, minlength=len(pick))
     sums = np.stack([np.bincount(texel, weights=values[:, c], minlength=len(pick)) for c in range(values.shape[1])], axis=1)
-    seen = count > 0
-    probe = sums[seen] / count[seen, None]
-    baked = image.reshape(-1, image.shape[-1])[pick[seen]].astype(np.float64)
-    d2 = float(np.mean((baked - probe) ** 2)) if seen.any() else 0.0
-    a, b, na, nb, _ = half_means(values, texel, sample, samples, len(pick))
-    ok = (na > 0) & (nb > 0)
-    n2 = float(np.mean((a[ok] - b[ok]) ** 2) / 4.0) if ok.any() else 0.0
-    return {
-        "method": "probe",
-        "how": HOW["probe"],
-        "rmse": float(np.sqrt(max(d2 - n2, 0.0))),
-        "texels": int(seen.sum()),
-        "probe_rmse": float(np.sqrt(d2)),  # bake against the probe, probe noise included
-        "probe_noise": float(np.sqrt(n2)),
-    }
+    probe = sums / np.maximum(count, 1)[:, None]
+    baked = image.reshape(-1, image.shape[-1])[pick].astype(np.float64)
+    d2 = np.where(count > 0, np.mean((baked - probe) ** 2, axis=1), np.nan)
+    a, b, na, nb, squares = half_means(values, texel, sample, samples, len(pick))
+    # the probe's noise: from its checkerboard halves, or, with samples on one half only
+    # (partly covered texels), the plain s^2 / n of its samples (0 with a single sample)
+    plain = np.mean(np.maximum(squares - count[:, None] * probe**2, 0.0), axis=1) / np.maximum(count * (count - 1), 1)
+    n2 = np.where((na > 0) & (nb > 0), np.mean((a - b) ** 2, axis=1) / 4.0, np.where(count > 1, plain, 0.0))
+    return d2, n2

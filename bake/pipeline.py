@@ -163,11 +163,11 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
                           source=None if src is None else (src.vertices, src.faces), reach=reach,
                           frame=None if tangents is None else (normals[faces], tangents[faces]))
     report_progress(0.3)
-    cast, transfer_missed, *spread = _bake_tiles(sampler, maps, quality, settings.seed, timer, workers, tile_samples,
-                                                 lambda done: report_progress(0.3 + 0.6 * done))
+    cast, transfer_missed = _bake_tiles(sampler, maps, quality, settings.seed, timer, workers, tile_samples,
+                                        lambda done: report_progress(0.3 + 0.6 * done))
     covered = maps.hits > 0
     with timer.stage("estimate"):
-        error_estimate = _estimate(spread, sampler, maps, mapping, covered, quality, settings.seed)
+        error_estimate = _estimate(sampler, maps, mapping, covered, quality, settings.seed)
     with timer.stage("margin"):
         filled = margin_stage.extend(list(maps.images.values()), covered, settings.margin, workers=workers)
     report_progress(0.95)
@@ -188,14 +188,12 @@ def _bake_tiles(sampler: Sampler, maps: Maps, quality, seed: int, timer: Timer, 
                 progress: Callable[[float], None]) -> np.ndarray:
     """Bake the image in row tiles of about ``tile_samples`` samples into ``maps``.
 
-    Returns ``[rays cast, transfer rays that missed, *spread sums]`` summed over the tiles
-    (the sums of ``estimate.spread_sums`` when the error estimate is ``spread``, else
-    zeros). Tiles run in threads: Embree holds the GIL, numpy mostly does not, so the
-    stages of two tiles overlap; each tile writes its own rows.
+    Returns ``[rays cast, transfer rays that missed]`` summed over the tiles. Tiles run in
+    threads: Embree holds the GIL, numpy mostly does not, so the stages of two tiles
+    overlap; each tile writes its own rows.
     """
     width, height = maps.width, maps.height
     offsets = sample_offsets(quality.samples, seed)
-    spread_too = estimate_stage.method_for(quality.samples, quality.filtering, quality.max_octaves) == "spread"
     tile_list = tiles(height, width, quality.samples, tile_samples)
     finished = itertools.count(1)
 
@@ -208,32 +206,27 @@ def _bake_tiles(sampler: Sampler, maps: Maps, quality, seed: int, timer: Timer, 
         texel = texels[s.index // quality.samples]
         with timer.stage("accumulate"):
             maps.accumulate(tile, texel, values)
-        spread = np.zeros(5)
-        if spread_too:
-            with timer.stage("estimate"):
-                spread = estimate_stage.spread_sums(values[maps.colour_name], texel, s.index % quality.samples,
-                                                    quality.samples, (tile.stop - tile.start) * width)
         progress(next(finished) / len(tile_list))
-        return np.array([len(uvs), s.transfer_missed, *spread])
+        return np.array([len(uvs), s.transfer_missed])
 
     with timer.stage("tiles (wall)"), ThreadPoolExecutor(max(1, workers)) as pool:
-        return sum(pool.map(bake_tile, tile_list), np.zeros(7))
+        return sum(pool.map(bake_tile, tile_list), np.zeros(2))
 
 
-def _estimate(spread, sampler: Sampler, maps: Maps, mapping: TextureMapping, covered, quality, seed: int) -> dict:
-    """The error estimate of the colour map (``bake.estimate``): from the tiles' spread
-    sums, or a probe that sends UV points through the same chain, point-sampled in float64."""
-    if estimate_stage.method_for(quality.samples, quality.filtering, quality.max_octaves) == "spread":
-        estimate = estimate_stage.spread_estimate(spread)
-    else:
-        spec = maps.colours[maps.colour_name]
+def _estimate(sampler: Sampler, maps: Maps, mapping: TextureMapping, covered, quality, seed: int) -> dict:
+    """The error estimate of the colour map (``bake.estimate``): a probe that sends UV
+    points through the same chain, point-sampled in float64."""
+    spec = maps.colours[maps.colour_name]
 
-        def reference_at(uvs: np.ndarray):
-            s = sampler.at(uvs)
-            hit = np.zeros(len(uvs), dtype=bool)
-            hit[s.index] = True
-            return hit, mapping.evaluate(spec, s.points, None, None, exact=True)
+    def reference_at(uvs: np.ndarray):
+        s = sampler.at(uvs)
+        hit = np.zeros(len(uvs), dtype=bool)
+        hit[s.index] = True
+        return hit, mapping.evaluate(spec, s.points, None, None, exact=True)
 
-        estimate = estimate_stage.probe_estimate(reference_at, maps.images[maps.colour_name], covered, seed=seed)
+    grid = estimate_stage.probe_grid(quality.samples)
+    edge_grid = grid if quality.samples == 1 else min(16, 2 * grid)
+    estimate = estimate_stage.probe_estimate(reference_at, maps.images[maps.colour_name], covered, seed=seed, grid=grid,
+                                             edge_grid=edge_grid)
     estimate["map"] = maps.colour_name
     return estimate

@@ -8,7 +8,9 @@ the service may only tighten them (``service.settings``).
 Quality presets: ``quality`` names a preset of ``samples``, ``filtering``, ``precision``
 and ``max_octaves`` (``bake.quality.PRESETS``); those of them set explicitly override the
 preset (pydantic's ``model_fields_set`` tells which were set). :meth:`BakeSettings.quality_settings`
-gives the resolved four.
+gives the resolved four. ``samples`` above 1 given explicitly means point samples unless
+``filtering=True`` is given too (a filtered sample is already blurred by a whole texel:
+averaging several of them blurs twice, and their error stays that of one filtered sample).
 """
 
 from __future__ import annotations
@@ -66,10 +68,10 @@ class BakeSettings(BaseModel):
 
     texture: Texture = Field("checker", validate_default=True, description="texture: a name or a spec object (see `texbake textures`)")
     size: Texels | tuple[Texels, Texels] = Field(1024, description="image size in texels: one number (square), or width and height")
-    quality: Literal["draft", "default", "final"] | None = Field(
+    quality: Literal["default", "final"] | None = Field(
         None, description="preset of samples, filtering, precision and octave cap (none: 'default'); those set explicitly override it")
     samples: int = Field(1, ge=1, le=1024, description="samples per texel, stratified (default: the preset's)")
-    filtering: StrictBool = Field(True, description="antialias by the texel footprint (default: the preset's)")
+    filtering: StrictBool = Field(True, description="antialias by the texel footprint (default: the preset's; off when samples > 1 is given without it)")
     precision: Literal["float64", "float32"] = Field("float64", description="texture-space points as float64 or rounded to float32 (default: the preset's)")
     max_octaves: int | None = Field(None, ge=1, le=30, description="cap on the octaves of noise-based textures; none: the spec's own (default: the preset's)")
     margin: int = Field(16, ge=0, le=4096, description="texels of margin filled around charts")
@@ -116,7 +118,10 @@ class BakeSettings(BaseModel):
         """The preset's samples, filtering, precision and octave cap, overridden by those set here."""
         preset = PRESETS[self.quality or "default"]
         given = self.model_fields_set
-        return Quality(**{name: getattr(self if name in given else preset, name) for name in Quality.__dataclass_fields__})
+        chosen = {name: getattr(self if name in given else preset, name) for name in Quality.__dataclass_fields__}
+        if "samples" in given and self.samples > 1 and "filtering" not in given:
+            chosen["filtering"] = False  # several samples converge to the texel mean; filtering each would blur it twice
+        return Quality(**chosen)
 
     @classmethod
     def build(cls, settings: BakeSettings | dict | None = None, **options) -> BakeSettings:

@@ -8,6 +8,7 @@ import trimesh
 
 import bake
 from bake.errors import ParameterError
+from bake.settings import BakeSettings
 
 
 def exact_points_at_texels(mesh, uv, faces, rows, cols, size):
@@ -158,6 +159,10 @@ def test_quality_presets_and_explicit_overrides(meshes):
     mixed = bake.bake_mesh(mesh, "marble", size=32, quality="final", samples=4, max_octaves=3)
     p = mixed.report["parameters"]
     assert (p["quality"], p["samples"], p["filtering"], p["max_octaves"]) == ("final", 4, False, 3)
+    assert BakeSettings(samples=16).quality_settings().filtering is False  # explicit samples: point samples
+    assert BakeSettings(samples=16, filtering=True).quality_settings().filtering is True  # unless asked for
+    assert BakeSettings(samples=1).quality_settings().filtering is True
+    assert BakeSettings(quality="default", samples=4).quality_settings().filtering is False
     default = bake.bake_mesh(mesh, "marble", size=32, margin=2)
     named = bake.bake_mesh(mesh, "marble", size=32, margin=2, quality="default")
     assert np.array_equal(default.images["albedo"], named.images["albedo"])  # "default" is bake_mesh's defaults
@@ -185,9 +190,13 @@ def test_filtering_precision_and_octave_cap_change_only_what_they_should(meshes)
 def test_report_carries_an_error_estimate(meshes):
     one = bake.bake_mesh(meshes / "suzanne.ply", "marble", size=48).report["error_estimate"]
     assert one["method"] == "probe" and one["rmse"] > 0 and one["texels"] > 100 and one["map"] == "albedo"
+    low, high = one["rmse_interval"]
+    assert 0 <= low <= one["rmse"] <= high
     point = bake.bake_mesh(meshes / "suzanne.ply", "marble", size=48, filtering=False).report["error_estimate"]
-    many = bake.bake_mesh(meshes / "suzanne.ply", "marble", size=48, samples=4, filtering=False).report["error_estimate"]
-    assert many["method"] == "spread" and 0 < many["rmse"] < point["rmse"]
+    many = bake.bake_mesh(meshes / "suzanne.ply", "marble", size=48, samples=16).report["error_estimate"]
+    assert many["probe_grid"] == [8, 16] and 0 < many["rmse"] < point["rmse"]
+    filtered = bake.bake_mesh(meshes / "suzanne.ply", "marble", size=48, samples=64, filtering=True).report["error_estimate"]
+    assert filtered["rmse"] > 0  # issue 12: the old probe read exactly 0 here
 
 
 def test_progress_is_reported_from_start_to_end(meshes):

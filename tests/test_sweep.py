@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from bake import estimate
-from bake.checks.sweep import COLUMNS, Row, Setting, pareto_front, prepare_mesh, run_sweep, write_all
+from bake.checks.sweep import COLUMNS, Row, Setting, compare, pareto_front, prepare_mesh, run_sweep, write_all
 from bake.errors import ParameterError
 from bake.imageio import read_image
 
@@ -60,11 +60,24 @@ def test_error_decreases_with_samples(swept):
 
 def test_estimate_is_within_a_factor_2_of_the_measured_error(swept):
     rows, _ = swept
-    by = {(r.setting.samples, r.setting.filtering): r for r in rows}
-    # one probe estimate (1 filtered sample) and two spread estimates; tolerance: a factor 2
-    for key, method in (((1, True), "probe"), ((4, False), "spread"), ((16, False), "spread")):
-        r = by[key]
-        assert r.method == method and 0.5 <= r.ratio <= 2.0, (key, r.estimate, r.rmse)
+    # one filtered sample and 1, 4, 16 point samples; tolerance: a factor 2 (issue 12)
+    for r in rows:
+        assert r.method == "probe" and 0.5 <= r.ratio <= 2.0, (r.setting.name, r.estimate, r.rmse)
+
+
+def test_every_setting_is_scored_on_the_same_texels(swept):
+    _, info = swept
+    # the 1-sample bakes cover fewer edge texels than 16 samples: the shared set is theirs at most
+    assert 0 < info[96]["texels"] < 96 * 96
+
+
+def test_compare_scores_only_the_given_texels():
+    image, reference = np.zeros((2, 2, 3)), np.zeros((2, 2, 3))
+    image[0, 0] = 1.0  # an error on one texel only
+    covered = np.ones((2, 2), dtype=bool)
+    texels = np.array([[False, True], [True, True]])
+    assert compare(image, covered, reference, covered) == pytest.approx((0.5, 1.0))
+    assert compare(image, covered, reference, covered, texels) == (0.0, 0.0)
 
 
 def test_pareto_front_keeps_rows_nothing_beats():
@@ -75,34 +88,50 @@ def test_pareto_front_keeps_rows_nothing_beats():
     assert [r.pareto for r in rows] == [True, True, False, False, True]
 
 
-def test_spread_estimate_of_independent_samples():
-    # i.i.d. uniform samples: the variance of a 16-sample mean is 1/12/16 exactly
-    rng = np.random.default_rng(1)
-    texels, samples = 20000, 16
-    values = rng.random((texels * samples, 3))
-    texel = np.repeat(np.arange(texels), samples)
-    sample = np.tile(np.arange(samples), texels)
-    sums = estimate.spread_sums(values, texel, sample, samples, texels)
-    got = estimate.spread_estimate(sums)["rmse"]
-    assert got == pytest.approx(np.sqrt(1 / 12 / 16), rel=0.03)  # 20000 texels: about 1 % scatter
+def _probe_of(truth, image, grid=4, seed=0):
+    """The probe estimate of ``image`` (h, w, 3) against a texture whose value at UV (u, v) is ``truth(u, v)``."""
+    covered = np.ones(image.shape[:2], dtype=bool)
+
+    def reference_at(uv):
+        return np.ones(len(uv), dtype=bool), truth(uv[:, 0], uv[:, 1])
+
+    return estimate.probe_estimate(reference_at, image, covered, seed=seed, grid=grid)
 
 
-def test_spread_sees_no_error_in_a_linear_texel():
-    # a colour linear across the texel: both checkerboard halves have the same mean
-    samples = 16
-    k = 4
-    row, col = np.divmod(np.arange(samples), k)
-    values = np.stack([(col + 0.5) / k, (row + 0.5) / k, (row + col) / 8], axis=1)
-    sums = estimate.spread_sums(values, np.zeros(samples, int), np.arange(samples), samples, 1)
-    assert estimate.spread_estimate(sums)["rmse"] == pytest.approx(0.0, abs=1e-12)
+def test_probe_sees_a_known_error_and_its_own_uncertainty():
+    # a constant texture baked with a known error on every texel: 0.01 on one channel
+    size = 48
+    truth = lambda u, v: np.full((len(u), 3), 0.5)
+    image = np.full((size, size, 3), 0.5)
+    image[..., 0] += 0.01
+    got = _probe_of(truth, image)
+    assert got["rmse"] == pytest.approx(0.01 / np.sqrt(3), rel=1e-9)  # every texel probed, no noise
+    low, high = got["rmse_interval"]
+    assert low <= got["rmse"] <= high and got["texels"] == size * size
 
 
-def test_method_follows_the_settings():
-    assert estimate.method_for(16, False, None) == "spread"
-    assert estimate.method_for(1, False, None) == "probe"
-    assert estimate.method_for(16, True, None) == "probe"  # filtering blurs: a bias the spread misses
-    assert estimate.method_for(9, False, None) == "probe"  # odd grid: no checkerboard pairs
-    assert estimate.method_for(16, False, 4) == "probe"
+def test_probe_subtracts_its_own_noise_and_is_never_zero_when_there_is_error():
+    # a linear ramp across texels: the probe's halves see its slope as noise only where
+    # it is not linear; a bake exact at texel centres has zero error on a linear texture
+    size = 64
+    truth = lambda u, v: np.stack([u, v, u + v], axis=1)
+    rows, cols = np.mgrid[0:size, 0:size]
+    centres = np.stack([(cols + 0.5) / size, 1 - (rows + 0.5) / size, (cols + 0.5) / size + 1 - (rows + 0.5) / size], axis=2)
+    exact = _probe_of(truth, centres)
+    assert exact["rmse"] < 1e-3 * (1 / size)  # the jittered probe's mean is the centre's value, up to its noise
+    off = centres + 1e-4  # a tiny bias everywhere: never read as 0
+    assert _probe_of(truth, off)["rmse"] > 0
+
+
+def test_probe_grid_follows_the_samples():
+    assert [estimate.probe_grid(n) for n in (1, 4, 16, 64, 256)] == [4, 4, 8, 16, 16]
+
+
+def test_chart_edges_are_the_covered_texels_next_to_uncovered_ones():
+    covered = np.zeros((6, 6), dtype=bool)
+    covered[1:5, 1:5] = True
+    edges = estimate.chart_edges(covered)
+    assert edges.sum() == 12 and not edges[2:4, 2:4].any() and edges[1, 1:5].all()
 
 
 def test_bad_sweep_parameters_are_named(meshes):

@@ -13,8 +13,11 @@ Its error is measured against a converged reference at the same size: a bake wit
 as many, at most 1024) stratified samples a texel, point-sampled (no
 footprint filtering: a footprint-filtered sample is blurred by a whole texel, so many
 of them do not converge to the texel mean), float64, every octave. RMSE and maximum
-absolute error are taken over the texels covered in both bakes and the three channels,
-in linear colour. The reference's own error is checked by baking it a second time with
+absolute error are taken over the three channels, in linear colour, and over the same
+texels for every setting of one size: those covered by the reference and by every
+setting's bake at that size (``info[size]["texels"]``). A bake with more samples covers
+more of the partly covered texels on chart edges, the hardest ones; scoring each setting
+on its own coverage would flatter the settings that cover fewer. The reference's own error is checked by baking it a second time with
 a quarter of the samples (``reference_check``: the RMSE between the two).
 
 ``estimate`` is the error estimate from the bake's own report (``bake.estimate``);
@@ -75,7 +78,7 @@ class _Common(TypedDict):
 
 @dataclass
 class Row:
-    """What a setting measured. Errors are linear-colour, over texels covered in both bakes."""
+    """What a setting measured. Errors are linear-colour, over the texels every bake of its size covers."""
 
     setting: Setting
     seconds: float  # median whole-bake wall time, pre-made atlas
@@ -83,7 +86,7 @@ class Row:
     rmse: float
     max_abs: float
     estimate: float  # the bake's own error estimate (report.json "error_estimate")
-    method: str  # how it was estimated: "spread" or "probe"
+    method: str  # how it was estimated ("probe")
     pareto: bool = False  # no other setting is both faster and more accurate
 
     @property
@@ -126,9 +129,11 @@ def prepare_mesh(mesh_or_path, *, size: int = 1024, uv: str = "auto", workers: i
     return dataclasses.replace(mesh, vertices=mesh.vertices[atlas.vmapping], faces=atlas.faces, uv=atlas.uv)
 
 
-def compare(image: np.ndarray, covered: np.ndarray, reference: np.ndarray, ref_covered: np.ndarray) -> tuple[float, float]:
-    """``(rmse, max_abs)`` of ``(h, w, c)`` images over texels covered in both."""
-    both = covered & ref_covered
+def compare(image: np.ndarray, covered: np.ndarray, reference: np.ndarray, ref_covered: np.ndarray,
+            texels: np.ndarray | None = None) -> tuple[float, float]:
+    """``(rmse, max_abs)`` of ``(h, w, c)`` images over texels covered in both (and in
+    ``texels``, ``(h, w)`` bool, when given: the texels a sweep scores every setting on)."""
+    both = covered & ref_covered if texels is None else covered & ref_covered & texels
     if not both.any():
         return 0.0, 0.0
     d = image[both].astype(np.float64) - reference[both].astype(np.float64)
@@ -154,9 +159,10 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
     ``mesh``: a path, a trimesh mesh or a ``LoadedMesh`` (made into one with its atlas
     once, ``uv`` as in ``bake_mesh``); ``settings``: default :func:`default_settings`
     (``size``); ``progress``: optional callable taking a line.
-    The second value maps each size to ``{"samples", "check_rmse", "seconds"}``:
-    ``check_rmse`` is the RMSE between the reference and the same bake with a quarter
-    of the samples.
+    The second value maps each size to ``{"samples", "check_samples", "check_rmse",
+    "seconds", "texels"}``: ``check_rmse`` is the RMSE between the reference and the same
+    bake with a quarter of the samples; ``texels`` how many texels every setting of that
+    size is scored on (covered by the reference and by every setting's bake).
 
     Long because the timed runs take turns over all settings (so that a slow moment of a
     shared machine spreads over every setting rather than one), which keeps the loop whole.
@@ -176,6 +182,7 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
     common: _Common = {"uv": "keep", "margin": 0, "workers": workers}
 
     references: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    checks: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     info: dict[int, dict] = {}
     largest = max(s.size for s in settings)
     for sz in sorted({s.size for s in settings}):
@@ -187,18 +194,29 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
         seconds = time.perf_counter() - start
         check = bake_mesh(base, spec, size=sz, samples=n // 4, filtering=False, **common)
         references[sz] = (ref.images[next(iter(ref.images))], ref.coverage)
-        check_rmse, _ = compare(check.images[next(iter(check.images))], check.coverage, *references[sz])
+        checks[sz] = (check.images[next(iter(check.images))], check.coverage)
+        check_rmse, _ = compare(*checks[sz], *references[sz])
         info[sz] = {"samples": n, "check_samples": n // 4, "check_rmse": check_rmse, "seconds": seconds}
         say(f"reference {sz}: {n} samples, {seconds:.1f} s; {n // 4} samples differ by RMSE {check_rmse:.2e}")
 
     # The first bake of each setting (untimed: it also warms numba's kernels) gives the
     # errors; then the timed runs go round the settings, so that a change in the load of
     # a shared machine spreads over all settings instead of falling on one.
-    results = {}
+    baked = {}
     for setting in settings:
         result = bake_mesh(base, spec, **common, **setting.kwargs(), size=setting.size)
-        rmse, max_abs = compare(result.images[next(iter(result.images))], result.coverage, *references[setting.size])
-        results[setting] = (rmse, max_abs, result.report["error_estimate"])
+        baked[setting] = (result.images[next(iter(result.images))], result.coverage, result.report["error_estimate"])
+    # every setting of a size is scored on the same texels: those all its bakes cover
+    scored = {sz: np.logical_and.reduce([ref_cov, *(baked[s][1] for s in settings if s.size == sz)])
+              for sz, (_, ref_cov) in references.items()}
+    results = {}
+    for setting in settings:
+        image, coverage, est = baked.pop(setting)
+        rmse, max_abs = compare(image, coverage, *references[setting.size], scored[setting.size])
+        results[setting] = (rmse, max_abs, est)
+    for sz, mask in scored.items():
+        info[sz]["texels"] = int(mask.sum())
+        info[sz]["check_rmse"] = compare(*checks[sz], *references[sz], mask)[0]
     times: dict[Setting, list[float]] = {s: [] for s in settings}
     tile_times: dict[Setting, list[float]] = {s: [] for s in settings}
     for _ in range(repeats):
@@ -244,15 +262,17 @@ def markdown(rows: list[Row], info: dict | None = None) -> str:
         "",
         "Seconds: median wall time of the whole `bake_mesh` call with an atlas made beforehand (no margin, nothing "
         "written; the runs go round the settings); tiles s: the tile loop alone (lookup, surface, texture, accumulate). "
-        "RMSE and max abs: linear colour, texels covered in both the bake and the reference, three channels. "
-        "Estimate: the bake's own `report.json` `error_estimate` (spread: checkerboard halves of each texel's "
-        "strata; probe: a 4x4 point-sampled reference at up to 1024 random texels; see `bake/estimate.py`).",
+        "RMSE and max abs: linear colour, three channels, the same texels for every setting of a size: those "
+        "covered by the reference and by every setting's bake at that size. "
+        "Estimate: the bake's own `report.json` `error_estimate` (a point-sampled probe of up to 4096 covered "
+        "texels, stratified into chart edges and inside, less its own noise; see `bake/estimate.py`).",
     ]
     for sz, ref in sorted((info or {}).items()):
         lines.append("")
         lines.append(
             f"Reference {sz}: {ref['samples']} stratified point samples a texel, float64, every octave "
-            f"({ref['seconds']:.1f} s); with {ref['check_samples']} samples it differs by RMSE {ref['check_rmse']:.2e}."
+            f"({ref['seconds']:.1f} s); with {ref['check_samples']} samples it differs by RMSE {ref['check_rmse']:.2e}; "
+            f"every setting at {sz} scored on the {ref.get('texels', 0)} texels they all cover."
         )
     return "\n".join(lines) + "\n"
 

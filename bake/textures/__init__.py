@@ -43,10 +43,11 @@ def evaluate(spec, points, footprint=None, *, bounds=None, max_octaves=None) -> 
 
     Returns
     -------
-    (n, channels) float64 linear values.
+    (n, channels) float64 linear values; NaN in every channel of a point that is NaN or
+    infinite (or whose footprint is), in object or texture space.
     """
     spec = parse_spec(spec)
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     f = None if footprint is None else np.asarray(footprint, dtype=np.float64).reshape(-1, 2, 3)
     q, dqdx, dqdy = spec.placement()(p, None if f is None else f[:, 0], None if f is None else f[:, 1])
-    return spec.evaluate(q, EvalContext(dqdx, dqdy, bounds, max_octaves))
+    return spec(q, EvalContext(dqdx, dqdy, bounds, max_octaves))

@@ -7,6 +7,7 @@ They return ``(n, c)`` float64 linear values.
 
 from __future__ import annotations
 
+import numba as nb  # pip install numba
 import numpy as np
 
 # Relative nudge applied before ``floor`` so that a surface lying exactly on a lattice
@@ -37,33 +38,99 @@ def checker_parity(
     box: np.ndarray,
     dpdx: np.ndarray | None = None,
     dpdy: np.ndarray | None = None,
+    clip: np.ndarray | None = None,
 ) -> np.ndarray:
     """Mean of the signed checker ``(-1) ** (floor(x/Cx) + floor(y/Cy) + floor(z/Cz))``.
 
     ``box``: ``(3,)`` cell sizes (Cx, Cy, Cz). With a footprint the mean is taken in
-    closed form over the axis-aligned box that bounds the texel's parallelogram
-    (the checker is separable, so the box mean is the product of three 1D means of a
-    square wave, each the difference of its triangle-wave integral). Returns ``(n,)``
-    float64 in ``[-1, 1]``: +1 for the even cells.
+    closed form over the footprint parallelogram ``p + a dpdx + b dpdy`` (``a``, ``b`` in
+    [-1/2, 1/2]), cut into ``SPLIT x SPLIT`` smaller parallelograms, each averaged over the
+    axis-aligned box that bounds it (the checker is separable, so a box mean is the
+    product of three 1D means of a square wave, each the difference of its
+    triangle-wave integral): the boxes hug the texel's plane, so little is averaged from
+    off it, and a footprint along the axes is exact. ``clip``: ``(2, 3)`` box (texture
+    space) the surface lies in, e.g. the object's bounding box; the boxes are cut to it,
+    so a texel on a wall does not average the cell below a flat base it stands on
+    (an axis whose point lies outside ``clip`` is not cut), and a point on a cell plane
+    counts as on the side towards the box's centre, so that a face lying on the box's max
+    face shows the cell inside the object, as a face on its min face does (without
+    ``clip``: the side above). Returns ``(n,)`` float64 in ``[-1, 1]``: +1 for the even
+    cells.
     """
     t = points / box
-    t += _PLANE_NUDGE * np.maximum(1.0, np.abs(t))
+    c = None if clip is None else np.asarray(clip, dtype=np.float64) / box
+    # towards the inside of ``clip`` (else up): a face on the plane of a max face is inside too
+    inward = 1.0 if c is None else np.where(t > 0.5 * (c[0] + c[1]), -1.0, 1.0)
+    t += inward * _PLANE_NUDGE * np.maximum(1.0, np.abs(t))
     if dpdx is None or dpdy is None:
         return _sign(np.floor(t).sum(axis=1))
-    half = (np.abs(dpdx) + np.abs(dpdy)) * (0.5 / box)
-    wide = half > 1e-12
-    mean = _triangle(t + half)
-    mean -= _triangle(t - half)
-    np.divide(mean, 2.0 * half, out=mean, where=wide)
-    np.clip(mean, -1.0, 1.0, out=mean)  # far out, t +- half round: keep the mean a mean
-    if not wide.all():  # no footprint along an axis: point-sample that axis
-        mean[~wide] = _sign(np.floor(t[~wide]))
-    return mean.prod(axis=1)
+    ex, ey = dpdx / box, dpdy / box
+    lo, hi = np.full_like(t, -np.inf), np.full_like(t, np.inf)
+    if c is not None:
+        slack = 1e-9 * np.maximum(1.0, np.abs(c))
+        inside = (t >= c[0] - slack[0]) & (t <= c[1] + slack[1])  # (n, 3): cut only where the point is inside
+        lo, hi = np.where(inside, c[0], -np.inf), np.where(inside, c[1], np.inf)
+    out = np.empty(len(t))
+    _checker_kernel(np.ascontiguousarray(t), np.ascontiguousarray(ex), np.ascontiguousarray(ey), lo, hi, SPLIT, out)
+    return out
 
 
-def checker(points, box, color_even, color_odd, dpdx=None, dpdy=None) -> np.ndarray:
-    """Checkerboard colours ``(n, c)``: ``color_even`` on even cells, ``color_odd`` on odd."""
-    s = checker_parity(points, np.asarray(box, dtype=np.float64), dpdx, dpdy)
+# Sub-parallelograms a side in the checker's footprint (see ``checker_parity``): the
+# 1-sample checker's RMSE on Suzanne at 512^2 is 1.39x that of 16 point samples with 1
+# (one box around the whole footprint), 0.67x with 2, 0.58x with 4.
+SPLIT = 4
+
+
+@nb.njit(cache=True, parallel=True, nogil=True)
+def _checker_kernel(t, ex, ey, lo, hi, split, out):
+    """``out[i]``: mean of the signed checker (unit cells) over the footprint of point ``i``,
+    ``split x split`` sub-parallelograms each averaged over its bounding box cut to
+    ``[lo, hi]``; an axis with no width (or cut to nothing) is point-sampled."""
+    for i in nb.prange(t.shape[0]):
+        oblique = False
+        crosses = False  # does the footprint's whole box reach over a cell plane?
+        sign = 1.0
+        for k in range(3):
+            oblique = oblique or (ex[i, k] != 0.0 and ey[i, k] != 0.0)
+            half = (abs(ex[i, k]) + abs(ey[i, k])) * 0.5
+            x0, x1 = max(t[i, k] - half, lo[i, k]), min(t[i, k] + half, hi[i, k])
+            cell = np.floor(min(max(t[i, k], x0), max(x0, x1)))
+            crosses = crosses or (x1 > x0 and np.floor(x0) != np.floor(x1))
+            sign *= 1.0 - 2.0 * (cell - 2.0 * np.floor(0.5 * cell))
+        if not crosses:  # inside one cell: the mean is its sign (most texels)
+            out[i] = sign
+            continue
+        m = split if oblique else 1  # along the axes one box is exact
+        total = 0.0
+        for a in range(m):
+            for b in range(m):
+                fa, fb = (a + 0.5) / m - 0.5, (b + 0.5) / m - 0.5
+                prod = 1.0
+                for k in range(3):
+                    centre = t[i, k] + fa * ex[i, k] + fb * ey[i, k]
+                    half = (abs(ex[i, k]) + abs(ey[i, k])) * 0.5 / m
+                    x0, x1 = max(centre - half, lo[i, k]), min(centre + half, hi[i, k])
+                    if x1 - x0 > 1e-12:
+                        mean = (_triangle1(x1) - _triangle1(x0)) / (x1 - x0)
+                        prod *= min(1.0, max(-1.0, mean))  # far out, x0, x1 round: keep the mean a mean
+                    else:
+                        x = min(max(centre, x0), max(x0, x1))
+                        cell = np.floor(x)
+                        prod *= 1.0 - 2.0 * (cell - 2.0 * np.floor(0.5 * cell))
+                total += prod
+        out[i] = total / (m * m)
+
+
+@nb.njit(cache=True, inline="always")
+def _triangle1(t):
+    u = t - 2.0 * np.floor(0.5 * t)
+    return 1.0 - abs(u - 1.0)
+
+
+def checker(points, box, color_even, color_odd, dpdx=None, dpdy=None, clip=None) -> np.ndarray:
+    """Checkerboard colours ``(n, c)``: ``color_even`` on even cells, ``color_odd`` on odd
+    (``clip``: see :func:`checker_parity`)."""
+    s = checker_parity(points, np.asarray(box, dtype=np.float64), dpdx, dpdy, clip)
     w = (0.5 * (1.0 + s))[:, None]
     even = np.asarray(color_even, dtype=np.float64)
     odd = np.asarray(color_odd, dtype=np.float64)

@@ -54,4 +54,4 @@ class TextureMapping:
             if dqdx is not None and dqdy is not None:
                 dqdx, dqdy = dqdx.astype(np.float32).astype(np.float64), dqdy.astype(np.float32).astype(np.float64)
         q, dqdx, dqdy = spec.placement()(q, dqdx, dqdy)
-        return spec.evaluate(q, EvalContext(dqdx, dqdy, self.bounds, max_octaves))
+        return spec(q, EvalContext(dqdx, dqdy, self.bounds, max_octaves))

@@ -8,7 +8,7 @@ shrunk towards its mean by the share of it a box filter over the footprint keeps
 itself is the spec's (or ``max_octaves``), the same for every texel.
 
 Lattice noise as the lecture describes it: a seeded ``noiseTable`` of 256 values in
-[0, 1], an ``indexTable`` permutation of 0..255, ``PERM(x) = indexTable[x & 255]`` and
+[0, 1], an ``indexTable`` permutation of 0..255 (both pinned: ``tables.py``), ``PERM(x) = indexTable[x & 255]`` and
 ``INDEX(i, j, k) = PERM(i + PERM(j + PERM(k)))``; between lattice points, linear, cubic
 (Perlin's s-curve ``3t^2 - 2t^3``) or Catmull-Rom (Peachey: a spline through four
 lattice values per axis) interpolation.
@@ -51,9 +51,13 @@ def _derived_tables(seed: int) -> tuple[np.ndarray, np.ndarray]:
 
 @functools.cache
 def tables(seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(noiseTable (256,) float64 in [0, 1], indexTable (256,) int64 permutation)``."""
-    rng = np.random.default_rng(seed)
-    return rng.random(256), rng.permutation(256).astype(np.int64)
+    """``(noiseTable (256,) float64 in [0, 1], indexTable (256,) int64 permutation)``,
+    pinned by ``tables.derive`` (integer arithmetic of its own, not a library's stream)."""
+    from .tables import derive
+
+    noise, index = derive(seed)
+    noise.flags.writeable = index.flags.writeable = False  # cached: shared by every caller
+    return noise, index
 
 
 def basis_mean(basis: str, seed: int = 0) -> float:
@@ -172,7 +176,7 @@ def perlin_noise(index, x, y, z):
 
 @jit
 def basis_value(noise, index, x, y, z, basis, interp):
-    """One octave in [0, 1] (mean: see :func:`basis_mean`)."""
+    """One octave, about [0, 1] (Catmull-Rom: about [-0.10, 1.11]; mean: see :func:`basis_mean`)."""
     if basis == 1:
         return 0.5 + 0.5 * perlin_noise(index, x, y, z)
     return value_noise(noise, index, x, y, z, interp)
@@ -325,7 +329,9 @@ def octave_sum(
 
 
 def noise(points: np.ndarray, *, basis: str = "value", interpolation: str = "linear", seed: int = 0) -> np.ndarray:
-    """``(n,)`` float64 noise in [0, 1] at ``(n, 3)`` points (one octave, point-sampled)."""
+    """``(n,)`` float64 noise at ``(n, 3)`` points (one octave, point-sampled): in [0, 1]
+    for linear and cubic value noise and for Perlin's; Catmull-Rom value noise overshoots
+    its lattice values, to about [-0.10, 1.11]."""
     return octave_sum(points, None, octaves=1, basis=basis, interpolation=interpolation, seed=seed)
 
 

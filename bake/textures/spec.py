@@ -7,6 +7,7 @@ command line and the service (as JSON).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from itertools import pairwise
 from typing import Annotated, ClassVar, Literal, get_args
@@ -83,6 +84,31 @@ class _Texture(BaseModel):
         """``(n, channels)`` float64 linear values at ``(n, 3)`` texture-space points."""
         raise NotImplementedError
 
+    def placed_bounds(self, ctx: EvalContext) -> np.ndarray | None:
+        """``(2, 3)`` box in this texture's space that holds the object: its bounding box
+        (``ctx.bounds``) through the placement, boxed again; None without bounds."""
+        if ctx.bounds is None:
+            return None
+        lo, hi = np.asarray(ctx.bounds, dtype=np.float64)
+        corners = np.array([[(lo, hi)[(k >> axis) & 1][axis] for axis in range(3)] for k in range(8)])
+        placed, _, _ = self.placement()(corners, None, None)
+        return np.array([placed.min(axis=0), placed.max(axis=0)])
+
+    def __call__(self, points: np.ndarray, ctx: EvalContext) -> np.ndarray:
+        """:meth:`evaluate`, with NaN in every channel where a point or its footprint is
+        not finite (NaN in, NaN out: such a point has no place in the pattern)."""
+        bad = ~np.isfinite(points).all(axis=1)
+        if ctx.dpdx is not None and ctx.dpdy is not None:
+            bad |= ~(np.isfinite(ctx.dpdx).all(axis=1) & np.isfinite(ctx.dpdy).all(axis=1))
+        if not bad.any():
+            return self.evaluate(points, ctx)
+        zero = np.zeros_like(points)
+        if ctx.dpdx is not None and ctx.dpdy is not None:
+            ctx = dataclasses.replace(ctx, dpdx=np.where(bad[:, None], zero, ctx.dpdx), dpdy=np.where(bad[:, None], zero, ctx.dpdy))
+        out = self.evaluate(np.where(bad[:, None], zero, points), ctx)
+        out[bad] = np.nan
+        return out
+
 
 class Position(_Texture):
     """The object-space point, normalised per axis to the mesh's bounding box (RGB = XYZ)."""
@@ -102,7 +128,8 @@ class Position(_Texture):
 class Checker(_Texture):
     """The lecture's checkerboard: boxes of size (Cx, Cy, Cz) in two colours.
 
-    Uses ``floor`` (no anomaly at 0) and a closed-form box filter over the texel footprint.
+    Uses ``floor`` (no anomaly at 0) and a closed-form filter over the texel's footprint
+    parallelogram, cut to the object's bounding box (``basic.checker_parity``).
     """
 
     name: Literal["checker"] = "checker"
@@ -117,7 +144,7 @@ class Checker(_Texture):
         from .basic import checker
 
         dpdx, dpdy = (ctx.dpdx, ctx.dpdy) if self.filtered else (None, None)
-        return checker(points, self.box, self.color_even, self.color_odd, dpdx, dpdy)
+        return checker(points, self.box, self.color_even, self.color_odd, dpdx, dpdy, self.placed_bounds(ctx))
 
 
 def _check_knots(knots, values) -> None:
@@ -235,7 +262,11 @@ WOOD_COLOURS = ColourMap(knots=(0.0, 1.0), colours=((0.55, 0.33, 0.14), (0.30, 0
 
 
 class Marble(_Texture):
-    """Perlin's marble: ``MarbleColor(sin(frequency * x + amplitude * turbulence(p)))``."""
+    """Perlin's marble: ``MarbleColor(sin(frequency * x + amplitude * turbulence(p)))``.
+
+    Filtered, the colour is the colour map's mean over the texel's phase spread
+    (``colour.wave_colours``), not the colour of the filtered value.
+    """
 
     name: Literal["marble"] = "marble"
     axis: Literal["x", "y", "z"] = "x"
@@ -245,18 +276,26 @@ class Marble(_Texture):
     colormap: ColourMap = MARBLE_COLOURS
 
     def evaluate(self, points, ctx):
-        from .solid import marble
+        from .solid import marble_phase
 
-        t = marble(points, ctx.width, axis="xyz".index(self.axis), frequency=self.frequency, amplitude=self.amplitude,
-                   max_octaves=ctx.max_octaves, **turbulence_args(self.turbulence))
-        return self.colormap(t)
+        phase, spread = marble_phase(points, ctx.width, axis="xyz".index(self.axis), frequency=self.frequency,
+                                     amplitude=self.amplitude, max_octaves=ctx.max_octaves, **turbulence_args(self.turbulence))
+        out = self.colormap(0.5 + 0.5 * np.sin(phase))
+        wide = np.flatnonzero(spread > 0)
+        if len(wide):  # the mean colour over the texel, not the colour of the mean
+            from .colour import wave_colours
+
+            out[wide] = wave_colours(self.colormap.knots, self.colormap.colours, phase[wide], spread[wide])
+        return out
 
 
 class Wood(_Texture):
     """Wood grain: rings ``D + A rings(r / M + K sin(N theta + B z))`` about a tilted axis.
 
     ``ring_width`` is M, ``wobble`` K, ``wobbles`` N, ``twist`` B, ``tilt`` the rotation T
-    of the ring axis (XYZ Euler degrees); D and A are the colour map's ends.
+    of the ring axis (XYZ Euler degrees); D and A are the colour map's ends. Filtered, the
+    colour is the two ends mixed by the share of ring 1 in the texel (the mean colour: the
+    point-sampled rings are only ever 0 or 1).
     """
 
     name: Literal["wood"] = "wood"
@@ -277,22 +316,31 @@ class Wood(_Texture):
     def evaluate(self, points, ctx):
         from .solid import wood
 
-        t = wood(points, ctx.width, ring_width=self.ring_width, wobble=self.wobble, wobbles=self.wobbles, twist=self.twist)
-        return self.colormap(t)
+        t = wood(points, ctx.width, ring_width=self.ring_width, wobble=self.wobble, wobbles=self.wobbles, twist=self.twist,
+                 dpdx=ctx.dpdx, dpdy=ctx.dpdy)
+        if ctx.width is None:
+            return self.colormap(t)
+        # the rings are 0 or 1: the mean colour over a texel is the colours of 0 and 1 mixed
+        ends = self.colormap(np.array([0.0, 1.0]))
+        return ends[0] + t[:, None] * (ends[1] - ends[0])
 
 
 class Flame(_Texture):
     """Watt and Watt's flame: ``(1 - y/h) flame_color(|x/b| + turbulence(x, t))``.
 
-    The flame spans (-b, 0) to (b, h) in the x-y plane; ``red``, ``green`` and ``blue``
-    are spline curves of ``|x/b| + turbulence``, highest at the centre, green and blue
-    falling off faster than red.
+    The flame spans (-b, 0) to (b, h) in the x-y plane about its axis, which stands
+    upright (along y) on the centre of the object's base: the middle of the bounding
+    box's bottom face (its min-y face). ``height`` h is the object's height (the box's
+    y extent) and ``half_width`` b half its width (x extent) unless given; ``transform``
+    moves, turns and scales the flame from there.
+    ``red``, ``green`` and ``blue`` are spline curves of ``|x/b| + turbulence``, highest
+    at the centre, green and blue falling off faster than red.
     """
 
     name: Literal["flame"] = "flame"
     emits: ClassVar[bool] = True
-    half_width: Annotated[float, Field(gt=0, le=1e6)] = 0.3
-    height: Annotated[float, Field(gt=0, le=1e6)] = 1.0
+    half_width: Annotated[float, Field(gt=0, le=1e6)] | None = Field(None, description="none: half the object's width")
+    height: Annotated[float, Field(gt=0, le=1e6)] | None = Field(None, description="none: the object's height")
     time: Annotated[float, Field(ge=-1e6, le=1e6)] = 0.0
     rise: Annotated[float, Field(ge=-1e3, le=1e3)] = 1.0
     turbulence_amount: Annotated[float, Field(ge=0, le=100)] = 0.6
@@ -304,11 +352,30 @@ class Flame(_Texture):
     def evaluate(self, points, ctx):
         from .solid import flame, spline
 
-        s, weight = flame(points, ctx.width, half_width=self.half_width, height=self.height, time=self.time, rise=self.rise,
+        base, half_width, height = self.frame(ctx.bounds)
+        s, weight = flame(points - base, ctx.width, half_width=half_width, height=height, time=self.time, rise=self.rise,
                           turbulence_amount=self.turbulence_amount, max_octaves=ctx.max_octaves,
                           **turbulence_args(self.turbulence))
         rgb = [spline(s, np.asarray(c.knots), np.asarray(c.values)[:, None])[:, 0] for c in (self.red, self.green, self.blue)]
         return np.clip(np.column_stack(rgb), 0.0, None) * weight[:, None]
+
+    def frame(self, bounds: np.ndarray | None) -> tuple[np.ndarray, float, float]:
+        """``(foot (3,), b, h)``: where the foot of the flame's axis lands in this texture's
+        space, the flame's half width and its height.
+
+        ``bounds``: ``(2, 3)`` bounding box of the object in the bake's texture space
+        (None: the unit cube). The flame's frame is that space moved to the centre of the
+        box's bottom (min-y) face, then placed by the spec's placement, so a transform
+        moves, turns and scales the flame from the object's base: the foot is returned as
+        the placement's linear part applied to it (the points subtract it). b and h are
+        ``half_width`` and ``height``, else half the box's x extent and its y extent.
+        """
+        box = np.array([[0.0] * 3, [1.0] * 3]) if bounds is None else np.asarray(bounds, dtype=np.float64)
+        foot = np.array([0.5 * (box[0, 0] + box[1, 0]), box[0, 1], 0.5 * (box[0, 2] + box[1, 2])])
+        ends, _, _ = self.placement()(np.array([foot, np.zeros(3)]), None, None)
+        b = self.half_width if self.half_width is not None else 0.5 * float(box[1, 0] - box[0, 0])
+        h = self.height if self.height is not None else float(box[1, 1] - box[0, 1])
+        return ends[0] - ends[1], b or 1.0, h or 1.0
 
 
 def turbulence_args(params: TurbulenceParams) -> dict:
