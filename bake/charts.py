@@ -168,8 +168,9 @@ def planar_charts(vertices: np.ndarray, faces: np.ndarray, angle_limit: float = 
     Each face goes to the direction nearest its normal; faces of one direction joined by
     shared edges are one chart, projected onto the plane normal to the direction. A chart
     whose projection overlaps itself on a ``grid``-square raster of the layout (a curved
-    region wrapping round, a ramp winding up) is cut in two across its longest extent,
-    up to ``SPLITS`` times. Faces of zero area have no normal and keep a UV area of zero: the caller gives
+    region wrapping round, a ramp winding up) first loses its overlapping faces to a
+    chart of their own (the layers of a fold, unconnected, come apart), then, if it still
+    overlaps, is cut in two across its longest extent, up to ``SPLITS`` rounds in all. Faces of zero area have no normal and keep a UV area of zero: the caller gives
     them charts of their own.
     """
     from .uvcoverage import overlapping_faces
@@ -197,13 +198,16 @@ def planar_charts(vertices: np.ndarray, faces: np.ndarray, angle_limit: float = 
         bad = overlapping_faces((uv - lo) / max(float((hi - lo).max()), 1e-300), chart_faces, grid)
         if not bad.any():
             break
-        for i in np.unique(island[bad]):  # each overlapping chart cut in two across its longest extent
+        for i in np.unique(island[bad]):
             members = np.flatnonzero(island == i)
-            c = centroids[members]
-            axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
-            half = members[c[:, axis] > np.median(c[:, axis])]
-            dirs = np.concatenate([dirs, dirs[group[half[:1]]]])
-            group[half] = len(dirs) - 1
+            if attempt == 0:  # first the overlapping faces alone: the layers of a fold come apart
+                part = members[bad[members]]
+            else:  # then the chart cut in two across its longest extent
+                c = centroids[members]
+                axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
+                part = members[c[:, axis] > np.median(c[:, axis])]
+            dirs = np.concatenate([dirs, dirs[group[part[:1]]]])
+            group[part] = len(dirs) - 1
     best = np.einsum("ij,ij->i", normals, dirs[group])
     flat = float(weights[best > FLAT_COS].sum() / total) if total > 0 else 0.0
     return Charts(vmapping, chart_faces, uv, island, dirs, flat)
