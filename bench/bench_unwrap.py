@@ -115,7 +115,7 @@ def main() -> None:
                    f"stretch {b['stretch']:.3f}, {b['charts']} charts, overlap {b['overlap']:.1%}")
             ok = ok and ours["utilisation"] >= 0.9 * b["utilisation"] and ours["spread"] <= b["spread"] * 1.001 \
                 and ours_s <= 2 * seconds + 1
-        rows.append((f"{name} ({len(f)} faces){'' if ok else ' MISSED'}", cell, ref))
+        rows.append((f"unwrap at {args.size}², {name} ({len(f)} faces){'' if ok else ' (target MISSED)'}", cell, ref))
         if not ok:
             failed.append(name)
     if not args.markdown:
