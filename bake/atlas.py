@@ -336,17 +336,24 @@ def _pack(pos, faces, meshes, size, padding, pool, deadline):
 
     meshes = [_compact(*mesh) for mesh in meshes]
     texel = np.sqrt(sum(float(uv_areas(uv, idx).sum()) for _, _, uv, idx in meshes) / 0.5) / size  # UV units, roughly
-    proxies = [_proxy(uv, idx, 0.25 * texel) for _, _, uv, idx in meshes]
-    pack_in = [(uv[used].astype(np.float32), tri.astype(np.uint32)) for (_, _, uv, _), (used, tri, _) in zip(meshes, proxies, strict=True)]
-    ((ok, value),) = pool.run([("pack", (pack_in, size, padding))])
-    if not ok:
-        raise _XatlasFailed(f"{_describe(value, deadline)} while packing")
-    packed, _info = value
-    if len(packed) != len(meshes):
-        raise _XatlasFailed("xatlas' packing lost meshes")
-    maps, uvs, out_faces, offset = [], [], np.full((m, 3), -1, dtype=np.int64), 0
-    for (face_ids, vmap, uv, idx), (used, _, chart), (vm2, _, uv2) in zip(meshes, proxies, packed, strict=True):
-        uvs.append(_place(uv, chart, used[vm2.astype(np.int64)], uv2.astype(np.float64)))
+    for outlines in (True, False):  # by the charts' outlines; by their own triangles if xatlas split an outline
+        proxies = [_proxy(uv, idx, 0.25 * texel, outlines) for _, _, uv, idx in meshes]
+        pack_in = [(uv[used].astype(np.float32), tri.astype(np.uint32)) for (_, _, uv, _), (used, tri, _) in zip(meshes, proxies, strict=True)]
+        ((ok, value),) = pool.run([("pack", (pack_in, size, padding))])
+        if not ok:
+            raise _XatlasFailed(f"{_describe(value, deadline)} while packing")
+        packed, _info = value
+        if len(packed) != len(meshes):
+            raise _XatlasFailed("xatlas' packing lost meshes")
+        try:
+            uvs = [_place(uv, chart, used[vm2.astype(np.int64)], uv2.astype(np.float64))
+                   for (_, _, uv, _), (used, _, chart), (vm2, _, uv2) in zip(meshes, proxies, packed, strict=True)]
+            break
+        except _XatlasFailed:
+            if not outlines:
+                raise
+    maps, out_faces, offset = [], np.full((m, 3), -1, dtype=np.int64), 0
+    for face_ids, vmap, uv, idx in meshes:
         maps.append(vmap)
         out_faces[face_ids] = idx + offset
         offset += len(uv)
@@ -359,13 +366,13 @@ def _compact(face_ids, vmap, uv, idx):
     return face_ids, vmap[used], uv[used], local.reshape(-1, 3)
 
 
-def _proxy(uv: np.ndarray, faces: np.ndarray, tolerance: float):
+def _proxy(uv: np.ndarray, faces: np.ndarray, tolerance: float, outlines: bool = True):
     """What the packer gets for a UV mesh: ``(used (u,), triangles (t, 3) into used,
     chart (k,))``: each chart of more than ``PROXY_FACES`` faces as the ear-cut
     triangulation of its outline simplified within ``tolerance`` (a quarter texel:
     :func:`bake.charts.outline_triangles`; xatlas rasterises each triangle over its
-    bounding box, so a fan of 4000 slivers costs it seconds), the others as they are;
-    ``chart``: each vertex's chart."""
+    bounding box, so a fan of 4000 slivers costs it seconds), the others (all, without
+    ``outlines``) as they are; ``chart``: each vertex's chart."""
     from .charts import outline_triangles
 
     chart = np.zeros(len(uv), dtype=np.int64)
@@ -375,7 +382,7 @@ def _proxy(uv: np.ndarray, faces: np.ndarray, tolerance: float):
     starts = np.flatnonzero(np.r_[True, face_chart[order][1:] != face_chart[order][:-1]])
     parts = []
     for members in np.split(order, starts[1:]):
-        tri = outline_triangles(uv, faces[members], tolerance) if len(members) > PROXY_FACES else None
+        tri = outline_triangles(uv, faces[members], tolerance) if outlines and len(members) > PROXY_FACES else None
         parts.append(faces[members] if tri is None else tri)
     tri = np.concatenate(parts)
     used, local = np.unique(tri, return_inverse=True)
