@@ -37,6 +37,7 @@ CHARTINGS = ("auto", "xatlas", "planar")
 OVERLAP_LIMIT = 0.01  # a mesh's UVs under which more of the covered texels overlap are not kept
 OVERLAP_GRID = 2048  # overlap is measured on the bake's texel grid, at most this fine
 PLANAR_GAIN = 1.3  # "auto" takes planar charts over xatlas' on a small organic mesh when they use this much more texture
+SWAP_FACES = 20_000  # meshes packed once more with u and v swapped (xatlas' greedy packer then often fills more), up to this many triangles
 PROXY_FACES = 32  # charts of more faces are packed by the triangulation of their outline
 BARE_LIMIT = 0.01  # a warning when more of the surface lies on charts without a texel centre
 PATCH_FACES = 2000  # faces per patch of the parallel unwrap
@@ -319,7 +320,8 @@ def _pack(pos, faces, meshes, size, padding, pool, deadline):
     ``meshes``: ``(face ids, chart vertex -> mesh vertex, uv, faces in chart vertices)``
     at one texel density. Faces in none of them get a chart each, about two
     texels wide. One xatlas packing pass at the texture's resolution and padding (one
-    ``add_uv_mesh`` per mesh: xatlas merges touching or overlapping charts of one mesh).
+    ``add_uv_mesh`` per mesh: xatlas merges touching or overlapping charts of one mesh);
+    up to ``SWAP_FACES`` triangles a second with u and v swapped, the fuller one kept.
     """
     m = len(faces)
     charted = np.zeros(m, dtype=bool)
@@ -338,26 +340,46 @@ def _pack(pos, faces, meshes, size, padding, pool, deadline):
     texel = np.sqrt(sum(float(uv_areas(uv, idx).sum()) for _, _, uv, idx in meshes) / 0.5) / size  # UV units, roughly
     for outlines in (True, False):  # by the charts' outlines; by their own triangles if xatlas split an outline
         proxies = [_proxy(uv, idx, 0.25 * texel, outlines) for _, _, uv, idx in meshes]
-        pack_in = [(uv[used].astype(np.float32), tri.astype(np.uint32)) for (_, _, uv, _), (used, tri, _) in zip(meshes, proxies, strict=True)]
-        ((ok, value),) = pool.run([("pack", (pack_in, size, padding))])
-        if not ok:
-            raise _XatlasFailed(f"{_describe(value, deadline)} while packing")
-        packed, _info = value
-        if len(packed) != len(meshes):
-            raise _XatlasFailed("xatlas' packing lost meshes")
-        try:
-            uvs = [_place(uv, chart, used[vm2.astype(np.int64)], uv2.astype(np.float64))
-                   for (_, _, uv, _), (used, _, chart), (vm2, _, uv2) in zip(meshes, proxies, packed, strict=True)]
+        small = sum(len(tri) for _, tri, _ in proxies) <= SWAP_FACES
+        best = None
+        for swap in (False, True) if small else (False,):
+            uvs = _pack_once(meshes, proxies, swap, size, padding, pool, deadline)
+            if uvs is None:
+                break
+            used = sum(float(uv_areas(u, idx).sum()) for u, (_, _, _, idx) in zip(uvs, meshes, strict=True))
+            if best is None or used > best[0]:
+                best = used, uvs
+        if best is not None:
+            uvs = best[1]
             break
-        except _XatlasFailed:
-            if not outlines:
-                raise
+        if not outlines:
+            raise _XatlasFailed("xatlas' packing distorted a chart")
     maps, out_faces, offset = [], np.full((m, 3), -1, dtype=np.int64), 0
     for face_ids, vmap, uv, idx in meshes:
         maps.append(vmap)
         out_faces[face_ids] = idx + offset
         offset += len(uv)
     return np.concatenate(maps), out_faces, np.concatenate(uvs)
+
+
+def _pack_once(meshes, proxies, swap: bool, size, padding, pool, deadline) -> list[np.ndarray] | None:
+    """One xatlas packing of the proxies (u and v swapped if ``swap``): each mesh's
+    placed UVs, or None if a chart packed by its outline came back distorted."""
+    pack_in = []
+    for (_, _, uv, _), (used, tri, _) in zip(meshes, proxies, strict=True):
+        q = uv[used][:, ::-1] if swap else uv[used]
+        pack_in.append((np.ascontiguousarray(q, dtype=np.float32), np.ascontiguousarray(tri[:, ::-1] if swap else tri, dtype=np.uint32)))
+    ((ok, value),) = pool.run([("pack", (pack_in, size, padding))])
+    if not ok:
+        raise _XatlasFailed(f"{_describe(value, deadline)} while packing")
+    packed, _info = value
+    if len(packed) != len(meshes):
+        raise _XatlasFailed("xatlas' packing lost meshes")
+    try:
+        return [_place(uv, chart, used[vm2.astype(np.int64)], uv2.astype(np.float64))
+                for (_, _, uv, _), (used, _, chart), (vm2, _, uv2) in zip(meshes, proxies, packed, strict=True)]
+    except _XatlasFailed:
+        return None
 
 
 def _compact(face_ids, vmap, uv, idx):

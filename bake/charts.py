@@ -24,7 +24,7 @@ COPLANAR_COS = np.cos(np.radians(0.05))  # neighbours this close are one flat fa
 SPLITS = 6  # rounds of cutting self-overlapping charts in two
 CRUMB_FACES, CRUMB_LIMIT = 16, 55.0  # charts of fewer faces join a neighbour within this angle, on meshes
 CRUMB_FLAT = 0.1  # with less of their area flat (within 2 degrees of its direction) than this
-XATLAS_FACES = 10_000  # "auto" charting leaves meshes of more faces to planar charts
+XATLAS_FACES = 6_000  # "auto" charting leaves meshes of more faces to planar charts
 
 
 @dataclass

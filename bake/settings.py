@@ -79,7 +79,7 @@ class BakeSettings(BaseModel):
     charting: Literal["auto", "planar", "xatlas"] = Field(
         "auto", description="how an unwrap cuts charts: planar (faces grouped by normal, as Smart UV Project), xatlas "
         "(fewer seams and less stretch on small organic meshes, slower), or auto: planar for CAD-like meshes and "
-        "meshes of over 10k faces, xatlas otherwise")
+        "meshes of over 6k faces, xatlas otherwise")
     texture_space: Literal["unit", "object"] = Field("unit", description="unit: the bounding box scaled to start at 0 with its longest side 1; object: coordinates as they are")
     shading: Literal["decal", "ambient-diffuse", "full"] = Field("decal", description="decal: albedo only; the others also bake a lit map")
     light: tuple[Finite, Finite, Finite] = Field((0.3, 0.5, 0.8), description="light direction x, y, z for lit maps")
