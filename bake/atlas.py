@@ -345,15 +345,18 @@ def _pack(pos, faces, meshes, size, padding, pool, deadline):
         for swap in (False, True) if small else (False,):
             uvs = _pack_once(meshes, proxies, swap, size, padding, pool, deadline)
             if uvs is None:
-                break
-            used = sum(float(uv_areas(u, idx).sum()) for u, (_, _, _, idx) in zip(uvs, meshes, strict=True))
+                continue
+            face_areas = [uv_areas(u, idx) for u, (_, _, _, idx) in zip(uvs, meshes, strict=True)]
+            if any((a <= 0).any() for a in face_areas):
+                continue  # a sliver collapsed in xatlas' float32 UVs
+            used = sum(float(a.sum()) for a in face_areas)
             if best is None or used > best[0]:
                 best = used, uvs
         if best is not None:
             uvs = best[1]
             break
         if not outlines:
-            raise _XatlasFailed("xatlas' packing distorted a chart")
+            raise _XatlasFailed("xatlas' packing distorted a chart or collapsed a face")
     maps, out_faces, offset = [], np.full((m, 3), -1, dtype=np.int64), 0
     for face_ids, vmap, uv, idx in meshes:
         maps.append(vmap)
