@@ -81,6 +81,15 @@ def directions(normals: np.ndarray, weights: np.ndarray, angle_limit: float = AN
     return np.array(out)
 
 
+def _face_normals(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(normals (m, 3), areas (m,))`` float64: unit face normals (zero for a face of no
+    area) and face areas."""
+    p0 = vertices[faces[:, 0]]
+    cross = np.cross(vertices[faces[:, 1]] - p0, vertices[faces[:, 2]] - p0)
+    length = np.linalg.norm(cross, axis=1)
+    return np.where(length[:, None] > 0, cross / np.where(length > 0, length, 1)[:, None], 0.0), 0.5 * length
+
+
 def _edge_pairs(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(a, b)``: pairs of faces that share an edge (a non-manifold edge gives a chain)."""
     m = len(faces)
@@ -177,11 +186,7 @@ def planar_charts(vertices: np.ndarray, faces: np.ndarray, angle_limit: float = 
 
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
-    p0 = vertices[faces[:, 0]]
-    cross = np.cross(vertices[faces[:, 1]] - p0, vertices[faces[:, 2]] - p0)
-    length = np.linalg.norm(cross, axis=1)
-    normals = np.where(length[:, None] > 0, cross / np.where(length > 0, length, 1)[:, None], 0.0)
-    weights = 0.5 * length
+    normals, weights = _face_normals(vertices, faces)
 
     dirs = directions(normals, weights, angle_limit)
     dirs, group = _assign(normals, weights, dirs, np.cos(np.radians(angle_limit)))  # each face's direction
@@ -289,14 +294,13 @@ def prefer_planar(vertices: np.ndarray, faces: np.ndarray) -> tuple[bool, str]:
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
     tri = vertices[faces]
-    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    twice = np.linalg.norm(cross, axis=1)
+    normals, area = _face_normals(vertices, faces)
+    twice = 2 * area
     total = twice.sum()
     if not total > 0:
         return True, "no area"
     longest = (np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2) ** 2).max(axis=1)
     sliver = float(twice[longest > 20 * np.maximum(twice, 1e-300)].sum() / total)
-    normals = cross / np.where(twice > 0, twice, 1)[:, None]
     a, b = _edge_pairs(faces)
     same = np.einsum("ij,ij->i", normals[a], normals[b]) > COPLANAR_COS
     region = _components(len(faces), a[same], b[same])
