@@ -159,9 +159,11 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
         tangents = None if settings.bump is None else vertex_tangents(out_vertices, faces, out_uv, normals)
     with timer.stage("prepare"):
         maps = Maps(settings, quality, width, height, mapping)
-        sampler = Sampler(mesh.vertices, mesh.faces, atlas.uv, atlas.faces, width, height, normals=maps.needs_normals,
+        corner_normals = normals[faces]  # (m, 3, 3): shading (the lit map) sees the GLB's normals
+        sampler = Sampler(mesh.vertices, mesh.faces, atlas.uv, atlas.faces, width, height,
+                          normals=corner_normals if maps.needs_normals else False,
                           source=None if src is None else (src.vertices, src.faces), reach=reach,
-                          frame=None if tangents is None else (normals[faces], tangents[faces]))
+                          frame=None if tangents is None else (corner_normals, tangents[faces]))
     report_progress(0.3)
     cast, transfer_missed = _bake_tiles(sampler, maps, quality, settings.seed, timer, workers, tile_samples,
                                         lambda done: report_progress(0.3 + 0.6 * done))

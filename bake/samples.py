@@ -46,17 +46,19 @@ class Sampler:
 
     ``vertices`` ``(n, 3)`` and ``faces`` ``(m, 3)`` of the mesh; ``uv`` ``(k, 2)`` and
     ``uv_faces`` ``(m, 3)`` of its atlas; ``width``, ``height``: the image size;
-    ``normals``: also interpolate smooth normals (a transfer always does); ``source``: a
+    ``normals``: also interpolate normals, True (smooth) or ``(m, 3, 3)`` corner normals
+    (``surface.SurfaceMap``; a transfer always interpolates smooth ones: its rays must
+    not part at hard edges); ``source``: a
     ``(vertices, faces)`` pair to transfer from, with rays of at most ``reach``; ``frame``:
     corner normals and tangents of the output mesh (``surface.SurfaceMap``).
     """
 
-    def __init__(self, vertices, faces, uv, uv_faces, width: int, height: int, *, normals: bool = False,
+    def __init__(self, vertices, faces, uv, uv_faces, width: int, height: int, *, normals: bool | np.ndarray = False,
                  source: tuple[np.ndarray, np.ndarray] | None = None, reach: float = 0.0,
                  frame: tuple[np.ndarray, np.ndarray] | None = None):
         self.width, self.height = width, height
         self.lookup = UVLookup(uv, uv_faces)
-        self.surface = SurfaceMap(vertices, faces, uv, uv_faces, width, height, normals=normals or source is not None,
+        self.surface = SurfaceMap(vertices, faces, uv, uv_faces, width, height, normals=True if source is not None else normals,
                                   frame=frame)
         self.caster = None
         if source is not None:

@@ -57,12 +57,13 @@ class SurfaceMap:
     ``vertices``: ``(n, 3)`` float64 object-space positions; ``faces``: ``(m, 3)`` int
     indices into ``vertices``; ``uv_faces``: ``(m, 3)`` indices into ``uv`` (``(k, 2)``)
     for the same faces; ``width``, ``height``: image size in texels; ``normals``: also
-    interpolate smooth normals; ``frame``: ``(corner normals (m, 3, 3), corner tangents
+    interpolate normals: True for smooth ones (:func:`vertex_normals`), or ``(m, 3, 3)``
+    corner normals to interpolate (the output mesh's, split at hard edges); ``frame``: ``(corner normals (m, 3, 3), corner tangents
     (m, 3, 4))`` of the output mesh's faces (the same faces, row for row), to interpolate
     its tangent frame.
     """
 
-    def __init__(self, vertices, faces, uv, uv_faces, width: int, height: int, normals: bool = False,
+    def __init__(self, vertices, faces, uv, uv_faces, width: int, height: int, normals: bool | np.ndarray = False,
                  frame: tuple[np.ndarray, np.ndarray] | None = None):
         vertices = np.asarray(vertices, dtype=np.float64)
         faces = np.asarray(faces, dtype=np.int64)
@@ -71,14 +72,17 @@ class SurfaceMap:
         # One texel right is du = 1/width; one texel down is dv = -1/height.
         self._dpdx = np.clip(dpdu / width, -_MAX_FOOTPRINT, _MAX_FOOTPRINT)
         self._dpdy = np.clip(-dpdv / height, -_MAX_FOOTPRINT, _MAX_FOOTPRINT)
-        # (m, 3, 3) corner normals, only when asked for (transfer rays need them)
-        self._vn = vertex_normals(vertices, faces)[faces] if normals else None
+        # (m, 3, 3) corner normals, only when asked for (shading and transfer rays need them)
+        if isinstance(normals, np.ndarray):
+            self._vn = np.asarray(normals, dtype=np.float64).reshape(len(faces), 3, 3)
+        else:
+            self._vn = vertex_normals(vertices, faces)[faces] if normals else None
         self._frame = frame
 
     def samples(self, face: np.ndarray, bary: np.ndarray) -> SurfaceSamples:
         """Surface samples for ``(n,)`` faces and ``(n, 3)`` barycentric coordinates.
 
-        ``normals`` are smooth interpolated normals, or None if the map was made
+        ``normals`` are interpolated unit normals, or None if the map was made
         without them; ``frame`` likewise.
         """
         b = bary
