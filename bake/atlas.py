@@ -345,7 +345,7 @@ def _pack(pos, faces, meshes, size, padding, pool, deadline):
         best = None
         swaps = (False, True) if small else (False,)
         replies = pool.run([("pack", (_pack_input(meshes, proxies, swap), size, padding)) for swap in swaps])
-        for swap, (ok, value) in zip(swaps, replies, strict=True):
+        for ok, value in replies:
             if not ok:
                 raise _XatlasFailed(f"{_describe(value, deadline)} while packing")
             uvs = _placed(meshes, proxies, value)

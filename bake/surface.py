@@ -73,10 +73,11 @@ class SurfaceMap:
         self._dpdx = np.clip(dpdu / width, -_MAX_FOOTPRINT, _MAX_FOOTPRINT)
         self._dpdy = np.clip(-dpdv / height, -_MAX_FOOTPRINT, _MAX_FOOTPRINT)
         # (m, 3, 3) corner normals, only when asked for (shading and transfer rays need them)
+        self._vn: np.ndarray | None = None
         if isinstance(normals, np.ndarray):
             self._vn = np.asarray(normals, dtype=np.float64).reshape(len(faces), 3, 3)
-        else:
-            self._vn = vertex_normals(vertices, faces)[faces] if normals else None
+        elif normals:
+            self._vn = vertex_normals(vertices, faces)[faces]
         self._frame = frame
 
     def samples(self, face: np.ndarray, bary: np.ndarray) -> SurfaceSamples:
