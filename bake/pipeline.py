@@ -165,7 +165,7 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
                           source=None if src is None else (src.vertices, src.faces), reach=reach,
                           frame=None if tangents is None else (corner_normals, tangents[faces]))
     report_progress(0.3)
-    cast, transfer_missed = _bake_tiles(sampler, maps, quality, settings.seed, timer, workers, tile_samples,
+    cast, rays, transfer_missed = _bake_tiles(sampler, maps, quality, settings.seed, timer, workers, tile_samples,
                                         lambda done: report_progress(0.3 + 0.6 * done))
     covered = maps.hits > 0
     with timer.stage("estimate"):
@@ -177,7 +177,7 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
     if settings.frames is not None:
         images["flipbook"] = flipbook([images[name] for name in maps.colours])
 
-    counts = {"cast": int(cast), "transfer_missed": int(transfer_missed), "hits": int(maps.hits.sum(dtype=np.int64))}
+    counts = {"cast": int(cast), "rays": int(rays), "transfer_missed": int(transfer_missed), "hits": int(maps.hits.sum(dtype=np.int64))}
     source_info = None if src is None else {"path": src.path, "sha256": src.sha256, "faces": int(len(src.faces)), "cage": reach}
     report = bake_report(mesh, (lo, hi), source_info, settings, quality, atlas, covered, filled, counts, error_estimate,
                          timer.seconds)
@@ -190,7 +190,8 @@ def _bake_tiles(sampler: Sampler, maps: Maps, quality, seed: int, timer: Timer, 
                 progress: Callable[[float], None]) -> np.ndarray:
     """Bake the image in row tiles of about ``tile_samples`` samples into ``maps``.
 
-    Returns ``[rays cast, transfer rays that missed]`` summed over the tiles. Tiles run in
+    Returns ``[samples looked up, lookup rays cast, transfer rays that missed]`` summed
+    over the tiles. Tiles run in
     threads: Embree holds the GIL, numpy mostly does not, so the stages of two tiles
     overlap; each tile writes its own rows.
     """
@@ -203,16 +204,16 @@ def _bake_tiles(sampler: Sampler, maps: Maps, quality, seed: int, timer: Timer, 
         with timer.stage("lookup"):
             texels = sampler.candidates(tile)
             uvs = sample_uv(tile, texels, width, height, offsets)
-        s = sampler.at(uvs, timer)
+        s = sampler.at(uvs, timer, quality.samples)
         values = maps.values(s, timer)
         texel = texels[s.index // quality.samples]
         with timer.stage("accumulate"):
             maps.accumulate(tile, texel, values)
         progress(next(finished) / len(tile_list))
-        return np.array([len(uvs), s.transfer_missed])
+        return np.array([len(uvs), s.rays, s.transfer_missed])
 
     with timer.stage("tiles (wall)"), ThreadPoolExecutor(max(1, workers)) as pool:
-        return sum(pool.map(bake_tile, tile_list), np.zeros(2))
+        return sum(pool.map(bake_tile, tile_list), np.zeros(3))
 
 
 def _estimate(sampler: Sampler, maps: Maps, mapping: TextureMapping, covered, quality, seed: int) -> dict:

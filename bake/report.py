@@ -37,8 +37,8 @@ def bake_report(mesh, bounds, source: dict | None, settings, quality, atlas, cov
     ``mesh``: the ``LoadedMesh``; ``bounds``: its ``(lo, hi)``; ``source``: what was
     transferred from, or None; ``settings``: the ``BakeSettings``; ``quality``: their
     resolved ``Quality``; ``atlas``: the ``Atlas``; ``covered``, ``filled``: ``(h, w)``
-    bool texels covered by the atlas and by the margin; ``counts``: rays ``cast``,
-    ``transfer_missed`` and sample ``hits``; ``seconds``: per stage.
+    bool texels covered by the atlas and by the margin; ``counts``: samples ``cast``
+    (looked up), lookup ``rays``, ``transfer_missed`` and sample ``hits``; ``seconds``: per stage.
     """
     width, height = settings.width_height
     skipped = []
@@ -88,7 +88,8 @@ def bake_report(mesh, bounds, source: dict | None, settings, quality, atlas, cov
         },
         "rays": {
             "texel_samples": width * height * quality.samples,
-            "cast": counts["cast"],  # rays for the samples of texels that some face's UV box touches
+            "cast": counts["cast"],  # samples of texels that some face's UV box touches, looked up
+            "lookup_rays": counts["rays"],  # of them: a texel's first sample, and those off its face
             "missed": counts["cast"] - counts["hits"] - counts["transfer_missed"],
             "missed_inside_atlas": int(inner.sum()),
             "transfer_missed": counts["transfer_missed"],
