@@ -60,6 +60,7 @@ class Atlas:
     reason: str  # why this method (and what failed before it)
     stats: dict = field(default_factory=dict)  # charts, utilisation, stretch, overlap, seconds
     warnings: list[str] = field(default_factory=list)  # what a user should know of this atlas
+    cached: bool = False  # taken from a cache of an earlier bake (bake.cache), not made now
 
 
 # -- checks and statistics ---------------------------------------------------------

@@ -21,9 +21,11 @@ from pathlib import Path
 
 import numpy as np
 
+from . import __version__
 from . import estimate as estimate_stage
 from . import margin as margin_stage
-from .atlas import make_atlas
+from .atlas import Atlas, make_atlas
+from .cache import AtlasCache, atlas_key
 from .errors import ParameterError
 from .load import LoadedMesh, load_mesh, mesh_from_trimesh
 from .maps import Maps
@@ -112,7 +114,8 @@ def as_mesh(mesh_or_path, max_faces: int, what: str) -> LoadedMesh:
 
 
 def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *, source=None, workers: int = 2,
-              progress: Callable[[float], None] | None = None, tile_samples: int = 1 << 20, **options) -> BakeResult:
+              progress: Callable[[float], None] | None = None, tile_samples: int = 1 << 20,
+              cache: str | Path | AtlasCache | None = None, **options) -> BakeResult:
     """Bake a solid texture into the UV atlas of a mesh.
 
     Parameters
@@ -132,6 +135,9 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
         each tile and the margin), from the calling thread or a tile thread.
     tile_samples : int
         Samples a tile: bounds the memory of the lookup.
+    cache : folder or ``bake.cache.AtlasCache``, optional
+        Where atlases are kept for later bakes: the same mesh at the same atlas settings
+        (``uv``, size, ``charting``) then skips the unwrap (``report["atlas"]["cached"]``).
 
     The report's ``error_estimate`` estimates the RMSE of the colour map against the
     converged texel means (see ``bake.estimate``).
@@ -148,8 +154,7 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
         src = None if source is None else as_mesh(source, settings.max_faces, "source")
     report_progress(0.05)
     with timer.stage("atlas"):
-        atlas = make_atlas(mesh.vertices, mesh.faces, mesh.uv, mode=settings.uv, size=max(width, height),
-                           deadline=settings.unwrap_deadline, workers=workers, charting=settings.charting)
+        atlas = _atlas(mesh, settings, max(width, height), workers, cache)
     lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
     mapping = TextureMapping.for_mesh(lo, hi, settings.texture_space, quality.precision)
     reach = settings.cage if settings.cage is not None else 0.05 * float(np.linalg.norm(hi - lo))
@@ -184,6 +189,25 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
     baked = BakedMesh(out_vertices, faces, out_uv, mesh.name, normals, tangents)
     report_progress(1.0)
     return BakeResult(images, covered, filled, baked, report, settings)
+
+
+def _atlas(mesh: LoadedMesh, settings: BakeSettings, size: int, workers: int, cache) -> Atlas:
+    """The mesh's atlas: from ``cache`` (a folder or an ``AtlasCache``) when an earlier
+    bake left it there, else made (and left there)."""
+    def make() -> Atlas:
+        return make_atlas(mesh.vertices, mesh.faces, mesh.uv, mode=settings.uv, size=size,
+                          deadline=settings.unwrap_deadline, workers=workers, charting=settings.charting)
+
+    if cache is None:
+        return make()
+    store = cache if isinstance(cache, AtlasCache) else AtlasCache(cache)
+    key = atlas_key(mesh.sha256, settings.uv, size, settings.charting, __version__)
+    found = store.get(key)
+    if found is not None and found.faces.shape == mesh.faces.shape and found.vmapping.max() < len(mesh.vertices):
+        return found
+    atlas = make()
+    store.put(key, atlas)
+    return atlas
 
 
 def _bake_tiles(sampler: Sampler, maps: Maps, quality, seed: int, timer: Timer, workers: int, tile_samples: int,

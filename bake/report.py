@@ -44,7 +44,9 @@ def bake_report(mesh, bounds, source: dict | None, settings, quality, atlas, cov
     skipped = []
     if source is None:
         skipped.append({"stage": "transfer", "why": "no source mesh given"})
-    if atlas.method == "kept":
+    if atlas.cached:
+        skipped.append({"stage": "unwrap", "why": f"the atlas of an earlier bake of this mesh, from the cache ({atlas.reason})"})
+    elif atlas.method == "kept":
         skipped.append({"stage": "unwrap", "why": atlas.reason})
     # Texels that no sample hit although their four neighbours are covered: cracks.
     inner = np.zeros_like(covered)
@@ -79,7 +81,7 @@ def bake_report(mesh, bounds, source: dict | None, settings, quality, atlas, cov
             "bump": None if settings.bump is None else {"texture": settings.bump.model_dump(mode="json"), "strength": settings.bump_strength},
             "frames": settings.frames,
         },
-        "atlas": {"method": atlas.method, "reason": atlas.reason, **atlas.stats},
+        "atlas": {"method": atlas.method, "reason": atlas.reason, "cached": atlas.cached, **atlas.stats},
         "texels": {
             "total": width * height,
             "covered": int(covered.sum()),

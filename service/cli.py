@@ -85,8 +85,9 @@ def worker(workers: int | None = typer.Option(None, help="bakes at a time (defau
     stop = threading.Event()
     threading.Thread(target=reap_forever, args=(stop, count), daemon=True).start()  # re-queue dead workers' jobs
     try:  # threads are enough: each bake runs in its own child process
-        queue().huey.create_consumer(workers=count, worker_type="thread", periodic=True,
-                             graceful_signal="TERM", shutdown_timeout=settings.stop_seconds).run()
+        # an idle worker looks for work at least every second (huey's default backs off to 10 s)
+        queue().huey.create_consumer(workers=count, worker_type="thread", periodic=True, initial_delay=0.05, max_delay=1.0,
+                                     graceful_signal="TERM", shutdown_timeout=settings.stop_seconds).run()
     finally:
         stop.set()
         returned = hand_back()

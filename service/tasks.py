@@ -88,7 +88,8 @@ def _new_bake_process(s: Settings) -> Worker:
     folder = s.data_dir / "workers"
     folder.mkdir(parents=True, exist_ok=True)
     # its stderr is the worker's: tracebacks of bugs land in the worker's log
-    return Worker([sys.executable, "-m", "service.bakejob", str(s.job_memory_mb)], str(folder), stderr=None)
+    return Worker([sys.executable, "-m", "service.bakejob", str(s.job_memory_mb), str(s.data_dir / "cache")], str(folder),
+                  stderr=None)
 
 
 def prestart(count: int) -> None:

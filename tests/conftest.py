@@ -8,6 +8,7 @@ import socket
 import struct
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -21,6 +22,8 @@ MESHES = SHARED / "meshes"
 
 def pytest_configure(config):
     config.addinivalue_line("markers", "xatlas_failure: relies on a real xatlas failure (a hang or a crash a new xatlas may fix)")
+    # the command line keeps atlases for later bakes: in a folder of this run, not the user's
+    os.environ["TEXBAKE_CACHE"] = tempfile.mkdtemp(prefix="texbake-test-cache-")
 
 
 @pytest.fixture(scope="session")

@@ -49,6 +49,11 @@ def test_upload_bake_download(server, meshes, tmp_path):
     # the same upload with the same settings is the same job
     again = upload(url, meshes / "bunny.ply", {"texture": "marble", "size": 256})
     assert again.status_code == 200 and again.json()["id"] == job["id"]
+    # the same mesh with another texture is another job, on the atlas the first one made
+    wood = wait(url, upload(url, meshes / "bunny.ply", {"texture": "wood", "size": 256}).json()["id"])
+    assert wood["state"] == "done" and wood["id"] != job["id"], wood["error"]
+    assert job["report"]["atlas"]["cached"] is False and wood["report"]["atlas"]["cached"] is True
+    assert any(s["stage"] == "unwrap" and "cache" in s["why"] for s in wood["report"]["skipped"])
 
 
 def test_a_normal_map_and_a_flame_sequence_over_http(server, meshes):
