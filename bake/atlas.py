@@ -28,7 +28,7 @@ import numpy as np
 
 from .charts import planar_charts, prefer_planar
 from .errors import AtlasError, ParameterError
-from .uvcoverage import covering_faces, overlap
+from .uvcoverage import coverage, covering_faces, overlap_of
 from .uvgeometry import areas, uv_areas, uv_jacobian
 from .workers import Pool
 
@@ -579,14 +579,17 @@ def make_atlas(
     if not np.isfinite(vertices[np.unique(faces)]).all():
         raise AtlasError("the mesh's vertices are not finite")
 
-    def stats_of(vm, fa, u):
+    grid = min(size, OVERLAP_GRID)
+
+    def stats_of(vm, fa, u, raster=None):  # raster: coverage(u, fa, grid), when known
         s = atlas_stats(vertices, faces, fa, u)
-        s["overlap"], _ = overlap(u, fa, min(size, OVERLAP_GRID))
+        counts, covering = raster if raster is not None else coverage(u, fa, grid)
+        s["overlap"], _ = overlap_of(counts)
         s["bare_area"] = None
         if size <= 8192:  # the surface on charts that hold no texel centre: their texels are all margin
             a3, chart = areas(vertices, faces), chart_labels(fa, len(u))
             held = np.zeros(chart.max() + 1, dtype=bool)
-            held[chart[covering_faces(u, fa, size)]] = True
+            held[chart[covering if grid == size else covering_faces(u, fa, size)]] = True
             s["bare_area"] = float(a3[~held[chart]].sum() / max(a3.sum(), 1e-300))
         s["seconds"] = time.perf_counter() - start
         return s
@@ -600,9 +603,10 @@ def make_atlas(
 
     if mode != "unwrap":
         problem = uv_problem(vertices, faces, uv)
-        overlapping = None
+        overlapping = raster = None
         if problem is None:  # inside the tile and not degenerate: do faces share texels?
-            share, most = overlap(np.asarray(uv, dtype=np.float64), faces, min(size, OVERLAP_GRID))
+            raster = coverage(np.asarray(uv, dtype=np.float64), faces, grid)
+            share, most = overlap_of(raster[0])
             if share > OVERLAP_LIMIT:
                 overlapping = (f"the mesh's UVs overlap: {share:.1%} of the covered texels lie under two or more "
                                f"faces (up to {most})")
@@ -611,7 +615,7 @@ def make_atlas(
             vm = np.arange(len(vertices), dtype=np.int64)
             reason = "the mesh's UVs are usable" if overlapping is None else "uv='keep'"
             warnings = [] if overlapping is None else [f"{overlapping}: those texels show one face's texture on all of them"]
-            stats = stats_of(vm, faces, uv)
+            stats = stats_of(vm, faces, uv, raster)
             return Atlas(vm, faces, uv, "kept", reason, stats, warnings + bare_warning(stats))
         if mode == "keep":
             raise AtlasError(f"uv='keep' but {problem}")
