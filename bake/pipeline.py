@@ -54,8 +54,8 @@ class BakedMesh:
 class BakeResult:
     """What a bake made: images as arrays, the mesh with its atlas, and the report."""
 
-    images: dict[str, np.ndarray]  # name -> (h, w, 3) float32 linear, row 0 at the top:
-    # albedo (or albedo_0000... and flipbook), lit, normal (encoded 0.5 + 0.5 n: data)
+    images: dict[str, np.ndarray]  # name -> (h, w, 3) float32 linear, row 0 at the top (float16 over
+    # 8192² texels written as 8 bits: bake.maps): albedo (or albedo_0000... and flipbook), lit, normal (0.5 + 0.5 n: data)
     coverage: np.ndarray  # (h, w) bool: texels covered by the atlas
     margin: np.ndarray  # (h, w) bool: texels filled by the margin
     mesh: BakedMesh

@@ -46,7 +46,7 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
     for name, pixels in result.images.items():
         kind = "data" if name == "normal" else "linear"  # a normal map is not a colour
         written[name] = write_image(folder / f"{name}.{fmt}", pixels, bits=bits, colorspace=kind)
-    written["coverage"] = write_image(folder / "coverage.png", result.coverage[:, :, None].astype("float32"), colorspace="data")
+    written["coverage"] = write_image(folder / "coverage.png", result.coverage[:, :, None], colorspace="data")
 
     # the GLB's textures (glTF embeds PNG or JPEG only: PNG copies of other formats)
     colour = "albedo" if "albedo" in result.images else min(n for n in result.images if n.startswith("albedo_"))
