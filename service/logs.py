@@ -11,7 +11,7 @@ import logging
 from datetime import datetime, timezone
 
 TEXT = "%(asctime)s %(name)s %(levelname)s %(message)s"
-_STANDARD = set(vars(logging.makeLogRecord({}))) | {"message", "asctime", "taskName"}
+_STANDARD = set(vars(logging.makeLogRecord({}))) | {"message", "asctime", "taskName", "color_message"}  # (uvicorn's, with ANSI codes)
 
 
 class JsonFormatter(logging.Formatter):

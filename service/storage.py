@@ -280,7 +280,8 @@ class S3Storage:
     def check(self) -> None:
         import obstore
 
-        self._call("listing", lambda: obstore.list_with_delimiter(self.store, "jobs/"), missing_is_unavailable=True)
+        # a prefix that holds nothing: a cheap answer, and a missing bucket's 404 tells
+        self._call("listing", lambda: obstore.list_with_delimiter(self.store, "readyz/"), missing_is_unavailable=True)
 
 
 @functools.lru_cache

@@ -29,6 +29,7 @@ import signal
 import sys
 import threading
 import time
+from concurrent.futures import ThreadPoolExecutor, TimeoutError
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -145,7 +146,7 @@ def run_bake(job_id: str) -> str:
     state_changed(job_id, "running", f"attempt {job.attempts}, lease {job.lease}")
     storage = get_storage(s)
     try:
-        folder = storage.fetch_input(job_id, job.lease)
+        folder = _beating(job_id, job.lease, lambda: storage.fetch_input(job_id, job.lease))
     except StorageUnavailable as exc:  # hand the job back, uncounted, and try again later
         logger.warning("job %s: cannot fetch its upload (%s): trying again in %g s", job_id, exc, STORE_RETRY_SECONDS)
         with Session() as session:
@@ -172,6 +173,24 @@ def run_bake(job_id: str) -> str:
         shutil.rmtree(folder / tmp, ignore_errors=True)
         (folder / f"progress.{job.lease}").unlink(missing_ok=True)
         storage.done_with(folder)
+
+
+def _beating(job_id: str, token: int, call):
+    """``call()`` (a transfer to or from the object store, which may take a while) in a
+    thread, while this one beats the job's heartbeat: the reaper must not take the job
+    from a bake that is only moving its files."""
+    s = get_settings()
+    with ThreadPoolExecutor(1, thread_name_prefix=f"transfer-{job_id[:8]}") as pool:
+        done = pool.submit(call)
+        while True:
+            try:
+                return done.result(timeout=s.heartbeat_seconds)
+            except TimeoutError:
+                try:
+                    with db.sessions(s.database)() as session:
+                        db.beat(session, job_id, token)
+                except DBAPIError:
+                    pass  # the jobs table is out of reach: the bake's own loop says so
 
 
 def _patiently(what: str, call, seconds: float):
@@ -234,7 +253,7 @@ def _supervise(job_id: str, token: int, folder: Path, tmp: str, worker: Worker) 
                 return "taken"
             report = json.loads((folder / tmp / "report.json").read_text())
             try:
-                _patiently(f"job {job_id}", lambda: get_storage(s).publish(job_id, token, folder / tmp), wait)
+                _patiently(f"job {job_id}", lambda: _beating(job_id, token, lambda: get_storage(s).publish(job_id, token, folder / tmp)), wait)
             except StorageUnavailable as exc:
                 error = f"its outputs could not be stored: {exc}"
             if error is None:

@@ -3,8 +3,11 @@ server on 127.0.0.1: the two storages through one interface, then the API and a 
 as separate processes with separate data folders (no shared folder), and a store that is
 missing or down (503 with Retry-After, never a 500)."""
 
+import contextlib
 import io
 import json
+import socket
+import threading
 import time
 import zipfile
 from pathlib import Path
@@ -192,3 +195,65 @@ def test_a_missing_bucket_is_a_503_not_a_500(own_s3, tmp_path, meshes):
         assert httpx.get(f"{url}/readyz", timeout=10).json()["storage"] == "unavailable"
     finally:
         stop(api)
+
+
+class SlowUploads:
+    """A TCP proxy on 127.0.0.1 to ``port`` that passes what its clients send at ``rate``
+    bytes a second (what they receive at full speed): a slow link to the store."""
+
+    def __init__(self, port: int, rate: float):
+        self.target, self.rate = port, rate
+        self.server = socket.create_server(("127.0.0.1", 0))
+        self.port = self.server.getsockname()[1]
+        self.sockets: list[socket.socket] = []
+        threading.Thread(target=self._accept, daemon=True).start()
+
+    def _accept(self):
+        while True:
+            try:
+                client, _ = self.server.accept()
+            except OSError:  # closed
+                return
+            upstream = socket.create_connection(("127.0.0.1", self.target))
+            self.sockets += [client, upstream]
+            threading.Thread(target=self._pipe, args=(client, upstream, self.rate), daemon=True).start()
+            threading.Thread(target=self._pipe, args=(upstream, client, None), daemon=True).start()
+
+    @staticmethod
+    def _pipe(source, to, rate):
+        with contextlib.suppress(OSError):
+            while data := source.recv(8192):
+                to.sendall(data)
+                if rate:
+                    time.sleep(len(data) / rate)
+        for end in (source, to):
+            with contextlib.suppress(OSError):
+                end.shutdown(socket.SHUT_RDWR)
+
+    def close(self):
+        for sock in [self.server, *self.sockets]:
+            sock.close()
+
+
+def test_a_slow_publish_keeps_its_lease(own_s3, tmp_path, meshes):
+    """The outputs take longer to upload than a heartbeat may go stale (5 s here): the
+    heartbeat goes on meanwhile, so the reaper leaves the job to its bake (baked once)."""
+    own_s3.client().create_bucket(Bucket=BUCKET)
+    slow = SlowUploads(own_s3.port, rate=50_000)  # bunny's 0.5 MB of outputs at 256²: about 10 s
+    env = {**own_s3.env, "BAKE_STORAGE_URL": f"s3://{BUCKET}/slow"}
+    port = free_port()
+    api = start(["serve", "--port", str(port), "--workers", "0"], tmp_path, env, port=port)
+    worker = start(["worker", "--workers", "1"], tmp_path, {**env, "BAKE_S3_ENDPOINT": f"http://127.0.0.1:{slow.port}"})
+    url = f"http://127.0.0.1:{port}"
+    try:
+        job_id = upload(url, meshes / "bunny.ply", {"size": 256}).json()["id"]
+        wait(url, job_id, states=("running",), timeout=60)
+        began = time.monotonic()
+        job = wait(url, job_id, timeout=120)
+        assert job["state"] == "done" and job["attempts"] == 1, job
+        assert time.monotonic() - began > 8  # the upload was slow indeed
+        assert "stopped answering" not in Path(api.log.name).read_text() + Path(worker.log.name).read_text()
+    finally:
+        stop(worker)
+        stop(api)
+        slow.close()
