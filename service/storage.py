@@ -179,7 +179,7 @@ class S3Storage:
         try:
             return call()
         except (NotFoundError, FileNotFoundError) as exc:
-            if missing_is_unavailable:  # a write: the bucket is missing
+            if missing_is_unavailable:  # a write or a listing: the bucket is missing
                 raise StorageUnavailable(f"{what}: {self.url}: the bucket or prefix does not exist") from exc
             raise StorageMissing(f"{what}: not in {self.url}") from exc
         except (BaseError, OSError) as exc:
@@ -193,7 +193,9 @@ class S3Storage:
     def _list(self, prefix: str) -> list[dict]:
         import obstore
 
-        return self._call(f"listing {prefix}", lambda: [m for batch in obstore.list(self.store, prefix) for m in batch])
+        # a listing finds nothing rather than fail: its 404 is the bucket's
+        return self._call(f"listing {prefix}", lambda: [m for batch in obstore.list(self.store, prefix) for m in batch],
+                          missing_is_unavailable=True)
 
     def _delete(self, keys: list[str]) -> None:
         import obstore
@@ -224,10 +226,11 @@ class S3Storage:
         folder.mkdir(parents=True)
         try:
             job = json.loads(b"".join(self._open(f"jobs/{job_id}/job.json")))
-            with open(folder / job["mesh"], "wb") as f:
-                for chunk in self._open(f"jobs/{job_id}/{job['mesh']}"):
+            name = Path(job["mesh"]).name  # (the API's own name: never a path out of the folder)
+            with open(folder / name, "wb") as f:
+                for chunk in self._open(f"jobs/{job_id}/{name}"):
                     f.write(chunk)
-            (folder / "job.json").write_text(json.dumps(job))
+            (folder / "job.json").write_text(json.dumps({**job, "mesh": name}))
         except BaseException:
             shutil.rmtree(folder, ignore_errors=True)
             raise
@@ -262,13 +265,13 @@ class S3Storage:
             objects.setdefault(m["path"].split("/")[1], []).append(m)
         gone: list[str] = []
         for job_id, found in sorted(objects.items()):
-            if job_id not in jobs:
-                stale = found if max(m["last_modified"].timestamp() for m in found) < older_than else []
-            else:
+            if job_id not in jobs:  # every object of a job without a row, once its newest is old
+                if max(m["last_modified"].timestamp() for m in found) < older_than:
+                    gone += [m["path"] for m in found]
+            elif jobs[job_id] is not None:  # a finished job's outputs of another lease than the one it published
                 keep = f"jobs/{job_id}/out.{jobs[job_id]}/"
-                stale = [m for m in found if jobs[job_id] is not None and m["path"].split("/")[2].startswith("out.")
-                         and not m["path"].startswith(keep) and m["last_modified"].timestamp() < older_than]
-            gone += [m["path"] for m in stale]
+                gone += [m["path"] for m in found if m["path"].split("/")[2].startswith("out.") and not m["path"].startswith(keep)
+                         and m["last_modified"].timestamp() < older_than]
         self._delete(gone)
         if self.work.is_dir():  # a bake's copy that its worker did not live to remove
             for folder in sorted(self.work.iterdir()):
