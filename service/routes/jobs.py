@@ -3,17 +3,16 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import json
 import logging
-import shutil
 import uuid
-import zipfile
 from pathlib import Path
 from typing import Annotated
 
 from fastapi import APIRouter, File, Form, HTTPException, Query, Request, Response, UploadFile
-from fastapi.responses import FileResponse
+from fastapi.responses import StreamingResponse
 from pydantic import Json
 from sqlalchemy import func, select, true
 
@@ -21,9 +20,10 @@ from bake.errors import MeshError
 from bake.load import FORMATS, check_file
 
 from .. import db
-from ..deps import ClientDep, JobDep, SessionDep, SettingsDep
+from ..deps import ClientDep, JobDep, SessionDep, SettingsDep, StorageDep
 from ..schemas import BakeSettings, JobOut, JobPage
 from ..settings import get_settings
+from ..storage import Storage, get_storage, zip_stream
 from ..tasks import enqueue_bake, state_changed
 
 router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
@@ -39,8 +39,7 @@ def job_url(job_id: str, request: Request) -> str:
 
 
 def _out(job: db.Job, request: Request) -> JobOut:
-    out = get_settings().job_dir(job.id) / "out"
-    files = sorted(p.name for p in out.iterdir()) if job.state == "done" and out.is_dir() else []
+    files = sorted(get_storage().outputs(job.id, job.lease)) if job.state == "done" else []
     data = job.as_dict()
     warnings = (data["report"] or {}).get("warnings", [])
     return JobOut(url=job_url(job.id, request), files=files, warnings=warnings, **data)
@@ -101,7 +100,7 @@ def _resolved(options: dict) -> dict:
 
 @router.post("", status_code=202, response_model=JobOut)
 def create_job(
-    request: Request, response: Response, session: SessionDep, settings: SettingsDep, client: ClientDep,
+    request: Request, response: Response, session: SessionDep, settings: SettingsDep, client: ClientDep, storage: StorageDep,
     mesh: Annotated[UploadFile, File(description="OBJ, PLY, STL, OFF, glTF or GLB")],
     bake_settings: Annotated[Json[BakeSettings] | None, Form(alias="settings", description="BakeSettings as JSON (default: all defaults)")] = None,
 ):
@@ -125,21 +124,18 @@ def create_job(
         digest.update(json.dumps(_resolved(options), sort_keys=True).encode())
         if settings.api_keys:  # with keys, each client has its own jobs
             digest.update(client.encode())
-        # the folder first, the row second: a job in the table always has its upload
+        # the upload first, the row second: a job in the table always has its upload
         job_id = uuid.uuid4().hex
-        folder = settings.job_dir(job_id)
-        folder.mkdir(parents=True)
         name = _safe_stem(mesh.filename) + suffix  # outputs are named after it
-        shutil.move(tmp, folder / name)
-        (folder / "job.json").write_text(json.dumps({"mesh": name, "settings": options}))
+        storage.save_input(job_id, tmp, name, {"mesh": name, "settings": options})
         try:
             job, created = db.create_job(session, job_id=job_id, key=digest.hexdigest(), client=client,
                                          mesh_name=mesh.filename or "mesh", settings=options)
         except BaseException:
-            shutil.rmtree(folder, ignore_errors=True)
+            storage.delete(job_id)
             raise
         if not created:  # the same upload's job exists already
-            shutil.rmtree(folder, ignore_errors=True)
+            storage.delete(job_id)
         if created:
             state_changed(job.id, "queued", f"{name}, client {client}")
             try:
@@ -179,45 +175,24 @@ def cancel_job(job: JobDep, session: SessionDep, request: Request):
     return _out(job, request)
 
 
-def _outputs(job: db.Job) -> Path:
-    out = get_settings().job_dir(job.id) / "out"
-    if job.state != "done" or not out.is_dir():
+def _outputs(job: db.Job, storage: Storage) -> dict[str, int]:
+    files = storage.outputs(job.id, job.lease) if job.state == "done" else {}
+    if not files:
         raise HTTPException(409, detail=f"job {job.id} is {job.state}: no outputs yet")
-    return out
+    return files
 
 
 @router.get("/{job_id}/files/{name}")
-def get_file(job: JobDep, name: str):
-    out = _outputs(job)
-    files = {p.name: p for p in out.iterdir() if p.is_file()}
+def get_file(job: JobDep, name: str, storage: StorageDep):
+    files = _outputs(job, storage)
     if name not in files:  # names are matched, never joined: no path traversal
         raise HTTPException(404, detail=f"job {job.id} has no file {name!r} (has: {', '.join(sorted(files))})")
-    return FileResponse(files[name], filename=name)
-
-
-# already compressed: stored as they are (deflating them again takes seconds per 100 MB and saves nothing)
-_STORED = {".png", ".jpg", ".jpeg", ".exr", ".zip", ".gz", ".ktx2"}
-
-
-def _result_zip(out: Path) -> Path:
-    """The job's ``result.zip`` beside ``out``, written once (to a temporary file, then
-    renamed) and served from disk; publishing a new ``out`` removes it."""
-    target = out.parent / "result.zip"
-    if target.is_file():
-        return target
-    tmp = out.parent / f"result.zip.{uuid.uuid4().hex}.tmp"
-    try:
-        with zipfile.ZipFile(tmp, "w") as z:
-            for p in sorted(out.iterdir()):
-                stored = p.suffix.lower() in _STORED
-                z.write(p, p.name, compress_type=zipfile.ZIP_STORED if stored else zipfile.ZIP_DEFLATED, compresslevel=None if stored else 1)
-        tmp.replace(target)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return target
+    return storage.file_response(job.id, job.lease, name, files[name])
 
 
 @router.get("/{job_id}/result.zip")
-def get_zip(job: JobDep):
-    """Every output in one zip, streamed from a file on disk (constant memory, any size)."""
-    return FileResponse(_result_zip(_outputs(job)), media_type="application/zip", filename=f"{job.id}.zip")
+def get_zip(job: JobDep, storage: StorageDep):
+    """Every output in one zip, written as it is sent (constant memory, any size)."""
+    members = [(name, size, functools.partial(storage.read, job.id, job.lease, name)) for name, size in sorted(_outputs(job, storage).items())]
+    return StreamingResponse(zip_stream(members), media_type="application/zip",
+                             headers={"Content-Disposition": f'attachment; filename="{job.id}.zip"'})
