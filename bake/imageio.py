@@ -228,15 +228,20 @@ def encode_png_bytes(pixels, bits: int = 8, *, colorspace: str = "linear") -> by
 
 
 def _verify(tmp: Path, digests: list[int], shape: tuple[int, int, int], dtype, fmt: str) -> None:
-    """Read a written file back in full, a band at a time; raise OutputError unless each
-    band of ``shape`` pixels of ``dtype`` has the CRC-32 in ``digests`` it was written with."""
+    """Check a written file; raise OutputError unless it is whole.
+
+    A PNG by its chunks' CRCs and its compressed stream, which must inflate (adler-32
+    checked) to exactly ``shape``'s rows of ``dtype`` (libpng reads a PNG whole, which for
+    a 16384² map is 0.8 GB more). Others read back a band at a time: each band of ``shape``
+    pixels of ``dtype`` must have the CRC-32 in ``digests`` it was written with."""
     import OpenImageIO as oiio
 
-    if fmt == "png":
-        _check_png_chunks(tmp)
-    elif fmt == "tif":
-        _check_tiff_layout(tmp)
     h, w, c = shape
+    if fmt == "png":
+        _check_png_chunks(tmp, h * (1 + w * c * np.dtype(dtype).itemsize))
+        return
+    if fmt == "tif":
+        _check_tiff_layout(tmp)
     inp = _open(tmp)
     if inp is None:
         raise OutputError(f"{tmp}: cannot be read back: {oiio.geterror() or 'unknown error'}")
@@ -255,14 +260,17 @@ def _verify(tmp: Path, digests: list[int], shape: tuple[int, int, int], dtype, f
         inp.close()
 
 
-def _check_png_chunks(path: Path) -> None:
-    """Walk a PNG's chunks: each whole with a right CRC, IEND last at the end of the file.
+def _check_png_chunks(path: Path, raw_bytes: int) -> None:
+    """Walk a PNG's chunks: each whole with a right CRC, IEND last at the end of the file,
+    and the IDAT stream inflating to ``raw_bytes`` (rows with their filter bytes), in
+    pieces: the image is never held whole.
 
     libpng reads the pixels of a PNG cut short after its last IDAT without an error.
     """
     data = path.read_bytes()
     if not data.startswith(_PNG_SIGNATURE):
         raise OutputError(f"{path}: not a PNG file (truncated?)")
+    inflate, inflated = zlib.decompressobj(), 0
     p = len(_PNG_SIGNATURE)
     while True:
         if p + 12 > len(data):
@@ -274,11 +282,21 @@ def _check_png_chunks(path: Path) -> None:
         crc = struct.unpack_from(">I", data, end - 4)[0]
         if zlib.crc32(data[p + 4 : end - 4]) != crc:
             raise OutputError(f"{path}: corrupt PNG ({kind.decode('latin-1')} chunk CRC)")
+        if kind == b"IDAT":
+            try:
+                piece = data[p + 8 : end - 4]
+                while piece:
+                    inflated += len(inflate.decompress(piece, 1 << 24))
+                    piece = inflate.unconsumed_tail
+            except zlib.error as exc:
+                raise OutputError(f"{path}: corrupt PNG pixel data ({exc})") from None
         p = end
         if kind == b"IEND":
             break
     if p != len(data):
         raise OutputError(f"{path}: {len(data) - p} stray bytes after the PNG's end")
+    if not inflate.eof or inflated != raw_bytes:
+        raise OutputError(f"{path}: the PNG's pixel data is {inflated} bytes, not {raw_bytes} (disk full?)")
 
 
 _TIFF_TYPE_SIZE = {1: 1, 2: 1, 3: 2, 4: 4, 5: 8, 6: 1, 7: 1, 8: 2, 9: 4, 10: 8, 11: 4, 12: 8, 13: 4}

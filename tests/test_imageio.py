@@ -239,6 +239,35 @@ def test_truncated_file_is_caught(tmp_path, monkeypatch, name, keep):
     assert os.listdir(tmp_path) == [name] and (tmp_path / name).read_bytes() == before  # untouched
 
 
+def test_a_png_whose_pixel_data_is_short_is_caught(tmp_path, monkeypatch):
+    """Failure injection: a PNG whose chunks are all sound (CRCs right) but whose pixel
+    stream lacks its last row: caught without decoding the image."""
+    import struct
+    import zlib
+
+    real_sync = imageio._sync
+
+    def sync_then_drop_a_row(path):
+        real_sync(path)
+        data, p, chunks = path.read_bytes(), 8, []
+        while p < len(data):  # (kind, body) of every chunk
+            (length,) = struct.unpack_from(">I", data, p)
+            chunks.append((data[p + 4 : p + 8], data[p + 8 : p + 8 + length]))
+            p += 12 + length
+        raw = zlib.decompress(b"".join(body for kind, body in chunks if kind == b"IDAT"))
+        short = zlib.compress(raw[: -(1 + 64 * 3)])  # one row (its filter byte and pixels) less
+        first = next(i for i, (kind, _) in enumerate(chunks) if kind == b"IDAT")
+        chunks = [c for c in chunks if c[0] != b"IDAT"]
+        chunks.insert(first, (b"IDAT", short))
+        path.write_bytes(data[:8] + b"".join(struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+                                             for kind, body in chunks))
+
+    monkeypatch.setattr(imageio, "_sync", sync_then_drop_a_row)
+    with pytest.raises(OutputError, match="pixel data"):
+        write_image(tmp_path / "a.png", ramp(64, 64))
+    assert os.listdir(tmp_path) == []
+
+
 def _mount_tmpfs(where, options):
     where.mkdir()
     r = subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", str(where)], capture_output=True, text=True)
