@@ -56,7 +56,7 @@ _DEFAULT_BITS = {"png": 8, "exr": 16, "tif": 16}
 _EXTENSION = {"png": ".png", "exr": ".exr", "tif": ".tif"}
 _COLORSPACES = {"linear": "linear", "lin_rec709_scene": "linear", "srgb": "srgb", "srgb_rec709_scene": "srgb",
                 "data": "data", "raw": "data"}
-_BAND = 512  # rows encoded at a time (bounded memory)
+_BAND_TEXELS = 1 << 20  # texels encoded (and checked) at a time: bounded memory, some 50 MB
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 _EXIF_SRGB, _EXIF_UNCALIBRATED = 1, 0xFFFF
 
@@ -107,6 +107,11 @@ def _srgb8(x: np.ndarray) -> np.ndarray:
     table, above, below = _srgb8_tables()
     code = table[(x * np.float32(_LUT_LEVELS - 1) + np.float32(0.5)).astype(np.int32)]
     return (code + (x >= above[code]) - (x < below[code])).astype(np.uint8)
+
+
+def _band_rows(width: int) -> int:
+    """Rows of a band of an image ``width`` texels wide (write and check use the same)."""
+    return max(8, _BAND_TEXELS // max(width, 1))
 
 
 def _stored(fmt: str, bits: int, given: str) -> tuple[type, str]:
@@ -201,8 +206,9 @@ def write_image(path, pixels, *, fmt: str | None = None, bits: int | None = None
         ok = bool(out.open(str(tmp), spec))
         error = out.geterror()
         digests = []  # of each band as written, to check the file against
-        for r in range(0, h, _BAND) if ok else ():  # a band at a time: memory stays bounded
-            data = _encode(pixels[r : r + _BAND], fmt, bits, given)
+        band = _band_rows(w)
+        for r in range(0, h, band) if ok else ():  # a band at a time: memory stays bounded
+            data = _encode(pixels[r : r + band], fmt, bits, given)
             digests.append(zlib.crc32(data.data))
             if not out.write_scanlines(r, r + len(data), 0, data):
                 ok, error = False, out.geterror()
@@ -249,8 +255,9 @@ def _verify(tmp: Path, digests: list[int], shape: tuple[int, int, int], dtype, f
         spec = inp.spec()
         if (spec.height, spec.width, spec.nchannels) != shape:
             raise OutputError(f"{tmp}: reads back as {spec.width}x{spec.height}x{spec.nchannels}, not {w}x{h}x{c} (disk full?)")
-        for band, r in enumerate(range(0, h, _BAND)):
-            back = inp.read_scanlines(0, 0, r, min(h, r + _BAND), 0, 0, c, _typedesc(dtype))
+        rows = _band_rows(w)
+        for band, r in enumerate(range(0, h, rows)):
+            back = inp.read_scanlines(0, 0, r, min(h, r + rows), 0, 0, c, _typedesc(dtype))
             error = inp.geterror()
             if back is None or error:
                 raise OutputError(f"{tmp}: cannot be read back: {error or 'no data'}")
