@@ -5,7 +5,8 @@
 Runs each command below with ``--markdown``, gathers the rows it prints and writes them,
 each with the command that produced it, between the ``<!-- bench:begin -->`` and
 ``<!-- bench:end -->`` markers of README.md. ``--quick`` uses fewer runs and smaller
-workloads (for a check that the table can be made, not for figures to quote).
+workloads (for a check that the table can be made, not for figures to quote);
+``--only a.py,b.py`` re-runs only those benchmarks and keeps the other rows as they are.
 """
 
 from __future__ import annotations
@@ -35,16 +36,22 @@ COMMANDS = [
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--only", help="comma-separated benchmark file names to re-run (the others' rows are kept)")
     args = parser.parse_args()
     text = README.read_text()
     if BEGIN not in text or END not in text:
         raise SystemExit(f"{README}: no {BEGIN} ... {END} markers")
+    only = None if args.only is None else {name.strip() for name in args.only.split(",")}
+    old_rows = text.split(BEGIN, 1)[1].split(END, 1)[0].splitlines()
     lines = ["| figure | texbake | reference or target | command |", "| --- | --- | --- | --- |"]
     for script, quick in COMMANDS:
+        shown = f"`scripts/run python {script}`"
+        if only is not None and Path(script).name not in only:
+            lines += [row for row in old_rows if row.startswith("| ") and row.rstrip().endswith(f"{shown} |")]
+            continue
         command = [sys.executable, script, "--markdown", *(quick if args.quick else [])]
         print("running", " ".join(command[1:]), file=sys.stderr)
         out = subprocess.run(command, cwd=ROOT, check=True, capture_output=True, text=True).stdout
-        shown = f"`scripts/run python {script}`"
         lines += [row.rstrip() + f" {shown} |" for row in out.splitlines() if row.startswith("| ")]
     when = datetime.date.today().isoformat()
     table = "\n".join([f"Measured {when} on this {os.cpu_count()}-core machine" + (" (--quick: not figures to quote)" if args.quick else "")
