@@ -6,6 +6,11 @@ folder the caller names (the library reads no environment: the command line and 
 service choose the folder), so the second bake skips the unwrap and the UV checks, and
 its report says so (``atlas.cached``).
 
+The texel lookup of a bake (which face under which sample: ``samples.Located`` per tile)
+depends only on the atlas, the size, the samples and the seed: an ``AtlasCache`` also
+keeps the most recent lookups in memory (``max_lookup_bytes``), for the next bake in the
+same process (the service's bake processes serve job after job).
+
 The key (:func:`atlas_key`) is the SHA-256 of the mesh's content hash (``LoadedMesh.sha256``),
 the atlas settings (``uv``, the texture's larger side, ``charting``) and texbake's
 version (a new release may chart differently). Files are written under a temporary name
@@ -19,6 +24,8 @@ import hashlib
 import json
 import os
 import tempfile
+import threading
+from collections import OrderedDict
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +33,7 @@ import numpy as np
 from .atlas import Atlas
 
 MAX_BYTES = 1 << 30  # an atlas of a 1M-face mesh is about 60 MB
+MAX_LOOKUP_BYTES = 1 << 28  # lookups kept in memory: one 2048² bake at one sample is about 110 MB
 
 
 def atlas_key(mesh_sha256: str, uv: str, size: int, charting: str, version: str) -> str:
@@ -35,11 +43,34 @@ def atlas_key(mesh_sha256: str, uv: str, size: int, charting: str, version: str)
 
 
 class AtlasCache:
-    """Atlases kept in ``folder`` (made if missing), at most ``max_bytes`` of them."""
+    """Atlases kept in ``folder`` (made if missing), at most ``max_bytes`` of them, and the
+    latest lookups in memory, at most ``max_lookup_bytes``."""
 
-    def __init__(self, folder: str | os.PathLike, max_bytes: int = MAX_BYTES):
+    def __init__(self, folder: str | os.PathLike, max_bytes: int = MAX_BYTES, max_lookup_bytes: int = MAX_LOOKUP_BYTES):
         self.folder = Path(folder)
         self.max_bytes = max_bytes
+        self.max_lookup_bytes = max_lookup_bytes
+        self._lookups: OrderedDict[tuple, list] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def lookups(self, key: tuple) -> list | None:
+        """The per-tile lookups kept under ``key`` (see the module), or None."""
+        with self._lock:
+            found = self._lookups.get(key)
+            if found is not None:
+                self._lookups.move_to_end(key)
+            return found
+
+    def keep_lookups(self, key: tuple, tiles: list) -> None:
+        """Keep a bake's per-tile lookups (``(texels, Located)`` each), dropping the oldest
+        beyond ``max_lookup_bytes``; a bake's that alone is over it is not kept."""
+        size = sum(texels.nbytes + located.nbytes for texels, located in tiles)
+        if size > self.max_lookup_bytes:
+            return
+        with self._lock:
+            self._lookups[key] = tiles
+            while sum(sum(t.nbytes + loc.nbytes for t, loc in v) for v in self._lookups.values()) > self.max_lookup_bytes:
+                self._lookups.popitem(last=False)
 
     def _path(self, key: str) -> Path:
         return self.folder / f"atlas-{key}.npz"

@@ -35,7 +35,7 @@ from .report import bake_report
 from .samples import Sampler
 from .settings import BakeSettings
 from .tangents import vertex_tangents
-from .texels import Tile, sample_offsets, sample_uv, tiles
+from .texels import sample_offsets, sample_uv, tiles
 from .textures.mapping import TextureMapping
 
 
@@ -154,8 +154,9 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
         mesh = as_mesh(mesh_or_path, settings.max_faces, "mesh")
         src = None if source is None else as_mesh(source, settings.max_faces, "source")
     report_progress(0.05)
+    store = None if cache is None else cache if isinstance(cache, AtlasCache) else AtlasCache(cache)
     with timer.stage("atlas"):
-        atlas = _atlas(mesh, settings, max(width, height), workers, cache)
+        atlas, key = _atlas(mesh, settings, max(width, height), workers, store)
     lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
     mapping = TextureMapping.for_mesh(lo, hi, settings.texture_space, quality.precision)
     reach = settings.cage if settings.cage is not None else 0.05 * float(np.linalg.norm(hi - lo))
@@ -171,8 +172,9 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
                           source=None if src is None else (src.vertices, src.faces), reach=reach,
                           frame=None if tangents is None else (corner_normals, tangents[faces]))
     report_progress(0.3)
-    cast, rays, transfer_missed = _bake_tiles(sampler, maps, quality, settings.seed, timer, workers, tile_samples,
-                                        lambda done: report_progress(0.3 + 0.6 * done))
+    lookups = None if store is None else (store, (key, width, height, quality.samples, settings.seed, tile_samples))
+    (cast, rays, transfer_missed), reused = _bake_tiles(sampler, maps, quality, settings.seed, timer, workers, tile_samples,
+                                                        lambda done: report_progress(0.3 + 0.6 * done), lookups)
     covered, hits = maps.hits > 0, int(maps.hits.sum(dtype=np.int64))
     del maps.hits  # the counts are done with; the tiles' freed memory goes back to the system
     _trim_heap()
@@ -185,7 +187,7 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
     if settings.frames is not None:
         images["flipbook"] = flipbook([images[name] for name in maps.colours])
 
-    counts = {"cast": int(cast), "rays": int(rays), "transfer_missed": int(transfer_missed), "hits": hits}
+    counts = {"cast": int(cast), "rays": int(rays), "lookup_reused": reused, "transfer_missed": int(transfer_missed), "hits": hits}
     source_info = None if src is None else {"path": src.path, "sha256": src.sha256, "faces": int(len(src.faces)), "cage": reach}
     report = bake_report(mesh, (lo, hi), source_info, settings, quality, atlas, covered, filled, counts, error_estimate,
                          timer.seconds)
@@ -204,53 +206,58 @@ def _trim_heap() -> None:
         pass
 
 
-def _atlas(mesh: LoadedMesh, settings: BakeSettings, size: int, workers: int, cache) -> Atlas:
-    """The mesh's atlas: from ``cache`` (a folder or an ``AtlasCache``) when an earlier
-    bake left it there, else made (and left there)."""
-    def make() -> Atlas:
-        return make_atlas(mesh.vertices, mesh.faces, mesh.uv, mode=settings.uv, size=size,
-                          deadline=settings.unwrap_deadline, workers=workers, charting=settings.charting)
-
-    if cache is None:
-        return make()
-    store = cache if isinstance(cache, AtlasCache) else AtlasCache(cache)
+def _atlas(mesh: LoadedMesh, settings: BakeSettings, size: int, workers: int, store: AtlasCache | None) -> tuple[Atlas, str]:
+    """``(atlas, its cache key)``: from ``store`` when an earlier bake left it there, else
+    made (and left there)."""
     key = atlas_key(mesh.sha256, settings.uv, size, settings.charting, __version__)
-    found = store.get(key)
+    found = None if store is None else store.get(key)
     if found is not None and found.faces.shape == mesh.faces.shape and found.vmapping.max() < len(mesh.vertices):
-        return found
-    atlas = make()
-    store.put(key, atlas)
-    return atlas
+        return found, key
+    atlas = make_atlas(mesh.vertices, mesh.faces, mesh.uv, mode=settings.uv, size=size,
+                       deadline=settings.unwrap_deadline, workers=workers, charting=settings.charting)
+    if store is not None:
+        store.put(key, atlas)
+    return atlas, key
 
 
 def _bake_tiles(sampler: Sampler, maps: Maps, quality, seed: int, timer: Timer, workers: int, tile_samples: int,
-                progress: Callable[[float], None]) -> np.ndarray:
+                progress: Callable[[float], None], lookups: tuple[AtlasCache, tuple] | None = None) -> tuple[np.ndarray, bool]:
     """Bake the image in row tiles of about ``tile_samples`` samples into ``maps``.
 
     Returns ``[samples looked up, lookup rays cast, transfer rays that missed]`` summed
-    over the tiles. Tiles run in
-    threads: Embree holds the GIL, numpy mostly does not, so the stages of two tiles
-    overlap; each tile writes its own rows.
+    over the tiles, and whether the lookups came from ``lookups`` (a cache and the key
+    of this bake's lookups; kept there otherwise; then no ray is cast). Tiles run in threads:
+    Embree holds the GIL, numpy mostly does not, so the stages of two tiles overlap;
+    each tile writes its own rows.
     """
     width, height = maps.width, maps.height
     offsets = sample_offsets(quality.samples, seed)
     tile_list = tiles(height, width, quality.samples, tile_samples)
     finished = itertools.count(1)
+    known = None if lookups is None else lookups[0].lookups(lookups[1])
+    made: list = [None] * len(tile_list)
 
-    def bake_tile(tile: Tile) -> np.ndarray:
-        with timer.stage("lookup"):
-            texels = sampler.candidates(tile)
-            uvs = sample_uv(tile, texels, width, height, offsets)
-        s = sampler.at(uvs, timer, quality.samples)
+    def bake_tile(i: int) -> np.ndarray:
+        if known is not None:
+            texels, located = known[i]
+        else:
+            with timer.stage("lookup"):
+                texels = sampler.candidates(tile_list[i])
+                located = sampler.locate(sample_uv(tile_list[i], texels, width, height, offsets), quality.samples)
+            made[i] = texels, located
+        s = sampler.at_located(located, timer)
         values = maps.values(s, timer)
         texel = texels[s.index // quality.samples]
         with timer.stage("accumulate"):
-            maps.accumulate(tile, texel, values)
+            maps.accumulate(tile_list[i], texel, values)
         progress(next(finished) / len(tile_list))
-        return np.array([len(uvs), s.rays, s.transfer_missed])
+        return np.array([located.count, 0 if known is not None else located.rays, s.transfer_missed])
 
     with timer.stage("tiles (wall)"), ThreadPoolExecutor(max(1, workers)) as pool:
-        return sum(pool.map(bake_tile, tile_list), np.zeros(3))
+        counts = sum(pool.map(bake_tile, range(len(tile_list))), np.zeros(3))
+    if lookups is not None and known is None:
+        lookups[0].keep_lookups(lookups[1], made)
+    return counts, known is not None
 
 
 def _estimate(sampler: Sampler, maps: Maps, mapping: TextureMapping, covered, quality, seed: int) -> dict:

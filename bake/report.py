@@ -48,6 +48,8 @@ def bake_report(mesh, bounds, source: dict | None, settings, quality, atlas, cov
         skipped.append({"stage": "unwrap", "why": f"the atlas of an earlier bake of this mesh, from the cache ({atlas.reason})"})
     elif atlas.method == "kept":
         skipped.append({"stage": "unwrap", "why": atlas.reason})
+    if counts.get("lookup_reused"):
+        skipped.append({"stage": "lookup", "why": "the texel lookup of an earlier bake of this atlas at this size, kept in memory"})
     cracks = _cracks(covered)
     lo, hi = bounds
     return {
@@ -89,6 +91,7 @@ def bake_report(mesh, bounds, source: dict | None, settings, quality, atlas, cov
         "rays": {
             "texel_samples": width * height * quality.samples,
             "cast": counts["cast"],  # samples of texels that some face's UV box touches, looked up
+            "lookup_reused": bool(counts.get("lookup_reused", False)),
             "lookup_rays": counts["rays"],  # of them: a texel's first sample, and those off its face
             "missed": counts["cast"] - counts["hits"] - counts["transfer_missed"],
             "missed_inside_atlas": cracks,

@@ -42,6 +42,24 @@ class Samples:
     frame: np.ndarray | None = None
 
 
+@dataclass
+class Located:
+    """Where a batch's UV points lie: ``count`` points, of which those at ``index`` (``(n,)``
+    int64) hit a face: ``face`` ``(n,)``, ``bary`` ``(n, 3)`` float64; ``rays`` cast to
+    find them. It depends on the atlas and the points only: a later bake of the same atlas
+    at the same size and samples may reuse it (``bake.cache``)."""
+
+    index: np.ndarray
+    face: np.ndarray
+    bary: np.ndarray
+    rays: int
+    count: int
+
+    @property
+    def nbytes(self) -> int:
+        return self.index.nbytes + self.face.nbytes + self.bary.nbytes
+
+
 class Sampler:
     """The lookup, surface and transfer stages for one mesh and its atlas.
 
@@ -72,16 +90,26 @@ class Sampler:
         """``(t,)`` indices of the texels of ``tile`` that some face can cover."""
         return self.lookup.candidates(tile, self.width, self.height)
 
+    def locate(self, uvs: np.ndarray, samples: int = 1) -> Located:
+        """The faces under ``(m, 2)`` UV points, ``samples`` a texel in ``sample_uv``'s order
+        (``texels.UVLookup.locate``)."""
+        face, bary, rays = self.lookup.locate(uvs, samples)
+        index = np.flatnonzero(face >= 0)
+        return Located(index, face[index], bary[index], rays, len(uvs))
+
     def at(self, uvs: np.ndarray, timer=None, samples: int = 1) -> Samples:
-        """Surface samples at ``(m, 2)`` UV points, ``samples`` a texel in ``sample_uv``'s
-        order (``texels.UVLookup.locate``); ``timer.stage(name)`` times each stage."""
+        """Surface samples at ``(m, 2)`` UV points (:meth:`locate`, :meth:`at_located`);
+        ``timer.stage(name)`` times each stage."""
+        with (timer.stage("lookup") if timer is not None else nullcontext()):
+            located = self.locate(uvs, samples)
+        return self.at_located(located, timer)
+
+    def at_located(self, located: Located, timer=None) -> Samples:
+        """Surface samples (and, with a source, transferred ones) where ``located`` says."""
         stage = timer.stage if timer is not None else (lambda name: nullcontext())
-        with stage("lookup"):
-            face, bary, rays = self.lookup.locate(uvs, samples)
-            index = np.flatnonzero(face >= 0)
-            face, bary = face[index], bary[index]
+        index, rays = located.index, located.rays
         with stage("surface"):
-            s = self.surface.samples(face, bary)
+            s = self.surface.samples(located.face, located.bary)
         found = Samples(index, s.points, s.normals, s.dpdx, s.dpdy, rays=rays, frame=s.frame)
         if self.caster is None:
             return found

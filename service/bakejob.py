@@ -2,7 +2,8 @@
 job after another (``bake.workers`` protocol), with the baking core imported once.
 
 :func:`setup` caps the process's address space and names the folder of the atlases kept
-for later bakes of the same mesh (``DATA_DIR/cache``, bounded: ``bake.cache``); :func:`run` reads ``JOB_DIR/job.json``
+for later bakes of the same mesh (``DATA_DIR/cache``, bounded: ``bake.cache``; the texel
+lookups of its latest bakes stay in memory for its next jobs); :func:`run` reads ``JOB_DIR/job.json``
 (mesh file name and bake settings), bakes into ``JOB_DIR/out.tmp.LEASE`` (the lease's
 own folder) and returns None, or the reason the bake failed.
 """
@@ -18,11 +19,12 @@ import traceback
 from pathlib import Path
 
 from bake import BakeError, bake_mesh
+from bake.cache import AtlasCache
 from bake.settings import BakeSettings
 from bake.workers import serve
 
 _memory_mb = 0  # this process's address-space limit, set by setup()
-_cache: Path | None = None  # the atlases of earlier bakes on this machine (bake.cache), set by setup()
+_cache: AtlasCache | None = None  # the atlases of earlier bakes on this machine, the lookups of this process's (set by setup())
 _progress_file = "progress"  # of the running bake, set by run()
 
 
@@ -31,7 +33,7 @@ def setup(memory_mb: int, cache: Path | None = None) -> None:
     texture's kernels in the background (a job's first use of a texture otherwise pays
     for it: 0.3-1 s)."""
     global _memory_mb, _cache
-    _memory_mb, _cache = memory_mb, cache
+    _memory_mb, _cache = memory_mb, None if cache is None else AtlasCache(cache)
     limit = memory_mb * 1024 * 1024
     resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
     threading.Thread(target=_warm, daemon=True).start()

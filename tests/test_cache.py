@@ -46,3 +46,21 @@ def test_the_command_line_reuses_atlases_unless_told_not_to(meshes, tmp_path):
     assert json.loads((tmp_path / "b" / "report.json").read_text())["atlas"]["cached"] is True
     r = texbake(*args, "--no-cache", "--out", tmp_path / "c")
     assert json.loads((tmp_path / "c" / "report.json").read_text())["atlas"]["cached"] is False
+
+
+def test_a_cache_object_keeps_the_lookups_of_its_latest_bakes(meshes, tmp_path):
+    cache = AtlasCache(tmp_path)
+    first = bake.bake_mesh(meshes / "bunny.ply", "marble", size=128, cache=cache)
+    again = bake.bake_mesh(meshes / "bunny.ply", "wood", size=128, cache=cache)
+    alone = bake.bake_mesh(meshes / "bunny.ply", "wood", size=128)  # no cache at all
+    assert first.report["rays"]["lookup_reused"] is False and first.report["rays"]["lookup_rays"] > 0
+    assert again.report["rays"]["lookup_reused"] is True and again.report["rays"]["lookup_rays"] == 0
+    assert "lookup" in {s["stage"] for s in again.report["skipped"]}
+    assert np.array_equal(again.images["albedo"], alone.images["albedo"]) and np.array_equal(again.coverage, alone.coverage)
+    assert again.report["rays"]["cast"] == alone.report["rays"]["cast"]
+    # another size or number of samples is another lookup; a folder (not the object) keeps none
+    assert bake.bake_mesh(meshes / "bunny.ply", "wood", size=128, samples=4, cache=cache).report["rays"]["lookup_reused"] is False
+    assert bake.bake_mesh(meshes / "bunny.ply", "wood", size=128, cache=tmp_path).report["rays"]["lookup_reused"] is False
+    small = AtlasCache(tmp_path, max_lookup_bytes=1)  # over its budget: nothing kept
+    bake.bake_mesh(meshes / "bunny.ply", "wood", size=128, cache=small)
+    assert bake.bake_mesh(meshes / "bunny.ply", "wood", size=128, cache=small).report["rays"]["lookup_reused"] is False
