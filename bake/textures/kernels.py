@@ -24,11 +24,11 @@ AVX-512 gathers were tried and lose to scalar loads on the CPUs measured (AMD Ze
 
 from __future__ import annotations
 
-import functools
 import os
 import threading
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from typing import Any, TypeVar
 
 import numba as nb  # pip install numba
 import numpy as np
@@ -37,14 +37,23 @@ import numpy as np
 # The cache is the ``__pycache__`` folder beside this file where that is writable (an
 # installed wheel in a user's venv), else numba's user-wide cache (``NUMBA_CACHE_DIR``,
 # by default ``~/.cache/numba``).
-jit = functools.partial(nb.njit, cache=True, fastmath=False, nogil=True)
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def _compiled(**options: Any) -> Callable[[F], F]:
+    """``numba.njit`` with the kernels' options (cached, releasing the GIL); typed as the
+    function it compiles."""
+    return nb.njit(cache=True, nogil=True, **options)  # type: ignore[no-any-return]
+
+
+jit = _compiled(fastmath=False)
 # The hot loops: fused multiply-adds and reordering allowed; NaN and infinity kept
 # (no "nnan"/"ninf": a NaN point must stay NaN).
 FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
-fast = functools.partial(nb.njit, cache=True, fastmath=FAST, nogil=True)
+fast = _compiled(fastmath=FAST)
 # numba compiles each function on its own and does not inline across them: a call with
 # arrays also costs their reference counts. The per-point steps are inlined (numba IR).
-inline = functools.partial(nb.njit, cache=True, fastmath=FAST, nogil=True, inline="always")
+inline = _compiled(fastmath=FAST, inline="always")
 
 
 # -- threads ---------------------------------------------------------------------------

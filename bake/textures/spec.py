@@ -268,7 +268,8 @@ class Marble(_Texture):
     """Perlin's marble: ``MarbleColor(sin(frequency * x + amplitude * turbulence(p)))``.
 
     Filtered, the colour is the colour map's mean over the texel's phase spread
-    (``colour.wave_colours``), not the colour of the filtered value.
+    (``colour.wave_colours``), not the colour of the filtered value. Evaluated in one pass
+    (``colour.marble_colours``).
     """
 
     name: Literal["marble"] = "marble"
