@@ -4,9 +4,11 @@ Run: scripts/run python bench/bench_textures.py [--points 4000000] [--runs 5]
 
 Prints, on the same random points: 8-octave turbulence and marble (texbake, numba
 kernels, 2 threads) beside 8-octave value-noise fBm from pyfastnoiselite (FastNoiseLite's
-C++ through Cython, one thread), in million samples per second (medians); the target is
-50 M samples/s. Also the compile time of the kernels (cache cleared) and the start-up cost
-of a second process that loads them from the cache.
+C++ through Cython, one thread), in million samples per second (medians); the targets are
+50 M samples/s (turbulence) and 40 (marble). Also the compile time of the kernels (cache
+cleared), the start-up cost of a second process that loads them from the cache, and the
+part of it that is numba's own (import and target set-up: the first call of any cached
+kernel, however small).
 """
 
 from __future__ import annotations
@@ -34,15 +36,19 @@ def rate(function, n, runs):
     return n / statistics.median(times) / 1e6
 
 
-def first_call_seconds(clear_cache: bool) -> float:
-    """Seconds of the first texture evaluation in a fresh interpreter."""
+def first_call_seconds(clear_cache: bool, floor: bool = False) -> float:
+    """Seconds of the first texture evaluation in a fresh interpreter (``floor``: of the
+    first call of a one-line cached kernel instead: numba's own start, which every
+    cached kernel pays once a process)."""
     if clear_cache:
-        for cache in (ROOT / "bake" / "textures" / "__pycache__").glob("noise.*.nb*"):
+        for cache in (ROOT / "bake" / "textures" / "__pycache__").glob("*.nb*"):
             cache.unlink()
+    call = ("from bake.textures.kernels import box_keep; box_keep(0.5)" if floor  # numba imported in both
+            else "evaluate('turbulence', np.zeros((10, 3)))")
     code = (
         "import time, numpy as np\n"
         "from bake.textures import evaluate\n"
-        "t = time.perf_counter(); evaluate('turbulence', np.zeros((10, 3))); print(time.perf_counter() - t)\n"
+        f"t = time.perf_counter(); {call}; print(time.perf_counter() - t)\n"
     )
     out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True, cwd=ROOT)
     return float(out.stdout.split()[-1])
@@ -69,15 +75,17 @@ def main():
     coords = np.ascontiguousarray(points.T, dtype=np.float32)
 
     compile_s = first_call_seconds(clear_cache=True)
-    cached_s = first_call_seconds(clear_cache=False)
+    cached_s = statistics.median(first_call_seconds(clear_cache=False) for _ in range(3))
+    floor_s = statistics.median(first_call_seconds(clear_cache=False, floor=True) for _ in range(3))
     turbulence = rate(lambda: octave_sum(points, None, octaves=8), n, args.runs)
     marble = rate(lambda: evaluate("marble", points), n, args.runs)
     reference = rate(lambda: fnl.gen_from_coords(coords), n, args.runs)
     rows = [
         (f"8-octave turbulence (value noise), {n / 1e6:g} M points, median", f"{turbulence:.1f} M samples/s",
-         f"target > 50; pyfastnoiselite value fBm, 8 octaves: {reference:.1f} M samples/s"),
-        ("marble texture (turbulence + colour map), median", f"{marble:.1f} M samples/s", "target > 50 M samples/s"),
-        ("noise kernels: compile / first call in a second process", f"{compile_s:.1f} s / {cached_s:.1f} s", "cached on disk by numba"),
+         f"target >= 50; pyfastnoiselite value fBm, 8 octaves: {reference:.1f} M samples/s"),
+        ("marble texture (turbulence + colour map), median", f"{marble:.1f} M samples/s", "target >= 40 M samples/s"),
+        ("noise kernels: compile / first call in a second process", f"{compile_s:.1f} s / {cached_s:.2f} s",
+         f"cached on disk by numba; aim <= 0.15 s; numba's own start (a one-line cached kernel): {floor_s:.2f} s"),
     ]
     emit(rows, args.markdown)
 

@@ -10,6 +10,8 @@ from __future__ import annotations
 import numba as nb  # pip install numba
 import numpy as np
 
+from .kernels import in_pieces
+
 # Relative nudge applied before ``floor`` so that a surface lying exactly on a lattice
 # plane (z = 0, a cube centred at the origin) falls consistently on one side of it
 # instead of flickering between both with the last bit of rounding.
@@ -71,7 +73,9 @@ def checker_parity(
         inside = (t >= c[0] - slack[0]) & (t <= c[1] + slack[1])  # (n, 3): cut only where the point is inside
         lo, hi = np.where(inside, c[0], -np.inf), np.where(inside, c[1], np.inf)
     out = np.empty(len(t))
-    _checker_kernel(np.ascontiguousarray(t), np.ascontiguousarray(ex), np.ascontiguousarray(ey), lo, hi, SPLIT, out)
+    t, ex, ey = np.ascontiguousarray(t), np.ascontiguousarray(ex), np.ascontiguousarray(ey)
+    lo, hi = np.ascontiguousarray(lo), np.ascontiguousarray(hi)
+    in_pieces(len(t), lambda a, b: _checker_kernel(t[a:b], ex[a:b], ey[a:b], lo[a:b], hi[a:b], SPLIT, out[a:b]))
     return out
 
 
@@ -81,12 +85,12 @@ def checker_parity(
 SPLIT = 4
 
 
-@nb.njit(cache=True, parallel=True, nogil=True)
+@nb.njit(cache=True, nogil=True)
 def _checker_kernel(t, ex, ey, lo, hi, split, out):
     """``out[i]``: mean of the signed checker (unit cells) over the footprint of point ``i``,
     ``split x split`` sub-parallelograms each averaged over its bounding box cut to
     ``[lo, hi]``; an axis with no width (or cut to nothing) is point-sampled."""
-    for i in nb.prange(t.shape[0]):
+    for i in range(t.shape[0]):
         oblique = False
         crosses = False  # does the footprint's whole box reach over a cell plane?
         sign = 1.0

@@ -1,5 +1,6 @@
 """Colour maps: a spline colour curve tabulated once, looked up per point (numba); and
-the mean colour of a filtered wave, tabulated against its phase spread.
+the mean colour of a filtered wave, tabulated against its phase spread; and the marble's
+colour in one pass (:func:`marble_colours`). The kernels are in ``kernels.py``.
 
 A filtered texture gives the mean of its scalar over the texel; the colour map of that
 mean is not the mean colour (a wide footprint would converge to colour(mean), not
@@ -13,15 +14,16 @@ from __future__ import annotations
 
 import functools
 
-import numba as nb  # pip install numba
 import numpy as np
 
+from . import kernels
 from .solid import spline
 
 SIZE = 4096  # samples of the curve; linear interpolation between them errs < 2e-5 (1.9e-5 on the marble map)
 PHASES = 1024  # samples of a wave's period in its table
 SPREADS = 160  # spreads from 0 to MAX_SPREAD in its table
 MAX_SPREAD = 8.0  # radians: beyond it the wave's first harmonic keeps exp(-32) of itself: the plain mean
+SINE_SAMPLES = 16384  # a period of the point-sampled marble's colour: linear interpolation errs < 2e-5 (1.9e-5 on the marble map)
 
 
 @functools.lru_cache(maxsize=64)
@@ -31,26 +33,31 @@ def table(knots: tuple[float, ...], colours: tuple[tuple[float, float, float], .
     return spline(np.linspace(k[0], k[-1], SIZE), k, np.asarray(colours, dtype=np.float64))
 
 
-@nb.njit(cache=True, parallel=True, nogil=True)
-def _lookup(values, samples, lo, hi, out):
-    n = values.shape[0]
-    last = samples.shape[0] - 1
-    step = last / (hi - lo) if hi > lo else 0.0
-    for i in nb.prange(n):
-        x = (values[i] - lo) * step
-        x = min(max(x, 0.0), float(last))  # also maps NaN to 0
-        j = min(int(x), last - 1)
-        f = x - j
-        for c in range(3):
-            out[i, c] = samples[j, c] * (1.0 - f) + samples[j + 1, c] * f
-
-
 def colours(knots, colour_list, values: np.ndarray) -> np.ndarray:
     """``(n, 3)`` colours of ``(n,)`` values through the colour map."""
     samples = table(tuple(knots), tuple(tuple(c) for c in colour_list))
-    out = np.empty((len(values), 3))
-    _lookup(np.ascontiguousarray(values, dtype=np.float64), samples, float(knots[0]), float(knots[-1]), out)
+    v = np.ascontiguousarray(values, dtype=np.float64).reshape(-1)
+    out = np.empty((len(v), 3))
+    lo, step = _knot_steps(knots)
+    kernels.in_pieces(len(v), lambda a, b: kernels.colour_kernel(v[a:b], samples, lo, step, out[a:b]))
     return out
+
+
+def _knot_steps(knots) -> tuple[float, float]:
+    """``(first knot, table samples a unit)`` of a colour map's :func:`table`."""
+    lo, hi = float(knots[0]), float(knots[-1])
+    return lo, (SIZE - 1) / (hi - lo) if hi > lo else 0.0
+
+
+@functools.lru_cache(maxsize=16)
+def sine_table(knots: tuple[float, ...], colours: tuple[tuple[float, float, float], ...]) -> np.ndarray:
+    """``(SINE_SAMPLES + 1, 3)`` float64: the colour of ``0.5 + 0.5 sin(phi)`` (the spline
+    curve itself) at ``phi = 2 pi j / SINE_SAMPLES``, the first row repeated at the end: the
+    marble's colour as a function of its phase, with no sine to evaluate per point."""
+    phi = 2.0 * np.pi * np.arange(SINE_SAMPLES + 1) / SINE_SAMPLES
+    colour = spline(0.5 + 0.5 * np.sin(phi), np.asarray(knots, dtype=np.float64), np.asarray(colours, dtype=np.float64))
+    colour[-1] = colour[0]
+    return colour
 
 
 @functools.lru_cache(maxsize=16)
@@ -67,29 +74,40 @@ def wave_table(knots: tuple[float, ...], colours: tuple[tuple[float, float, floa
     return np.fft.irfft(spectrum[None] * keep[:, :, None], n=PHASES, axis=1)
 
 
-@nb.njit(cache=True, parallel=True, nogil=True)
-def _wave_lookup(phase, spread, table, out):
-    spreads, phases = table.shape[0], table.shape[1]
-    for i in nb.prange(phase.shape[0]):
-        x = phase[i] / (2.0 * np.pi)
-        x = (x - np.floor(x)) * phases
-        j = min(int(x), phases - 1)
-        fx = x - j
-        j1 = (j + 1) % phases
-        y = min(max(spread[i] / MAX_SPREAD, 0.0), 1.0) * (spreads - 1)
-        r = min(int(y), spreads - 2)
-        fy = y - r
-        for c in range(3):
-            low = table[r, j, c] * (1.0 - fx) + table[r, j1, c] * fx
-            high = table[r + 1, j, c] * (1.0 - fx) + table[r + 1, j1, c] * fx
-            out[i, c] = low * (1.0 - fy) + high * fy
-
-
 def wave_colours(knots, colour_list, phase: np.ndarray, spread: np.ndarray) -> np.ndarray:
     """``(n, 3)`` mean colours of ``0.5 + 0.5 sin`` of a phase spread as a Gaussian with
     standard deviation ``spread`` about ``phase`` (both ``(n,)``), through the colour map
     (clamped to its knots, as :func:`colours`)."""
-    table = wave_table(tuple(knots), tuple(tuple(c) for c in colour_list))
-    out = np.empty((len(phase), 3))
-    _wave_lookup(np.ascontiguousarray(phase, dtype=np.float64), np.ascontiguousarray(spread, dtype=np.float64), table, out)
+    waves = wave_table(tuple(knots), tuple(tuple(c) for c in colour_list))
+    ph = np.ascontiguousarray(phase, dtype=np.float64).reshape(-1)
+    sp = np.ascontiguousarray(spread, dtype=np.float64).reshape(-1)
+    out = np.empty((len(ph), 3))
+    kernels.in_pieces(len(ph), lambda a, b: kernels.wave_kernel(ph[a:b], sp[a:b], waves, MAX_SPREAD, out[a:b]))
+    return out
+
+
+def marble_colours(points, width, knots, colour_list, *, axis=0, frequency=6.0, amplitude=4.0, scale=1.0, offset=0.0,
+                   octaves=8, lacunarity=2.0, gain=0.5, basis="value", interpolation="linear", seed=0,
+                   max_octaves=None) -> np.ndarray:
+    """``(n, 3)`` marble colours at ``(n, 3)`` points, in one pass: the colour map of
+    ``0.5 + 0.5 sin(phase)`` (``solid.marble_phase``: ``frequency * x + amplitude *
+    turbulence``) as :func:`sine_table` holds it, or with a footprint ``width`` ``(n,)``
+    (None: point sampling) the mean colour over the phase's spread (:func:`wave_colours`).
+    Those functions in turn, without their temporaries.
+    """
+    from .noise import BASES, INTERPOLATIONS, _derived_tables, announce_compile, basis_mean, capped_mean, tables
+
+    p = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    w = np.zeros(len(p)) if width is None else np.ascontiguousarray(width, dtype=np.float64).reshape(-1)
+    key = (tuple(knots), tuple(tuple(c) for c in colour_list))
+    sines, waves = sine_table(*key), wave_table(*key)
+    count = int(octaves) if max_octaves is None else min(int(octaves), int(max_octaves))
+    capped = capped_mean(basis, gain, count, octaves, seed) if count < octaves else 0.0
+    norm = sum(gain**k for k in range(octaves))
+    args = (int(axis), float(frequency), float(amplitude), float(scale), float(offset), *tables(seed), *_derived_tables(seed),
+            BASES.index(basis), INTERPOLATIONS.index(interpolation), count, float(lacunarity), float(gain),
+            basis_mean(basis, seed), float(capped), float(norm), sines, waves, MAX_SPREAD)
+    out = np.empty((len(p), 3))
+    announce_compile(kernels.marble_kernel)
+    kernels.in_pieces(len(p), lambda a, b: kernels.marble_kernel(p[a:b], w[a:b], *args, out[a:b]))
     return out

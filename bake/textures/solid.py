@@ -42,10 +42,8 @@ def turbulence(points, width, *, scale=1.0, offset=0.0, octaves=8, lacunarity=2.
     fBm, ``sum_k gain^k (2 noise - 1)``, normalised into [-1, 1]. ``max_octaves`` caps
     the octaves evaluated; the rest add their mean (the normalisation is unchanged).
     """
-    q = np.asarray(points, dtype=np.float64) * scale + offset
-    w = None if width is None else np.asarray(width, dtype=np.float64) * abs(scale)
-    total = octave_sum(q, w, octaves=octaves, basis=basis, interpolation=interpolation,
-                       lacunarity=lacunarity, gain=gain, signed=signed, seed=seed, max_octaves=max_octaves)
+    total = octave_sum(points, width, octaves=octaves, basis=basis, interpolation=interpolation, lacunarity=lacunarity,
+                       gain=gain, signed=signed, seed=seed, max_octaves=max_octaves, scale=scale, offset=offset)
     norm = sum(gain**k for k in range(octaves))
     return total / norm
 

@@ -97,6 +97,9 @@ class _Texture(BaseModel):
     def __call__(self, points: np.ndarray, ctx: EvalContext) -> np.ndarray:
         """:meth:`evaluate`, with NaN in every channel where a point or its footprint is
         not finite (NaN in, NaN out: such a point has no place in the pattern)."""
+        footprint = () if ctx.dpdx is None or ctx.dpdy is None else (ctx.dpdx, ctx.dpdy)
+        if all(np.isfinite(np.sum(a)) for a in (points, *footprint)):  # a NaN or infinity makes its sum one
+            return self.evaluate(points, ctx)  # (an overflowing sum takes the row-by-row check below)
         bad = ~np.isfinite(points).all(axis=1)
         if ctx.dpdx is not None and ctx.dpdy is not None:
             bad |= ~(np.isfinite(ctx.dpdx).all(axis=1) & np.isfinite(ctx.dpdy).all(axis=1))
@@ -229,7 +232,7 @@ class Turbulence(_Texture, TurbulenceParams):
 
     Each octave is shrunk towards its mean by the share a box filter over the footprint
     keeps of it; octaves finer than 1/8 of the footprint are skipped (their mean added;
-    see ``noise.octave_kernel``).
+    see ``kernels.octave_kernel``).
     """
 
     name: Literal["turbulence"] = "turbulence"
@@ -265,7 +268,8 @@ class Marble(_Texture):
     """Perlin's marble: ``MarbleColor(sin(frequency * x + amplitude * turbulence(p)))``.
 
     Filtered, the colour is the colour map's mean over the texel's phase spread
-    (``colour.wave_colours``), not the colour of the filtered value.
+    (``colour.wave_colours``), not the colour of the filtered value. Evaluated in one pass
+    (``colour.marble_colours``).
     """
 
     name: Literal["marble"] = "marble"
@@ -276,17 +280,11 @@ class Marble(_Texture):
     colormap: ColourMap = MARBLE_COLOURS
 
     def evaluate(self, points, ctx):
-        from .solid import marble_phase
+        from .colour import marble_colours
 
-        phase, spread = marble_phase(points, ctx.width, axis="xyz".index(self.axis), frequency=self.frequency,
-                                     amplitude=self.amplitude, max_octaves=ctx.max_octaves, **turbulence_args(self.turbulence))
-        out = self.colormap(0.5 + 0.5 * np.sin(phase))
-        wide = np.flatnonzero(spread > 0)
-        if len(wide):  # the mean colour over the texel, not the colour of the mean
-            from .colour import wave_colours
-
-            out[wide] = wave_colours(self.colormap.knots, self.colormap.colours, phase[wide], spread[wide])
-        return out
+        return marble_colours(points, ctx.width, self.colormap.knots, self.colormap.colours, axis="xyz".index(self.axis),
+                              frequency=self.frequency, amplitude=self.amplitude, max_octaves=ctx.max_octaves,
+                              **turbulence_args(self.turbulence))
 
 
 class Wood(_Texture):
