@@ -392,10 +392,13 @@ TEXTURES = {cls.model_fields["name"].default: cls for cls in TEXTURE_CLASSES}
 
 
 def _describe(error: ValidationError) -> str:
+    """``field.sub: problem; ...``, each path from the spec's top (without the union's tag,
+    the texture's name, which the message names already)."""
     parts = []
     for e in error.errors():
-        where = ".".join(str(x) for x in e["loc"]) or "spec"
-        parts.append(f"{where}: {e['msg']}")
+        loc = e["loc"][1:] if e["loc"] and e["loc"][0] in TEXTURES else e["loc"]
+        where = ".".join(str(x) for x in loc) or "spec"
+        parts.append(f"{where}: {str(e['msg']).removeprefix('Value error, ')}")
     return "; ".join(parts)
 
 
