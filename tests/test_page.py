@@ -78,7 +78,7 @@ class Page:
 
     def shot(self, name, locator=None):
         path = self.tmp_path / f"page-{name}.png"
-        (locator or self.page).screenshot(path=path, **({} if locator else {"full_page": True}))
+        (locator or self.page).screenshot(path=path, animations="disabled", **({} if locator else {"full_page": True}))  # fades finished
         keep_artefact(path)
         return read_image(path)[..., :3]
 
@@ -120,16 +120,31 @@ def test_a_round_trip_on_the_page(api, page, meshes, tmp_path):
     after = swatch(page, "03-swatch-frequency-40")
     assert np.abs(after - before).mean() > 0.02, np.abs(after - before).mean()  # measured 0.14
     expect(field_error(page, "Frequency")).to_be_empty()
+    for knot in range(1, 6):  # the colour map, every knot red: a red marble
+        p.get_by_label(f"Colormap: colour of knot {knot}").fill("#ff0000")
+    red = swatch(page, "04-swatch-red-colour-map")
+    disk = red[96:160, 96:160]
+    assert disk[..., 0].mean() > 0.5 > disk[..., 1].mean() * 4, disk.mean(axis=(0, 1))
+    p.get_by_role("button", name="Reset the parameters").click()
+    p.get_by_label("Frequency", exact=True).fill("40")
+    assert np.abs(swatch(page, "05-swatch-reset") - after).mean() < 0.01  # the same swatch as before the colours
 
     # the mesh and the settings, then the bake: progress up to 100 %, polled without hammering
     p.set_input_files("#mesh", meshes / "bunny.ply")
     expect(p.locator("#mesh-info")).to_contain_text("bunny.ply")
     p.get_by_label("Size", exact=True).fill("128")
     p.get_by_label("Shading", exact=True).select_option("ambient-diffuse")
-    page.shot("04-ready-to-bake")
+    page.shot("06-ready-to-bake")
+    p.evaluate("""() => {  // every status the page shows, as it shows them
+        window.seen = [];
+        new MutationObserver(() => window.seen.push(document.querySelector("#status").textContent + " " + document.querySelector("#percent").textContent))
+            .observe(document.querySelector(".progress-row"), { subtree: true, childList: true, characterData: true });
+    }""")
     began = time.monotonic()
     p.get_by_role("button", name="Bake", exact=True).click()
     expect(p.locator("#percent")).to_have_text("100 %", timeout=60000)
+    seen = p.evaluate("() => window.seen")
+    assert any(s.startswith("Uploading bunny.ply") for s in seen), seen  # the upload's own progress first
     expect(p.locator("#status")).to_contain_text("Done: bunny.ply")
     seconds = time.monotonic() - began
     polls = [t for t, method, path in page.requests if t >= began and method == "GET" and path.count("/") == 3 and path.startswith("/v1/jobs/")]
@@ -138,15 +153,15 @@ def test_a_round_trip_on_the_page(api, page, meshes, tmp_path):
     # the result: the model in the viewer, lit and unlit, the maps, the figures
     viewer = p.locator("#viewer")
     expect(p.locator("#viewer[data-ready='1']")).to_be_attached(timeout=20000)
-    lit = page.shot("05-viewer-lit", viewer)
+    lit = page.shot("07-viewer-lit", viewer)
     h, w = lit.shape[:2]
     centre = lit[h * 2 // 5 : h * 3 // 5, w * 2 // 5 : w * 3 // 5]
     assert (np.abs(centre - BACKGROUND).max(axis=2) > 0.05).mean() > 0.9  # the bunny, not the background
     p.get_by_label("Lit", exact=True).uncheck()
-    unlit = page.shot("06-viewer-unlit", viewer)
+    unlit = page.shot("08-viewer-unlit", viewer)
     assert np.abs(unlit - lit).mean() > 0.01
     p.get_by_role("button", name="turn the model left").click()
-    turned = page.shot("07-viewer-turned", viewer)
+    turned = page.shot("09-viewer-turned", viewer)
     assert np.abs(turned - unlit).mean() > 0.01
     expect(p.locator("#figures")).to_contain_text("16,295 faces")
     images = p.locator("#images img")
@@ -155,7 +170,7 @@ def test_a_round_trip_on_the_page(api, page, meshes, tmp_path):
         images.nth(i).scroll_into_view_if_needed()
         expect(images.nth(i)).to_have_js_property("complete", True)
         assert images.nth(i).evaluate("img => img.naturalWidth") == 128
-    page.shot("08-result")
+    page.shot("10-result")
 
     # the download of every file in one zip
     with p.expect_download() as download:
@@ -173,7 +188,7 @@ def test_a_round_trip_on_the_page(api, page, meshes, tmp_path):
     expect(p.locator("#mesh-info")).to_contain_text("bad.obj")
     p.get_by_role("button", name="Bake", exact=True).click()
     expect(p.locator("#mesh-error")).to_contain_text("zip archive", timeout=20000)
-    page.shot("09-bad-file")
+    page.shot("11-bad-file")
     # too large for the server: said before anything is sent
     posts = sum(1 for _, method, path in page.requests if method == "POST")
     p.set_input_files("#mesh", files=[{"name": "big.obj", "mimeType": "text/plain", "buffer": b"v 0 0 0\n" * 300_000}])
@@ -195,12 +210,12 @@ def test_a_round_trip_on_the_page(api, page, meshes, tmp_path):
     p.get_by_role("button", name="Cancel", exact=True).click()
     expect(p.locator("#status")).to_contain_text("Cancelled", timeout=10000)
     expect(p.locator("#jobs tbody tr")).to_have_count(3)
-    page.shot("10-cancelled-and-retried")
+    page.shot("12-cancelled-and-retried")
 
     # /docs works offline too
     p.goto(api + "/docs")
     expect(p.locator(".swagger-ui .opblock").first).to_be_visible(timeout=20000)
-    page.shot("11-docs")
+    page.shot("13-docs")
 
 
 def test_the_page_at_phone_width(api, browser, tmp_path):
@@ -214,7 +229,27 @@ def test_the_page_at_phone_width(api, browser, tmp_path):
         assert page.page.evaluate("() => document.activeElement.textContent") == "API documentation"
         page.page.keyboard.press("Tab")
         assert page.page.evaluate("() => document.activeElement.id") == "mesh"
-        page.shot("12-phone")
+        # every control has a name a screen reader says (a label, or aria-label)
+        unnamed = page.page.evaluate("""() => [...document.querySelectorAll("input, select, button")]
+            .filter((c) => !c.labels?.length && !c.getAttribute("aria-label") && !c.textContent.trim() && c.getAttribute("aria-hidden") !== "true")
+            .map((c) => c.outerHTML)""")
+        assert not unnamed, unnamed
+        # every texture's form is made and swatched
+        names = page.page.locator("#texture option").all_text_contents()
+        assert len(names) == 8, names
+        for name in names:
+            page.page.select_option("#texture", name)
+            expect(page.page.locator("#swatch[data-ready='1']")).to_be_attached(timeout=20000)
+        # an animated texture: its frames can be set, and the page says what the bake writes
+        page.page.select_option("#texture", "checker")
+        frames = page.page.get_by_label("Frames", exact=True)
+        expect(frames).to_be_hidden()
+        page.page.select_option("#texture", "flame")
+        expect(frames).to_be_visible()
+        frames.fill("0, 0.5, 1")
+        expect(page.page.locator("#maps")).to_contain_text("an albedo map per frame and a flipbook")
+        expect(page.page.locator("#swatch[data-ready='1']")).to_be_attached(timeout=20000)
+        page.shot("14-phone")
     finally:
         page.close()
     assert not page.blocked and not page.errors, (page.blocked, page.errors)
@@ -231,7 +266,7 @@ def test_with_api_keys_the_page_asks_for_the_key(browser, tmp_path, tmp_path_fac
         p.get_by_label("API key").fill("wrong")
         p.get_by_role("button", name="Use this key").click()
         expect(p.locator("#key-error")).to_contain_text("missing or unknown API key", timeout=10000)
-        page.shot("13-key-asked")
+        page.shot("15-key-asked")
         p.get_by_label("API key").fill("sesame")
         p.get_by_role("button", name="Use this key").click()
         expect(p.locator("#jobs tbody")).to_contain_text("No jobs yet", timeout=10000)
@@ -239,7 +274,7 @@ def test_with_api_keys_the_page_asks_for_the_key(browser, tmp_path, tmp_path_fac
         expect(p.locator("#key-error")).to_be_empty()
         # kept for this tab only
         assert p.evaluate("() => [sessionStorage.getItem('texbake.key'), localStorage.length]") == ["sesame", 0]
-        page.shot("14-key-given")
+        page.shot("16-key-given")
     finally:
         page.close()
         stop(proc)

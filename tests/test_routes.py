@@ -227,6 +227,7 @@ def test_the_swatch_is_a_png_cached_by_its_spec(client):
     ("get", {}, "texture: Field required"),
     ("post", {"json": {"texture": {"name": "wood", "rings": 3}}}, "texture: texture 'wood': rings: Extra inputs are not permitted"),
     ("post", {"json": {"texture": "marble", "colour": "red"}}, "colour: Extra inputs are not permitted"),
+    ("post", {"json": {"texture": {"name": {}}}}, "unknown texture {}"),  # was a 500: a dict as the name
 ])
 def test_a_bad_swatch_is_a_422_naming_the_parameter(client, method, request_args, words):
     r = getattr(client, method)("/v1/swatch", **request_args)

@@ -500,7 +500,7 @@ def parse_spec(value) -> _Texture:
         raise TextureError(f"texture spec must be a name or a mapping, got {type(value).__name__}")
     if "name" not in value:
         raise TextureError("texture spec has no 'name'")
-    if value["name"] not in TEXTURES:
+    if not isinstance(value["name"], str) or value["name"] not in TEXTURES:  # a dict would not even hash
         known = ", ".join(sorted(TEXTURES))
         raise TextureError(f"unknown texture {value['name']!r} (known: {known})")
     try:

@@ -140,7 +140,8 @@ function control(root, prop, key, path, value, changed, limit) {
   const branches = (resolve(root, prop).anyOf || [prop]).map((b) => resolve(root, b));
   const nullable = branches.some((b) => b.type === "null");
   const node = branches.find((b) => b.type !== "null") || {};
-  const id = `f${++ids}`, title = titled(prop, key), about = plain(prop.description || node.description || "");
+  const id = `f${++ids}`, title = titled(prop, key);
+  let about = plain(prop.description || node.description || "");
   const field = el("div", { className: "field" });
   const error = el("p", { className: "error", id: `${id}-error`, role: "alert" });
   let input, read, touched = false;
@@ -288,6 +289,7 @@ function buildTexture(name) {
 let swatchTimer = 0, swatchAbort = null, swatchShown = "";
 function swatchSoon(wait = 150) {
   clearTimeout(swatchTimer);
+  swatchAbort?.abort(); // an answer for the parameters before is not wanted any more
   $("swatch").classList.add("stale");
   $("swatch").dataset.ready = "0";
   swatchTimer = setTimeout(updateSwatch, wait);
@@ -304,7 +306,12 @@ async function updateSwatch() {
     clearErrors("texture");
     const img = $("swatch"), old = swatchShown;
     swatchShown = URL.createObjectURL(blob);
-    img.onload = () => { img.classList.remove("stale"); img.dataset.ready = "1"; URL.revokeObjectURL(old); };
+    img.onload = () => {
+      URL.revokeObjectURL(old);
+      if (abort !== swatchAbort || abort.signal.aborted) return; // the parameters changed meanwhile
+      img.classList.remove("stale");
+      img.dataset.ready = "1";
+    };
     img.src = swatchShown;
     img.alt = `Preview: ${spec.name} ${view === "sphere" ? "on a sphere" : "as a slice"}, with the parameters below`;
     $("swatch-state").textContent = "";
