@@ -179,6 +179,19 @@ def test_a_round_trip_on_the_page(api, page, meshes, tmp_path):
     assert {"albedo.png", "lit.png", "coverage.png", "bunny.glb", "report.json"} <= names, names
     expect(p.locator("#jobs tbody tr").first).to_contain_text("done")
 
+    # a GLB whose own UVs overlap, kept: the report's warning is shown with the result
+    p.set_input_files("#mesh", meshes / "Duck.glb")
+    p.get_by_label("Size", exact=True).fill("64")
+    p.locator("#bake-card summary").click()  # More settings
+    p.get_by_label("Uv", exact=True).select_option("keep")
+    p.get_by_role("button", name="Bake", exact=True).click()
+    expect(p.locator("#status")).to_contain_text("Done: Duck.glb", timeout=60000)
+    expect(p.locator("#warnings li")).to_have_count(1, timeout=20000)
+    expect(p.locator("#warnings")).to_contain_text("overlap")
+    expect(p.locator("#viewer[data-ready='1']")).to_be_attached(timeout=20000)
+    page.shot("11-warnings")
+    p.get_by_label("Uv", exact=True).select_option("auto")
+
     # a bad file: the API's reason beside the mesh field (dropped, as a person would)
     p.evaluate("""() => {
         const files = new DataTransfer();
@@ -188,7 +201,7 @@ def test_a_round_trip_on_the_page(api, page, meshes, tmp_path):
     expect(p.locator("#mesh-info")).to_contain_text("bad.obj")
     p.get_by_role("button", name="Bake", exact=True).click()
     expect(p.locator("#mesh-error")).to_contain_text("zip archive", timeout=20000)
-    page.shot("11-bad-file")
+    page.shot("12-bad-file")
     # too large for the server: said before anything is sent
     posts = sum(1 for _, method, path in page.requests if method == "POST")
     p.set_input_files("#mesh", files=[{"name": "big.obj", "mimeType": "text/plain", "buffer": b"v 0 0 0\n" * 300_000}])
@@ -209,13 +222,13 @@ def test_a_round_trip_on_the_page(api, page, meshes, tmp_path):
     expect(p.locator("#cancel")).to_be_enabled(timeout=10000)
     p.get_by_role("button", name="Cancel", exact=True).click()
     expect(p.locator("#status")).to_contain_text("Cancelled", timeout=10000)
-    expect(p.locator("#jobs tbody tr")).to_have_count(3)
-    page.shot("12-cancelled-and-retried")
+    expect(p.locator("#jobs tbody tr")).to_have_count(4)
+    page.shot("13-cancelled-and-retried")
 
     # /docs works offline too
     p.goto(api + "/docs")
     expect(p.locator(".swagger-ui .opblock").first).to_be_visible(timeout=20000)
-    page.shot("13-docs")
+    page.shot("14-docs")
 
 
 def test_the_page_at_phone_width(api, browser, tmp_path):
@@ -249,7 +262,7 @@ def test_the_page_at_phone_width(api, browser, tmp_path):
         frames.fill("0, 0.5, 1")
         expect(page.page.locator("#maps")).to_contain_text("an albedo map per frame and a flipbook")
         expect(page.page.locator("#swatch[data-ready='1']")).to_be_attached(timeout=20000)
-        page.shot("14-phone")
+        page.shot("15-phone")
     finally:
         page.close()
     assert not page.blocked and not page.errors, (page.blocked, page.errors)
@@ -266,7 +279,7 @@ def test_with_api_keys_the_page_asks_for_the_key(browser, tmp_path, tmp_path_fac
         p.get_by_label("API key").fill("wrong")
         p.get_by_role("button", name="Use this key").click()
         expect(p.locator("#key-error")).to_contain_text("missing or unknown API key", timeout=10000)
-        page.shot("15-key-asked")
+        page.shot("16-key-asked")
         p.get_by_label("API key").fill("sesame")
         p.get_by_role("button", name="Use this key").click()
         expect(p.locator("#jobs tbody")).to_contain_text("No jobs yet", timeout=10000)
@@ -274,7 +287,7 @@ def test_with_api_keys_the_page_asks_for_the_key(browser, tmp_path, tmp_path_fac
         expect(p.locator("#key-error")).to_be_empty()
         # kept for this tab only
         assert p.evaluate("() => [sessionStorage.getItem('texbake.key'), localStorage.length]") == ["sesame", 0]
-        page.shot("16-key-given")
+        page.shot("17-key-given")
     finally:
         page.close()
         stop(proc)
