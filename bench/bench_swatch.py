@@ -17,7 +17,6 @@ import json
 import os
 import shutil
 import signal
-import socket
 import statistics
 import subprocess
 import sys
@@ -28,15 +27,10 @@ from pathlib import Path
 import httpx
 import numpy as np
 from _rows import emit
+from bench_service import free_port
 
 ROOT = Path(__file__).resolve().parents[1]
 TARGET = 0.3
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def timed(client: httpx.Client, params: dict) -> float:
