@@ -268,8 +268,8 @@ def test_the_page_at_phone_width(api, browser, tmp_path):
     assert not page.blocked and not page.errors, (page.blocked, page.errors)
 
 
-def test_with_api_keys_the_page_asks_for_the_key(browser, tmp_path, tmp_path_factory):
-    url, proc = serve(tmp_path_factory, {"BAKE_API_KEYS": '["sesame"]'}, workers="0")
+def test_with_api_keys_the_page_asks_for_the_key(browser, tmp_path, tmp_path_factory, meshes):
+    url, proc = serve(tmp_path_factory, {"BAKE_API_KEYS": '["sesame"]'})
     page = Page(browser, tmp_path)
     try:
         p = page.page
@@ -287,6 +287,18 @@ def test_with_api_keys_the_page_asks_for_the_key(browser, tmp_path, tmp_path_fac
         expect(p.locator("#key-error")).to_be_empty()
         # kept for this tab only
         assert p.evaluate("() => [sessionStorage.getItem('texbake.key'), localStorage.length]") == ["sesame", 0]
+        # a bake with the key: the maps, the model and the downloads come through it too
+        p.set_input_files("#mesh", meshes / "suzanne.ply")
+        p.get_by_label("Size", exact=True).fill("32")
+        p.get_by_role("button", name="Bake", exact=True).click()
+        expect(p.locator("#viewer[data-ready='1']")).to_be_attached(timeout=60000)
+        image = p.locator("#images img").first
+        image.scroll_into_view_if_needed()
+        expect(image).to_have_js_property("naturalWidth", 32)
+        with p.expect_download() as download:
+            p.get_by_role("link", name="report.json").click()
+        assert b'"suzanne"' in download.value.path().read_bytes()
+        expect(p.locator("#jobs tbody tr")).to_have_count(1)  # the key's own
         page.shot("17-key-given")
     finally:
         page.close()

@@ -58,9 +58,13 @@ function upload(path, body, progress) {
   });
 }
 
-// A file of a job: its own URL, or (with an API key, which <img> and <a> cannot send) a blob's
+// A file of a job: its own URL, or (with an API key, which <img> and <a> cannot send) a
+// blob's, kept in `blobs` until the next result is shown
+const blobs = [];
 async function fileUrl(path) {
-  return sessionStorage.getItem(KEY) ? URL.createObjectURL(await (await api(path)).blob()) : path;
+  if (!sessionStorage.getItem(KEY)) return path;
+  blobs.push(URL.createObjectURL(await (await api(path)).blob()));
+  return blobs[blobs.length - 1];
 }
 
 // ---- errors beside the field they name -----------------------------------------------
@@ -532,9 +536,7 @@ function link(path, name, text) {
     if (!sessionStorage.getItem(KEY)) return;
     event.preventDefault();
     try {
-      const url = await fileUrl(path);
-      el("a", { href: url, download: name }).click();
-      setTimeout(() => URL.revokeObjectURL(url), 60000);
+      el("a", { href: await fileUrl(path), download: name }).click();
     } catch (error) { showError(error, "jobs"); }
   });
   return a;
@@ -542,6 +544,7 @@ function link(path, name, text) {
 
 async function showResult(job) {
   const base = `/v1/jobs/${job.id}`;
+  blobs.splice(0).forEach((url) => URL.revokeObjectURL(url));
   $("result").hidden = false;
   $("result-title").textContent = `4. Result: ${job.mesh}`;
   $("figures").replaceChildren(job.report ? figures(job.report) : "");
