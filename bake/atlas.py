@@ -28,7 +28,7 @@ import numpy as np
 
 from .charts import planar_charts, prefer_planar
 from .errors import AtlasError, ParameterError
-from .uvcoverage import covering_faces, overlap
+from .uvcoverage import coverage, covering_faces, overlap_of
 from .uvgeometry import areas, uv_areas, uv_jacobian
 from .workers import Pool
 
@@ -60,6 +60,7 @@ class Atlas:
     reason: str  # why this method (and what failed before it)
     stats: dict = field(default_factory=dict)  # charts, utilisation, stretch, overlap, seconds
     warnings: list[str] = field(default_factory=list)  # what a user should know of this atlas
+    cached: bool = False  # taken from a cache of an earlier bake (bake.cache), not made now
 
 
 # -- checks and statistics ---------------------------------------------------------
@@ -321,7 +322,8 @@ def _pack(pos, faces, meshes, size, padding, pool, deadline):
     at one texel density. Faces in none of them get a chart each, about two
     texels wide. One xatlas packing pass at the texture's resolution and padding (one
     ``add_uv_mesh`` per mesh: xatlas merges touching or overlapping charts of one mesh);
-    up to ``SWAP_FACES`` triangles a second with u and v swapped, the fuller one kept.
+    up to ``SWAP_FACES`` triangles a second at the same time with u and v swapped, the
+    fuller one kept.
     """
     m = len(faces)
     charted = np.zeros(m, dtype=bool)
@@ -342,8 +344,12 @@ def _pack(pos, faces, meshes, size, padding, pool, deadline):
         proxies = [_proxy(uv, idx, 0.25 * texel, outlines) for _, _, uv, idx in meshes]
         small = sum(len(tri) for _, tri, _ in proxies) <= SWAP_FACES
         best = None
-        for swap in (False, True) if small else (False,):
-            uvs = _pack_once(meshes, proxies, swap, size, padding, pool, deadline)
+        swaps = (False, True) if small else (False,)
+        replies = pool.run([("pack", (_pack_input(meshes, proxies, swap), size, padding)) for swap in swaps])
+        for ok, value in replies:
+            if not ok:
+                raise _XatlasFailed(f"{_describe(value, deadline)} while packing")
+            uvs = _placed(meshes, proxies, value)
             if uvs is None:
                 continue
             face_areas = [uv_areas(u, idx) for u, (_, _, _, idx) in zip(uvs, meshes, strict=True)]
@@ -365,16 +371,19 @@ def _pack(pos, faces, meshes, size, padding, pool, deadline):
     return np.concatenate(maps), out_faces, np.concatenate(uvs)
 
 
-def _pack_once(meshes, proxies, swap: bool, size, padding, pool, deadline) -> list[np.ndarray] | None:
-    """One xatlas packing of the proxies (u and v swapped if ``swap``): each mesh's
-    placed UVs, or None if a chart packed by its outline came back distorted."""
-    pack_in = []
+def _pack_input(meshes, proxies, swap: bool) -> list[tuple[np.ndarray, np.ndarray]]:
+    """What one xatlas packing gets: each mesh's proxy ``(uv (k, 2) float32, triangles
+    (t, 3) uint32)``, u and v swapped if ``swap``."""
+    out = []
     for (_, _, uv, _), (used, tri, _) in zip(meshes, proxies, strict=True):
         q = uv[used][:, ::-1] if swap else uv[used]
-        pack_in.append((np.ascontiguousarray(q, dtype=np.float32), np.ascontiguousarray(tri[:, ::-1] if swap else tri, dtype=np.uint32)))
-    ((ok, value),) = pool.run([("pack", (pack_in, size, padding))])
-    if not ok:
-        raise _XatlasFailed(f"{_describe(value, deadline)} while packing")
+        out.append((np.ascontiguousarray(q, dtype=np.float32), np.ascontiguousarray(tri[:, ::-1] if swap else tri, dtype=np.uint32)))
+    return out
+
+
+def _placed(meshes, proxies, value) -> list[np.ndarray] | None:
+    """Each mesh's UVs as the packing ``value`` placed its proxy, or None if a chart
+    packed by its outline came back distorted."""
     packed, _info = value
     if len(packed) != len(meshes):
         raise _XatlasFailed("xatlas' packing lost meshes")
@@ -448,20 +457,18 @@ def _place(uv: np.ndarray, chart: np.ndarray, source: np.ndarray, placed: np.nda
     return out
 
 
-def _unwrap(vertices, faces, size, padding, end, deadline, workers, patch_faces, charting):
+def _unwrap(vertices, faces, size, padding, pool, deadline, patch_faces, charting):
     """An atlas ``(vmapping, faces, uv, method, detail)`` charted by ``charting``
-    ("xatlas" or "planar") and packed by xatlas; raises ``_XatlasFailed``."""
+    ("xatlas" or "planar") and packed by xatlas in ``pool``'s workers by its end;
+    raises ``_XatlasFailed``."""
     pos = _normalised(vertices)
     good = _good_faces(pos, faces)
     if charting == "planar":
-        with Pool(WORKER, 1, end) as pool:
-            meshes, charts, flat = _chart_planar(pos, faces, good, size)
-            vm, fa, uv = _pack(pos, faces, meshes, size, padding, pool, deadline)
-        return vm, fa, uv, "planar", {"planar_charts": charts, "flat_share": round(flat, 4)}
-    n_patches = 1 if patch_faces is None or len(good) <= 2 * patch_faces else -(-len(good) // patch_faces)
-    with Pool(WORKER, min(workers, max(1, n_patches)), end) as pool:
-        meshes, n_patches = _chart_xatlas(pos, faces, good, pool, deadline, patch_faces)
+        meshes, charts, flat = _chart_planar(pos, faces, good, size)
         vm, fa, uv = _pack(pos, faces, meshes, size, padding, pool, deadline)
+        return vm, fa, uv, "planar", {"planar_charts": charts, "flat_share": round(flat, 4)}
+    meshes, n_patches = _chart_xatlas(pos, faces, good, pool, deadline, patch_faces)
+    vm, fa, uv = _pack(pos, faces, meshes, size, padding, pool, deadline)
     return vm, fa, uv, "xatlas-patches" if n_patches > 1 else "xatlas", {"patches": n_patches}
 
 
@@ -483,10 +490,10 @@ def _grid_atlas(vertices: np.ndarray, faces: np.ndarray, padding: float):
     return faces.reshape(-1).astype(np.int64), np.arange(3 * m, dtype=np.int64).reshape(m, 3), uv
 
 
-def _try_planar(vertices, faces, size, padding, end, workers):
-    """A planar atlas ``(vmapping, faces, uv, method, detail)`` by ``end``, or None."""
+def _try_planar(vertices, faces, size, padding, pool):
+    """A planar atlas ``(vmapping, faces, uv, method, detail)`` by ``pool``'s end, or None."""
     try:
-        atlas = _unwrap(vertices, faces, size, padding, end, end - time.monotonic(), workers, None, "planar")
+        atlas = _unwrap(vertices, faces, size, padding, pool, pool.end - time.monotonic(), None, "planar")
     except _XatlasFailed:
         return None
     return atlas if _problem(*atlas[:3], len(faces), len(vertices), faces) is None else None
@@ -572,14 +579,17 @@ def make_atlas(
     if not np.isfinite(vertices[np.unique(faces)]).all():
         raise AtlasError("the mesh's vertices are not finite")
 
-    def stats_of(vm, fa, u):
+    grid = min(size, OVERLAP_GRID)
+
+    def stats_of(vm, fa, u, raster=None):  # raster: coverage(u, fa, grid), when known
         s = atlas_stats(vertices, faces, fa, u)
-        s["overlap"], _ = overlap(u, fa, min(size, OVERLAP_GRID))
+        counts, covering = raster if raster is not None else coverage(u, fa, grid)
+        s["overlap"], _ = overlap_of(counts)
         s["bare_area"] = None
         if size <= 8192:  # the surface on charts that hold no texel centre: their texels are all margin
             a3, chart = areas(vertices, faces), chart_labels(fa, len(u))
             held = np.zeros(chart.max() + 1, dtype=bool)
-            held[chart[covering_faces(u, fa, size)]] = True
+            held[chart[covering if grid == size else covering_faces(u, fa, size)]] = True
             s["bare_area"] = float(a3[~held[chart]].sum() / max(a3.sum(), 1e-300))
         s["seconds"] = time.perf_counter() - start
         return s
@@ -593,9 +603,10 @@ def make_atlas(
 
     if mode != "unwrap":
         problem = uv_problem(vertices, faces, uv)
-        overlapping = None
+        overlapping = raster = None
         if problem is None:  # inside the tile and not degenerate: do faces share texels?
-            share, most = overlap(np.asarray(uv, dtype=np.float64), faces, min(size, OVERLAP_GRID))
+            raster = coverage(np.asarray(uv, dtype=np.float64), faces, grid)
+            share, most = overlap_of(raster[0])
             if share > OVERLAP_LIMIT:
                 overlapping = (f"the mesh's UVs overlap: {share:.1%} of the covered texels lie under two or more "
                                f"faces (up to {most})")
@@ -604,7 +615,7 @@ def make_atlas(
             vm = np.arange(len(vertices), dtype=np.int64)
             reason = "the mesh's UVs are usable" if overlapping is None else "uv='keep'"
             warnings = [] if overlapping is None else [f"{overlapping}: those texels show one face's texture on all of them"]
-            stats = stats_of(vm, faces, uv)
+            stats = stats_of(vm, faces, uv, raster)
             return Atlas(vm, faces, uv, "kept", reason, stats, warnings + bare_warning(stats))
         if mode == "keep":
             raise AtlasError(f"uv='keep' but {problem}")
@@ -615,32 +626,34 @@ def make_atlas(
     end = time.monotonic() + deadline
     failures: list[str] = []
     attempts, order = _attempts(vertices, faces, charting, _patch_faces)
-    for i, (charting_i, patch_faces) in enumerate(attempts):
-        now = time.monotonic()
-        if now >= end or (charting_i == "xatlas" and any("timed out" in f for f in failures)):
-            continue
-        # xatlas' charting may take 3/4 of what is left when planar charts are still to come
-        until = now + 0.75 * (end - now) if ("planar", None) in attempts[i + 1:] else end
-        try:
-            vm, fa, u, method, detail = _unwrap(vertices, faces, size, padding, until, until - now, workers,
-                                                patch_faces, charting_i)
-        except _XatlasFailed as exc:
-            failures.append(str(exc))
-            continue
-        bad = _problem(vm, fa, u, len(faces), len(vertices), faces)
-        if bad is None:
-            found = charting_i, (vm, fa, u, method, detail)
-            break
-        failures.append(f"{charting_i} charting gave an unusable atlas: {bad}")
-    else:
-        found = None
-    if found is not None and charting == "auto" and found[0] == "xatlas" and time.monotonic() < end:
-        # a small organic mesh: planar charts too, kept if they use the texture much better
-        planar = _try_planar(vertices, faces, size, padding, end, workers)
-        used = [float(uv_areas(c[2], c[1]).sum()) for c in (found[1], planar) if c is not None]
-        if planar is not None and used[1] > PLANAR_GAIN * used[0]:
-            order += f"; planar charts used instead: they cover {used[1]:.2f} of the texture, xatlas' {used[0]:.2f}"
-            found = "planar", planar
+    with Pool(WORKER, workers, end) as pool:  # one set of workers for every attempt
+        for i, (charting_i, patch_faces) in enumerate(attempts):
+            now = time.monotonic()
+            if now >= end or (charting_i == "xatlas" and any("timed out" in f for f in failures)):
+                continue
+            # xatlas' charting may take 3/4 of what is left when planar charts are still to come
+            pool.end = now + 0.75 * (end - now) if ("planar", None) in attempts[i + 1:] else end
+            try:
+                vm, fa, u, method, detail = _unwrap(vertices, faces, size, padding, pool, pool.end - now,
+                                                    patch_faces, charting_i)
+            except _XatlasFailed as exc:
+                failures.append(str(exc))
+                continue
+            bad = _problem(vm, fa, u, len(faces), len(vertices), faces)
+            if bad is None:
+                found = charting_i, (vm, fa, u, method, detail)
+                break
+            failures.append(f"{charting_i} charting gave an unusable atlas: {bad}")
+        else:
+            found = None
+        if found is not None and charting == "auto" and found[0] == "xatlas" and time.monotonic() < end:
+            # a small organic mesh: planar charts too, kept if they use the texture much better
+            pool.end = end
+            planar = _try_planar(vertices, faces, size, padding, pool)
+            used = [float(uv_areas(c[2], c[1]).sum()) for c in (found[1], planar) if c is not None]
+            if planar is not None and used[1] > PLANAR_GAIN * used[0]:
+                order += f"; planar charts used instead: they cover {used[1]:.2f} of the texture, xatlas' {used[0]:.2f}"
+                found = "planar", planar
     if found is not None:
         charting_i, (vm, fa, u, method, detail) = found
         retried = f" (after: {'; '.join(failures)})" if failures else ""

@@ -22,6 +22,7 @@ ANGLE_LIMIT = 66.0  # degrees between a face's normal and its chart's direction,
 FLAT_COS = np.cos(np.radians(2.0))  # a face this close to its chart's direction counts as flat
 COPLANAR_COS = np.cos(np.radians(0.05))  # neighbours this close are one flat face of a CAD model
 SPLITS = 6  # rounds of cutting self-overlapping charts in two
+MERGE_WORK = 8  # joining cut pieces again rasterises at most this many times the mesh's faces
 CRUMB_FACES, CRUMB_LIMIT = 16, 55.0  # charts of fewer faces join a neighbour within this angle, on meshes
 CRUMB_FLAT = 0.1  # with less of their area flat (within 2 degrees of its direction) than this
 XATLAS_FACES = 6_000  # "auto" charting leaves meshes of more faces to planar charts
@@ -179,8 +180,10 @@ def planar_charts(vertices: np.ndarray, faces: np.ndarray, angle_limit: float = 
     whose projection overlaps itself on a ``grid``-square raster of the layout (a curved
     region wrapping round, a ramp winding up) first loses its overlapping faces to a
     chart of their own (the layers of a fold, unconnected, come apart), then, if it still
-    overlaps, is cut in two across its longest extent, up to ``SPLITS`` rounds in all. Faces of zero area have no normal and keep a UV area of zero: the caller gives
-    them charts of their own.
+    overlaps, is cut in two across its longest extent, up to ``SPLITS`` rounds in all;
+    then the pieces that need not be apart are joined again (:func:`_merge_cuts`). Faces
+    of zero area have no normal and keep a UV area of zero: the caller gives them charts
+    of their own.
     """
     from .uvcoverage import overlapping_faces
 
@@ -213,9 +216,52 @@ def planar_charts(vertices: np.ndarray, faces: np.ndarray, angle_limit: float = 
                 part = members[c[:, axis] > np.median(c[:, axis])]
             dirs = np.concatenate([dirs, dirs[group[part[:1]]]])
             group[part] = len(dirs) - 1
+    if attempt:  # something was cut: join the pieces that need not be apart
+        lo, hi = uv.min(axis=0), uv.max(axis=0)
+        island = _merge_cuts(vertices, faces, island, group, dirs, float((hi - lo).max()), grid)
+        vmapping, chart_faces, uv = _project(vertices, faces, island, group, dirs)
     best = np.einsum("ij,ij->i", normals, dirs[group])
     flat = float(weights[best > FLAT_COS].sum() / total) if total > 0 else 0.0
     return Charts(vmapping, chart_faces, uv, island, dirs, flat)
+
+
+def _merge_cuts(vertices, faces, island, group, dirs, scale, grid):
+    """``island`` with neighbouring islands of one direction (pieces that cutting made)
+    joined again wherever their union does not overlap itself on the texel raster
+    (``scale`` mesh units to ``grid`` texels), the smallest pairs first. Bisection cuts
+    where the overlap is not, so without this a part keeps a fifth more charts than it
+    needs (featuretype.STL: 146 against 103). The faces rasterised are bounded by
+    ``MERGE_WORK`` times the mesh's."""
+    from scipy.cluster.hierarchy import DisjointSet
+
+    from .uvcoverage import overlapping_faces
+
+    a, b = _edge_pairs(faces)
+    same = (island[a] != island[b]) & (dirs[group[a]] == dirs[group[b]]).all(axis=1)
+    pairs = np.unique(np.sort(np.column_stack([island[a][same], island[b][same]]), axis=1), axis=0)
+    n = int(island.max()) + 1
+    order = np.argsort(island, kind="stable")
+    members = dict(enumerate(np.split(order, np.searchsorted(island[order], np.arange(1, n)))))
+    direction = np.zeros(n, dtype=np.int64)
+    direction[island] = group
+    count = np.bincount(island, minlength=n)
+    sets = DisjointSet(range(n))
+    budget = MERGE_WORK * len(faces)
+    for x, y in pairs[np.argsort(count[pairs].sum(axis=1), kind="stable")]:
+        rx, ry = sets[int(x)], sets[int(y)]
+        union = np.concatenate([members[rx], members[ry]])
+        if rx == ry or len(union) > budget:
+            continue
+        budget -= len(union)
+        p = vertices[faces[union]].reshape(-1, 3) @ np.stack(_basis(dirs[direction[rx]])).T
+        p = (p - p.min(axis=0)) * (grid / scale)  # in texels
+        side = int(np.ceil(p.max())) + 2
+        if overlapping_faces(p / side, np.arange(len(p)).reshape(-1, 3), side).any():
+            continue
+        sets.merge(rx, ry)
+        members[sets[rx]] = union
+    _, joined = np.unique([sets[i] for i in range(n)], return_inverse=True)
+    return joined[island]
 
 
 def _project(vertices, faces, island, group, dirs):

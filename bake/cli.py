@@ -10,6 +10,7 @@ import glob
 import inspect
 import json
 import math
+import os
 import sys
 import time
 import types
@@ -81,9 +82,10 @@ def read_spec(value):
     return data
 
 
-def _bake_one(mesh: str, out: str, given: dict, source: str | None = None, workers: int = 2) -> dict:
+def _bake_one(mesh: str, out: str, given: dict, source: str | None = None, workers: int = 2, cache: str | None = None) -> dict:
     """Bake and save one mesh with the settings ``given`` (as the command line or a manifest
-    line has them); returns the report (runs in batch worker processes too)."""
+    line has them), atlases kept in ``cache``; returns the report (runs in batch worker
+    processes too)."""
     from .pipeline import bake_mesh
     from .settings import BakeSettings
     from .textures.spec import with_overrides
@@ -94,17 +96,17 @@ def _bake_one(mesh: str, out: str, given: dict, source: str | None = None, worke
         given["texture"] = with_overrides(read_spec(given.get("texture", "checker")), overrides)
     if isinstance(given.get("bump"), str):
         given["bump"] = read_spec(given["bump"])
-    result = bake_mesh(mesh, BakeSettings.build(given), source=source, workers=workers)
+    result = bake_mesh(mesh, BakeSettings.build(given), source=source, workers=workers, cache=cache)
     result.save(out)
     return result.report
 
 
-def _batch_item(mesh: str, out: str, given: dict) -> tuple[str, float, dict | str]:
+def _batch_item(mesh: str, out: str, given: dict, cache: str | None) -> tuple[str, float, dict | str]:
     """One batch item in its worker process: ``(status, seconds of the bake itself, report
     or the error)``; a user error is a failed item, not an exception."""
     start = time.perf_counter()
     try:
-        return "done", time.perf_counter() - start, _bake_one(mesh, out, given, None, 1)
+        return "done", time.perf_counter() - start, _bake_one(mesh, out, given, None, 1, cache)
     except BakeError as exc:
         return "failed", time.perf_counter() - start, str(exc)
 
@@ -124,6 +126,20 @@ def _floats(text: str, name: str) -> list[float]:
 _SET = typer.Option(None, "--set", help="override a texture parameter: key.sub=value (repeatable)")
 _TEXTURE = typer.Option("checker", "--texture", "-t", help="texture name, JSON spec, or a .json/.yaml spec file (see `texbake textures`)")
 _UV = typer.Option("auto", "--uv", help="auto | unwrap | keep")
+_CACHE = typer.Option(None, "--cache", help="folder of atlases kept for later bakes of the same mesh "
+                      "(default: $TEXBAKE_CACHE, else $XDG_CACHE_HOME/texbake or ~/.cache/texbake)")
+_NO_CACHE = typer.Option(False, "--no-cache", help="neither reuse nor keep atlases")
+
+
+def _cache_folder(cache: Path | None, no_cache: bool) -> str | None:
+    """The atlas cache's folder for a command (None: no cache)."""
+    if no_cache:
+        return None
+    if cache is not None:
+        return str(cache)
+    if os.environ.get("TEXBAKE_CACHE"):
+        return os.environ["TEXBAKE_CACHE"]
+    return str(Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "texbake")
 
 # One option per BakeSettings field: the command line maps onto the settings one to one.
 _SHORT = {"texture": "-t", "size": "-s", "quality": "-q", "format": "-f"}
@@ -190,12 +206,15 @@ def bake(
     out: Path = typer.Option(..., "--out", "-o", help="output folder"),
     set_: list[str] | None = _SET,
     source: str | None = typer.Option(None, "--source", help="mesh to transfer the texture from (high poly)"),
+    cache: Path | None = _CACHE,
+    no_cache: bool = _NO_CACHE,
     **options,
 ):
     """Bake one mesh: writes DIR/albedo.<format>, DIR/<mesh>.glb and DIR/report.json."""
     start = time.perf_counter()
     try:
-        report = _bake_one(mesh, str(out), {**_given(options), "set": set_ or []}, source=source)
+        report = _bake_one(mesh, str(out), {**_given(options), "set": set_ or []}, source=source,
+                           cache=_cache_folder(cache, no_cache))
     except BakeError as exc:
         _fail(str(exc))
     t = report["texels"]
@@ -256,6 +275,8 @@ def batch(
     jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="parallel processes"),
     as_json: bool = typer.Option(False, "--json", help="print the summary as JSON (one object per mesh) instead of a table"),
     set_: list[str] | None = _SET,
+    cache: Path | None = _CACHE,
+    no_cache: bool = _NO_CACHE,
     **options,
 ):
     """Bake many meshes in parallel; keeps going past failures, exits 1 if any failed."""
@@ -275,7 +296,9 @@ def batch(
         console=Console(stderr=True),
     ) as progress:
         task = progress.add_task("baking", total=len(jobs_list))
-        started = {pool.submit(_batch_item, mesh, folder, settings): (mesh, folder) for mesh, folder, settings in jobs_list}
+        folder_of_cache = _cache_folder(cache, no_cache)
+        started = {pool.submit(_batch_item, mesh, folder, settings, folder_of_cache): (mesh, folder)
+                   for mesh, folder, settings in jobs_list}
         for future in as_completed(started):
             mesh, folder = started[future]
             try:

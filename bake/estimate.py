@@ -79,16 +79,43 @@ def probe_grid(samples: int) -> int:
     return int(min(16, max(PROBE_GRID, 2 * int(np.ceil(np.sqrt(samples))))))
 
 
-def chart_edges(covered: np.ndarray) -> np.ndarray:
-    """``(h, w)`` bool: covered texels with an uncovered texel (or the image's border)
-    among their 8 neighbours; the partly covered texels on chart edges are among them."""
-    padded = np.pad(covered, 1, constant_values=False)
-    inner = np.ones_like(covered)
+def chart_edges(covered: np.ndarray, rows: slice | None = None) -> np.ndarray:
+    """``(h, w)`` bool (or the ``rows`` of it): covered texels with an uncovered texel (or
+    the image's border) among their 8 neighbours; the partly covered texels on chart edges
+    are among them."""
     h, w = covered.shape
+    r0, r1 = (0, h) if rows is None else (rows.start, min(h, rows.stop))
+    lo, hi = max(0, r0 - 1), min(h, r1 + 1)
+    padded = np.pad(covered[lo:hi], ((1 - (r0 - lo), 1 - (hi - r1)), (1, 1)), constant_values=False)
+    inner = np.ones((r1 - r0, w), dtype=bool)
     for dr in (0, 1, 2):
         for dc in (0, 1, 2):
-            inner &= padded[dr:dr + h, dc:dc + w]
-    return covered & ~inner
+            inner &= padded[dr:dr + r1 - r0, dc:dc + w]
+    return covered[r0:r1] & ~inner
+
+
+def _strata(covered: np.ndarray, band: int):
+    """Per band of ``band`` rows: ``(r0, r1, masks (edge, inside))``, lazily (the masks of a
+    16384² image are not held at once)."""
+    for r0 in range(0, covered.shape[0], band):
+        edge = chart_edges(covered, slice(r0, r0 + band))
+        r1 = r0 + len(edge)
+        yield r0, r1, (edge, covered[r0:r1] & ~edge)
+
+
+def _pick(covered: np.ndarray, stratum: int, ranks: np.ndarray, band: int) -> np.ndarray:
+    """Flat texel indices of the sorted ``ranks``-th texels of a stratum (0: edges, 1:
+    inside), in row-major order."""
+    out, seen, w = [], 0, covered.shape[1]
+    for r0, _, masks in _strata(covered, band):
+        where = np.flatnonzero(masks[stratum])
+        mine = ranks[(ranks >= seen) & (ranks < seen + len(where))]
+        out.append(where[mine - seen] + r0 * w)
+        seen += len(where)
+    return np.concatenate(out) if out else np.zeros(0, dtype=np.int64)
+
+
+BAND = 1024  # rows of the coverage looked at a time
 
 
 def probe_estimate(
@@ -120,29 +147,30 @@ def probe_estimate(
     """
     height, width = covered.shape
     rng = np.random.default_rng([seed, 0x9E37])  # not the bake's own jitter
-    edge = chart_edges(covered)
-    strata = [np.flatnonzero(edge.ravel()), np.flatnonzero((covered & ~edge).ravel())]
-    total = sum(len(s) for s in strata)
+    sizes = [0, 0]  # texels in each stratum, counted band by band
+    for *_, masks in _strata(covered, BAND):
+        sizes = [n + int(m.sum()) for n, m in zip(sizes, masks, strict=True)]
+    total = sum(sizes)
     if total == 0:
         return {"method": "probe", "how": HOW["probe"], "rmse": 0.0, "rmse_interval": [0.0, 0.0], "texels": 0,
                 "probe_grid": [grid, edge_grid or grid], "probe_rmse": 0.0, "probe_noise": 0.0}
     if total <= 4 * texels:  # a small image: probe every texel (no sampling error)
         texels = total
-    take_edge = min(len(strata[0]), texels // 2) if texels < total else len(strata[0])
-    counts = [take_edge, min(len(strata[1]), texels - take_edge)]
+    take_edge = min(sizes[0], texels // 2) if texels < total else sizes[0]
+    counts = [take_edge, min(sizes[1], texels - take_edge)]
     mse = var = d2_all = n2_all = 0.0
     probed = 0
-    for stratum, m, side in zip(strata, counts, (edge_grid or grid, grid), strict=True):
+    for stratum, (size, m, side) in enumerate(zip(sizes, counts, (edge_grid or grid, grid), strict=True)):
         if m == 0:
             continue
-        pick = np.sort(rng.choice(stratum, size=m, replace=False))
+        pick = _pick(covered, stratum, np.sort(rng.choice(size, size=m, replace=False)), BAND)
         d2, n2 = _probe_texels(reference_at, image, pick, side, int(rng.integers(2**31)))
         ok = ~np.isnan(d2)
         e = (d2 - n2)[ok]
         if len(e) == 0:
             continue
         probed += len(e)
-        weight = len(stratum) / total
+        weight = size / total
         mse += weight * float(e.mean())
         d2_all += weight * float(d2[ok].mean())
         n2_all += weight * float(n2[ok].mean())

@@ -84,7 +84,8 @@ def _png(path: Path, slot: str, texture) -> bytes:
     return png
 
 
-def write_glb(path, vertices, faces, uv, textures, *, normals=None, tangents=None, name: str = "baked") -> dict:
+def write_glb(path, vertices, faces, uv, textures, *, normals=None, tangents=None, name: str = "baked",
+              base_factor: tuple[float, float, float, float] = (1.0, 1.0, 1.0, 1.0)) -> dict:
     """Write a GLB: one mesh, its UVs, and its material's textures.
 
     ``vertices``: ``(k, 3)`` float (written as float32); ``faces``: ``(m, 3)`` int;
@@ -94,7 +95,8 @@ def write_glb(path, vertices, faces, uv, textures, *, normals=None, tangents=Non
     with ``emissiveFactor`` 1); slots given the same PNG share one image. ``normals``:
     optional ``(k, 3)`` normals (normalised here); ``tangents``: optional ``(k, 4)``
     tangents, unit xyz orthogonal to the normals and w = +-1 (``bake.tangents``; needs
-    ``normals``). Indices are uint16 below 65535 vertices, else uint32. Returns path,
+    ``normals``); ``base_factor``: the base colour's factor (black for a texture that is
+    light, not paint: the flame, bound as emissive). Indices are uint16 below 65535 vertices, else uint32. Returns path,
     bytes, vertices, faces.
 
     One function, not several: it lays out one binary buffer and the JSON that indexes
@@ -161,6 +163,8 @@ def write_glb(path, vertices, faces, uv, textures, *, normals=None, tangents=Non
 
     material: dict = {"name": f"{name}_baked",
                       "pbrMetallicRoughness": {"baseColorTexture": texture["baseColor"], "metallicFactor": 0.0, "roughnessFactor": 1.0}}
+    if tuple(base_factor) != (1.0, 1.0, 1.0, 1.0):
+        material["pbrMetallicRoughness"]["baseColorFactor"] = [float(x) for x in base_factor]
     if "normal" in texture:
         material["normalTexture"] = texture["normal"]
     if "emissive" in texture:

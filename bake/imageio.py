@@ -109,28 +109,34 @@ def _srgb8(x: np.ndarray) -> np.ndarray:
     return (code + (x >= above[code]) - (x < below[code])).astype(np.uint8)
 
 
-def _encode(pixels: np.ndarray, fmt: str, bits: int, given: str) -> tuple[np.ndarray, str]:
-    """The array to store (its dtype is the file's) and the file's colour space."""
-    colour = 1 if pixels.shape[2] <= 2 else 3  # channels after these are alpha
+def _stored(fmt: str, bits: int, given: str) -> tuple[type, str]:
+    """The file's pixel type and colour space for pixels that hold ``given``."""
     if fmt == "exr" or bits == 32:
-        data = pixels.astype(np.float16 if bits == 16 else np.float32)
+        return (np.float16 if bits == 16 else np.float32), DATA if given == "data" else LINEAR
+    return (np.uint8 if bits == 8 else np.uint16), DATA if given == "data" else SRGB
+
+
+def _encode(pixels: np.ndarray, fmt: str, bits: int, given: str) -> np.ndarray:
+    """Rows of ``pixels`` as the file stores them (:func:`_stored`)."""
+    colour = 1 if pixels.shape[2] <= 2 else 3  # channels after these are alpha
+    dtype, _ = _stored(fmt, bits, given)
+    if dtype in (np.float16, np.float32):
+        data = pixels.astype(dtype)
         if given == "srgb":
             data[..., :colour] = srgb_decode(pixels[..., :colour])
-        return data, DATA if given == "data" else LINEAR
-    dtype, top = (np.uint8, 255) if bits == 8 else (np.uint16, 65535)
-    out = np.empty(pixels.shape, dtype=dtype)
-    encode = given == "linear"
-    for r in range(0, pixels.shape[0], _BAND):
-        # NaN is written as 0 and infinities clipped: integer files have no room for them
-        band = np.clip(np.nan_to_num(pixels[r : r + _BAND].astype(np.float32), nan=0.0), 0.0, 1.0)
-        if encode and bits == 8:
-            out[r : r + _BAND, :, :colour] = _srgb8(band[..., :colour])
-        elif encode:
-            out[r : r + _BAND, :, :colour] = np.rint(srgb_encode(band[..., :colour].astype(np.float64)) * top)
-        else:
-            out[r : r + _BAND, :, :colour] = np.rint(band[..., :colour] * np.float32(top))
-        out[r : r + _BAND, :, colour:] = np.rint(band[..., colour:] * np.float32(top))
-    return out, DATA if given == "data" else SRGB
+        return data
+    top = 255 if bits == 8 else 65535
+    out: np.ndarray = np.empty(pixels.shape, dtype=dtype)
+    # NaN is written as 0 and infinities clipped: integer files have no room for them
+    band = np.clip(np.nan_to_num(pixels.astype(np.float32), nan=0.0), 0.0, 1.0)
+    if given == "linear" and bits == 8:
+        out[..., :colour] = _srgb8(band[..., :colour])
+    elif given == "linear":
+        out[..., :colour] = np.rint(srgb_encode(band[..., :colour].astype(np.float64)) * top)
+    else:
+        out[..., :colour] = np.rint(band[..., :colour] * np.float32(top))
+    out[..., colour:] = np.rint(band[..., colour:] * np.float32(top))
+    return out
 
 
 def _typedesc(dtype):
@@ -169,13 +175,13 @@ def write_image(path, pixels, *, fmt: str | None = None, bits: int | None = None
         pixels = pixels[:, :, None]
     if pixels.ndim != 3 or pixels.shape[2] not in (1, 2, 3, 4) or 0 in pixels.shape:
         raise ParameterError("pixels", f"expected (h, w, 1-4) values, got shape {pixels.shape}")
-    if not np.issubdtype(pixels.dtype, np.floating):
-        raise ParameterError("pixels", f"expected float values, got {pixels.dtype}")
-    data, stored = _encode(pixels, fmt, bits, given)
-    h, w, c = data.shape
+    if not (np.issubdtype(pixels.dtype, np.floating) or pixels.dtype == np.bool_):
+        raise ParameterError("pixels", f"expected float (or bool) values, got {pixels.dtype}")
+    dtype, stored = _stored(fmt, bits, given)
+    h, w, c = pixels.shape
 
     with replacing(path, _EXTENSION[fmt]) as tmp:
-        spec = oiio.ImageSpec(w, h, c, _typedesc(data.dtype))
+        spec = oiio.ImageSpec(w, h, c, _typedesc(dtype))
         # PNG data: OpenImageIO writes gAMA 1.0 for a linear PNG and no colour chunk for Raw
         spec.attribute("oiio:ColorSpace", (LINEAR if fmt == "png" else "Raw") if stored == DATA else stored)
         spec.attribute("Software", "texbake")
@@ -194,15 +200,19 @@ def write_image(path, pixels, *, fmt: str | None = None, bits: int | None = None
             raise OutputError(f"{path}: cannot create a {fmt} writer: {oiio.geterror() or 'unknown error'}")
         ok = bool(out.open(str(tmp), spec))
         error = out.geterror()
-        if ok:
-            ok = bool(out.write_image(data))
-            error = error or out.geterror()
+        digests = []  # of each band as written, to check the file against
+        for r in range(0, h, _BAND) if ok else ():  # a band at a time: memory stays bounded
+            data = _encode(pixels[r : r + _BAND], fmt, bits, given)
+            digests.append(zlib.crc32(data.data))
+            if not out.write_scanlines(r, r + len(data), 0, data):
+                ok, error = False, out.geterror()
+                break
         ok = bool(out.close()) and ok
         error = error or out.geterror() or oiio.geterror()
         if not ok or error:
             raise OutputError(f"{path}: write failed: {error or 'unknown OpenImageIO error'}")
         _sync(tmp)
-        _verify(tmp, data, fmt)
+        _verify(tmp, digests, (h, w, c), dtype, fmt)
     return {
         "path": str(path), "format": fmt, "bits": bits, "colorspace": stored,
         "width": w, "height": h, "channels": c, "bytes": path.stat().st_size,
@@ -217,17 +227,32 @@ def encode_png_bytes(pixels, bits: int = 8, *, colorspace: str = "linear") -> by
         return target.read_bytes()
 
 
-def _verify(tmp: Path, data: np.ndarray, fmt: str) -> None:
-    """Read a written file back in full; raise OutputError unless it holds ``data``."""
+def _verify(tmp: Path, digests: list[int], shape: tuple[int, int, int], dtype, fmt: str) -> None:
+    """Read a written file back in full, a band at a time; raise OutputError unless each
+    band of ``shape`` pixels of ``dtype`` has the CRC-32 in ``digests`` it was written with."""
+    import OpenImageIO as oiio
+
     if fmt == "png":
         _check_png_chunks(tmp)
     elif fmt == "tif":
         _check_tiff_layout(tmp)
-    back = _read_raw(tmp, data.dtype)
-    if back.shape != data.shape:
-        raise OutputError(f"{tmp}: reads back as {back.shape[1]}x{back.shape[0]}x{back.shape[2]}, not {data.shape[1]}x{data.shape[0]}x{data.shape[2]} (disk full?)")
-    if not np.array_equal(back, data, equal_nan=data.dtype.kind == "f"):
-        raise OutputError(f"{tmp}: the written pixels do not read back intact (disk full?)")
+    h, w, c = shape
+    inp = _open(tmp)
+    if inp is None:
+        raise OutputError(f"{tmp}: cannot be read back: {oiio.geterror() or 'unknown error'}")
+    try:
+        spec = inp.spec()
+        if (spec.height, spec.width, spec.nchannels) != shape:
+            raise OutputError(f"{tmp}: reads back as {spec.width}x{spec.height}x{spec.nchannels}, not {w}x{h}x{c} (disk full?)")
+        for band, r in enumerate(range(0, h, _BAND)):
+            back = inp.read_scanlines(0, 0, r, min(h, r + _BAND), 0, 0, c, _typedesc(dtype))
+            error = inp.geterror()
+            if back is None or error:
+                raise OutputError(f"{tmp}: cannot be read back: {error or 'no data'}")
+            if zlib.crc32(np.ascontiguousarray(back, dtype=dtype).data) != digests[band]:
+                raise OutputError(f"{tmp}: the written pixels do not read back intact (disk full?)")
+    finally:
+        inp.close()
 
 
 def _check_png_chunks(path: Path) -> None:
@@ -310,23 +335,6 @@ def _open(path: Path):
     config = oiio.ImageSpec()
     config.attribute("oiio:UnassociatedAlpha", 1)
     return oiio.ImageInput.open(str(path), config)
-
-
-def _read_raw(path: Path, dtype) -> np.ndarray:
-    import OpenImageIO as oiio
-
-    inp = _open(path)
-    if inp is None:
-        raise OutputError(f"{path}: cannot be read back: {oiio.geterror() or 'unknown error'}")
-    try:
-        data = inp.read_image(_typedesc(dtype))
-        error = inp.geterror()
-    finally:
-        inp.close()
-    if data is None or error:
-        raise OutputError(f"{path}: cannot be read back: {error or 'no data'}")
-    data = np.asarray(data)
-    return data if data.ndim == 3 else data[:, :, None]
 
 
 def read_image(path) -> np.ndarray:

@@ -31,7 +31,8 @@ def split_normals(vertices: np.ndarray, faces: np.ndarray, angle: float = HARD_E
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
     m = len(faces)
-    _, position = np.unique(vertices, axis=0, return_inverse=True)
+    rows = np.ascontiguousarray(vertices + 0.0).view(np.dtype((np.void, 24))).ravel()  # + 0.0: -0.0 is 0.0
+    _, position = np.unique(rows, return_inverse=True)  # one id per position (a 1D sort of the rows' bytes)
     position = position.ravel()[faces]  # (m, 3) position id of each corner
     _, e1, e2 = edges(vertices, faces)
     weighted = np.cross(e1, e2)  # (m, 3) normal times twice the area
@@ -43,7 +44,7 @@ def split_normals(vertices: np.ndarray, faces: np.ndarray, angle: float = HARD_E
     key = np.stack([np.minimum(a, b), np.maximum(a, b)], axis=2).reshape(-1, 2)  # (3m, 2)
     corner_a = (np.arange(m)[:, None] * 3 + np.arange(3)).ravel()  # corner at a
     corner_b = (np.arange(m)[:, None] * 3 + (np.arange(3) + 1) % 3).ravel()  # corner at b
-    order = np.lexsort((key[:, 1], key[:, 0]))
+    order = np.argsort(key[:, 0] * (int(position.max()) + 1) + key[:, 1], kind="stable")
     key, corner_a, corner_b = key[order], corner_a[order], corner_b[order]
     same = np.flatnonzero((key[1:] == key[:-1]).all(axis=1))  # consecutive half-edges on one edge
     f, g = corner_a[same] // 3, corner_a[same + 1] // 3
@@ -59,14 +60,14 @@ def split_normals(vertices: np.ndarray, faces: np.ndarray, angle: float = HARD_E
     graph = coo_matrix((np.ones(len(left)), (left, right)), shape=(3 * m, 3 * m))
     _, fan = connected_components(graph, directed=False)  # (3m,) fan of each corner
 
-    normal = np.zeros((fan.max() + 1, 3))
-    np.add.at(normal, fan, np.repeat(weighted, 3, axis=0))
+    corner_weight = np.repeat(weighted, 3, axis=0)
+    normal = np.stack([np.bincount(fan, weights=corner_weight[:, c], minlength=fan.max() + 1) for c in range(3)], axis=1)
     length = np.linalg.norm(normal, axis=1)
     ok = length > 0
     normal[ok] /= length[ok, None]
     normal[~ok] = (0.0, 0.0, 1.0)  # a fan of zero-area faces only
 
     # one new vertex per (old vertex, fan)
-    pairs = np.stack([faces.ravel(), fan], axis=1)
-    unique, first, inverse = np.unique(pairs, axis=0, return_index=True, return_inverse=True)
-    return unique[:, 0], inverse.reshape(m, 3), normal[fan[first]]
+    fans = int(fan.max()) + 1
+    unique, first, inverse = np.unique(faces.ravel() * fans + fan, return_index=True, return_inverse=True)
+    return unique // fans, inverse.reshape(m, 3), normal[fan[first]]

@@ -21,9 +21,11 @@ from pathlib import Path
 
 import numpy as np
 
+from . import __version__
 from . import estimate as estimate_stage
 from . import margin as margin_stage
-from .atlas import make_atlas
+from .atlas import Atlas, make_atlas
+from .cache import AtlasCache, atlas_key
 from .errors import ParameterError
 from .load import LoadedMesh, load_mesh, mesh_from_trimesh
 from .maps import Maps
@@ -52,8 +54,8 @@ class BakedMesh:
 class BakeResult:
     """What a bake made: images as arrays, the mesh with its atlas, and the report."""
 
-    images: dict[str, np.ndarray]  # name -> (h, w, 3) float32 linear, row 0 at the top:
-    # albedo (or albedo_0000... and flipbook), lit, normal (encoded 0.5 + 0.5 n: data)
+    images: dict[str, np.ndarray]  # name -> (h, w, 3) float32 linear, row 0 at the top (float16 over
+    # 8192² texels written as 8 bits: bake.maps): albedo (or albedo_0000... and flipbook), lit, normal (0.5 + 0.5 n: data)
     coverage: np.ndarray  # (h, w) bool: texels covered by the atlas
     margin: np.ndarray  # (h, w) bool: texels filled by the margin
     mesh: BakedMesh
@@ -112,7 +114,8 @@ def as_mesh(mesh_or_path, max_faces: int, what: str) -> LoadedMesh:
 
 
 def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *, source=None, workers: int = 2,
-              progress: Callable[[float], None] | None = None, tile_samples: int = 1 << 20, **options) -> BakeResult:
+              progress: Callable[[float], None] | None = None, tile_samples: int = 1 << 20,
+              cache: str | Path | AtlasCache | None = None, **options) -> BakeResult:
     """Bake a solid texture into the UV atlas of a mesh.
 
     Parameters
@@ -132,6 +135,9 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
         each tile and the margin), from the calling thread or a tile thread.
     tile_samples : int
         Samples a tile: bounds the memory of the lookup.
+    cache : folder or ``bake.cache.AtlasCache``, optional
+        Where atlases are kept for later bakes: the same mesh at the same atlas settings
+        (``uv``, size, ``charting``) then skips the unwrap (``report["atlas"]["cached"]``).
 
     The report's ``error_estimate`` estimates the RMSE of the colour map against the
     converged texel means (see ``bake.estimate``).
@@ -148,8 +154,7 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
         src = None if source is None else as_mesh(source, settings.max_faces, "source")
     report_progress(0.05)
     with timer.stage("atlas"):
-        atlas = make_atlas(mesh.vertices, mesh.faces, mesh.uv, mode=settings.uv, size=max(width, height),
-                           deadline=settings.unwrap_deadline, workers=workers, charting=settings.charting)
+        atlas = _atlas(mesh, settings, max(width, height), workers, cache)
     lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
     mapping = TextureMapping.for_mesh(lo, hi, settings.texture_space, quality.precision)
     reach = settings.cage if settings.cage is not None else 0.05 * float(np.linalg.norm(hi - lo))
@@ -159,11 +164,13 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
         tangents = None if settings.bump is None else vertex_tangents(out_vertices, faces, out_uv, normals)
     with timer.stage("prepare"):
         maps = Maps(settings, quality, width, height, mapping)
-        sampler = Sampler(mesh.vertices, mesh.faces, atlas.uv, atlas.faces, width, height, normals=maps.needs_normals,
+        corner_normals = normals[faces]  # (m, 3, 3): shading (the lit map) sees the GLB's normals
+        sampler = Sampler(mesh.vertices, mesh.faces, atlas.uv, atlas.faces, width, height,
+                          normals=corner_normals if maps.needs_normals else False,
                           source=None if src is None else (src.vertices, src.faces), reach=reach,
-                          frame=None if tangents is None else (normals[faces], tangents[faces]))
+                          frame=None if tangents is None else (corner_normals, tangents[faces]))
     report_progress(0.3)
-    cast, transfer_missed = _bake_tiles(sampler, maps, quality, settings.seed, timer, workers, tile_samples,
+    cast, rays, transfer_missed = _bake_tiles(sampler, maps, quality, settings.seed, timer, workers, tile_samples,
                                         lambda done: report_progress(0.3 + 0.6 * done))
     covered = maps.hits > 0
     with timer.stage("estimate"):
@@ -175,7 +182,7 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
     if settings.frames is not None:
         images["flipbook"] = flipbook([images[name] for name in maps.colours])
 
-    counts = {"cast": int(cast), "transfer_missed": int(transfer_missed), "hits": int(maps.hits.sum(dtype=np.int64))}
+    counts = {"cast": int(cast), "rays": int(rays), "transfer_missed": int(transfer_missed), "hits": int(maps.hits.sum(dtype=np.int64))}
     source_info = None if src is None else {"path": src.path, "sha256": src.sha256, "faces": int(len(src.faces)), "cage": reach}
     report = bake_report(mesh, (lo, hi), source_info, settings, quality, atlas, covered, filled, counts, error_estimate,
                          timer.seconds)
@@ -184,11 +191,31 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
     return BakeResult(images, covered, filled, baked, report, settings)
 
 
+def _atlas(mesh: LoadedMesh, settings: BakeSettings, size: int, workers: int, cache) -> Atlas:
+    """The mesh's atlas: from ``cache`` (a folder or an ``AtlasCache``) when an earlier
+    bake left it there, else made (and left there)."""
+    def make() -> Atlas:
+        return make_atlas(mesh.vertices, mesh.faces, mesh.uv, mode=settings.uv, size=size,
+                          deadline=settings.unwrap_deadline, workers=workers, charting=settings.charting)
+
+    if cache is None:
+        return make()
+    store = cache if isinstance(cache, AtlasCache) else AtlasCache(cache)
+    key = atlas_key(mesh.sha256, settings.uv, size, settings.charting, __version__)
+    found = store.get(key)
+    if found is not None and found.faces.shape == mesh.faces.shape and found.vmapping.max() < len(mesh.vertices):
+        return found
+    atlas = make()
+    store.put(key, atlas)
+    return atlas
+
+
 def _bake_tiles(sampler: Sampler, maps: Maps, quality, seed: int, timer: Timer, workers: int, tile_samples: int,
                 progress: Callable[[float], None]) -> np.ndarray:
     """Bake the image in row tiles of about ``tile_samples`` samples into ``maps``.
 
-    Returns ``[rays cast, transfer rays that missed]`` summed over the tiles. Tiles run in
+    Returns ``[samples looked up, lookup rays cast, transfer rays that missed]`` summed
+    over the tiles. Tiles run in
     threads: Embree holds the GIL, numpy mostly does not, so the stages of two tiles
     overlap; each tile writes its own rows.
     """
@@ -201,16 +228,16 @@ def _bake_tiles(sampler: Sampler, maps: Maps, quality, seed: int, timer: Timer, 
         with timer.stage("lookup"):
             texels = sampler.candidates(tile)
             uvs = sample_uv(tile, texels, width, height, offsets)
-        s = sampler.at(uvs, timer)
+        s = sampler.at(uvs, timer, quality.samples)
         values = maps.values(s, timer)
         texel = texels[s.index // quality.samples]
         with timer.stage("accumulate"):
             maps.accumulate(tile, texel, values)
         progress(next(finished) / len(tile_list))
-        return np.array([len(uvs), s.transfer_missed])
+        return np.array([len(uvs), s.rays, s.transfer_missed])
 
     with timer.stage("tiles (wall)"), ThreadPoolExecutor(max(1, workers)) as pool:
-        return sum(pool.map(bake_tile, tile_list), np.zeros(2))
+        return sum(pool.map(bake_tile, tile_list), np.zeros(3))
 
 
 def _estimate(sampler: Sampler, maps: Maps, mapping: TextureMapping, covered, quality, seed: int) -> dict:

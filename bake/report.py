@@ -37,18 +37,18 @@ def bake_report(mesh, bounds, source: dict | None, settings, quality, atlas, cov
     ``mesh``: the ``LoadedMesh``; ``bounds``: its ``(lo, hi)``; ``source``: what was
     transferred from, or None; ``settings``: the ``BakeSettings``; ``quality``: their
     resolved ``Quality``; ``atlas``: the ``Atlas``; ``covered``, ``filled``: ``(h, w)``
-    bool texels covered by the atlas and by the margin; ``counts``: rays ``cast``,
-    ``transfer_missed`` and sample ``hits``; ``seconds``: per stage.
+    bool texels covered by the atlas and by the margin; ``counts``: samples ``cast``
+    (looked up), lookup ``rays``, ``transfer_missed`` and sample ``hits``; ``seconds``: per stage.
     """
     width, height = settings.width_height
     skipped = []
     if source is None:
         skipped.append({"stage": "transfer", "why": "no source mesh given"})
-    if atlas.method == "kept":
+    if atlas.cached:
+        skipped.append({"stage": "unwrap", "why": f"the atlas of an earlier bake of this mesh, from the cache ({atlas.reason})"})
+    elif atlas.method == "kept":
         skipped.append({"stage": "unwrap", "why": atlas.reason})
-    # Texels that no sample hit although their four neighbours are covered: cracks.
-    inner = np.zeros_like(covered)
-    inner[1:-1, 1:-1] = ~covered[1:-1, 1:-1] & covered[:-2, 1:-1] & covered[2:, 1:-1] & covered[1:-1, :-2] & covered[1:-1, 2:]
+    cracks = _cracks(covered)
     lo, hi = bounds
     return {
         "mesh": {
@@ -79,7 +79,7 @@ def bake_report(mesh, bounds, source: dict | None, settings, quality, atlas, cov
             "bump": None if settings.bump is None else {"texture": settings.bump.model_dump(mode="json"), "strength": settings.bump_strength},
             "frames": settings.frames,
         },
-        "atlas": {"method": atlas.method, "reason": atlas.reason, **atlas.stats},
+        "atlas": {"method": atlas.method, "reason": atlas.reason, "cached": atlas.cached, **atlas.stats},
         "texels": {
             "total": width * height,
             "covered": int(covered.sum()),
@@ -88,9 +88,10 @@ def bake_report(mesh, bounds, source: dict | None, settings, quality, atlas, cov
         },
         "rays": {
             "texel_samples": width * height * quality.samples,
-            "cast": counts["cast"],  # rays for the samples of texels that some face's UV box touches
+            "cast": counts["cast"],  # samples of texels that some face's UV box touches, looked up
+            "lookup_rays": counts["rays"],  # of them: a texel's first sample, and those off its face
             "missed": counts["cast"] - counts["hits"] - counts["transfer_missed"],
-            "missed_inside_atlas": int(inner.sum()),
+            "missed_inside_atlas": cracks,
             "transfer_missed": counts["transfer_missed"],
         },
         "error_estimate": error_estimate,
@@ -107,3 +108,16 @@ def _transfer_warning(counts: dict) -> list[str]:
     if cast and missed > 0.01 * cast:
         return [f"transfer: {missed} of {cast} texel samples found no source within the cage; they keep the margin's colour"]
     return []
+
+
+def _cracks(covered: np.ndarray, band: int = 1024) -> int:
+    """Texels that no sample hit although their four neighbours are covered, counted in
+    bands of rows (no full-size temporaries: a 16384² mask is 268 MB)."""
+    h = covered.shape[0]
+    total = 0
+    for top in range(1, h - 1, band):
+        rows = slice(top, min(h - 1, top + band))
+        up, down = slice(top - 1, rows.stop - 1), slice(top + 1, rows.stop + 1)
+        c = covered[rows, 1:-1]
+        total += int((~c & covered[up, 1:-1] & covered[down, 1:-1] & covered[rows, :-2] & covered[rows, 2:]).sum())
+    return total

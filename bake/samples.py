@@ -27,8 +27,8 @@ class Samples:
     face, or whose transfer ray missed, has no sample); ``points``, ``dpdx``, ``dpdy``:
     ``(n, 3)`` float64 object-space point and footprint (one texel right, one down);
     ``normals``: ``(n, 3)`` float64 unit normals of the target surface, or None when the
-    sampler was made without them; ``transfer_missed``: UV points whose transfer rays
-    found no source; ``frame``: ``(n, 3, 3)`` float64 tangent frames (rows T, B, N) of the
+    sampler was made without them; ``rays``: lookup rays cast for the batch;
+    ``transfer_missed``: UV points whose transfer rays found no source; ``frame``: ``(n, 3, 3)`` float64 tangent frames (rows T, B, N) of the
     output mesh, or None when the sampler was made without one.
     """
 
@@ -37,6 +37,7 @@ class Samples:
     normals: np.ndarray | None
     dpdx: np.ndarray
     dpdy: np.ndarray
+    rays: int = 0
     transfer_missed: int = 0
     frame: np.ndarray | None = None
 
@@ -46,17 +47,19 @@ class Sampler:
 
     ``vertices`` ``(n, 3)`` and ``faces`` ``(m, 3)`` of the mesh; ``uv`` ``(k, 2)`` and
     ``uv_faces`` ``(m, 3)`` of its atlas; ``width``, ``height``: the image size;
-    ``normals``: also interpolate smooth normals (a transfer always does); ``source``: a
+    ``normals``: also interpolate normals, True (smooth) or ``(m, 3, 3)`` corner normals
+    (``surface.SurfaceMap``; a transfer always interpolates smooth ones: its rays must
+    not part at hard edges); ``source``: a
     ``(vertices, faces)`` pair to transfer from, with rays of at most ``reach``; ``frame``:
     corner normals and tangents of the output mesh (``surface.SurfaceMap``).
     """
 
-    def __init__(self, vertices, faces, uv, uv_faces, width: int, height: int, *, normals: bool = False,
+    def __init__(self, vertices, faces, uv, uv_faces, width: int, height: int, *, normals: bool | np.ndarray = False,
                  source: tuple[np.ndarray, np.ndarray] | None = None, reach: float = 0.0,
                  frame: tuple[np.ndarray, np.ndarray] | None = None):
         self.width, self.height = width, height
         self.lookup = UVLookup(uv, uv_faces)
-        self.surface = SurfaceMap(vertices, faces, uv, uv_faces, width, height, normals=normals or source is not None,
+        self.surface = SurfaceMap(vertices, faces, uv, uv_faces, width, height, normals=True if source is not None else normals,
                                   frame=frame)
         self.caster = None
         if source is not None:
@@ -69,21 +72,21 @@ class Sampler:
         """``(t,)`` indices of the texels of ``tile`` that some face can cover."""
         return self.lookup.candidates(tile, self.width, self.height)
 
-    def at(self, uvs: np.ndarray, timer=None) -> Samples:
-        """Surface samples at ``(m, 2)`` UV points; ``timer.stage(name)`` times each stage."""
+    def at(self, uvs: np.ndarray, timer=None, samples: int = 1) -> Samples:
+        """Surface samples at ``(m, 2)`` UV points, ``samples`` a texel in ``sample_uv``'s
+        order (``texels.UVLookup.locate``); ``timer.stage(name)`` times each stage."""
         stage = timer.stage if timer is not None else (lambda name: nullcontext())
         with stage("lookup"):
-            face = self.lookup.faces_at(uvs)
+            face, bary, rays = self.lookup.locate(uvs, samples)
             index = np.flatnonzero(face >= 0)
-            face = face[index]
-            bary = self.lookup.barycentric(uvs[index], face)
+            face, bary = face[index], bary[index]
         with stage("surface"):
             s = self.surface.samples(face, bary)
-        samples = Samples(index, s.points, s.normals, s.dpdx, s.dpdy, frame=s.frame)
+        found = Samples(index, s.points, s.normals, s.dpdx, s.dpdy, rays=rays, frame=s.frame)
         if self.caster is None:
-            return samples
+            return found
         with stage("transfer"):
             assert s.normals is not None  # a transfer's surface map has normals
-            points, found = self.caster.project(s.points, s.normals, self.reach)
-            return Samples(index[found], points[found], s.normals[found], s.dpdx[found], s.dpdy[found],
-                           transfer_missed=int((~found).sum()), frame=None if s.frame is None else s.frame[found])
+            points, hit = self.caster.project(s.points, s.normals, self.reach)
+            return Samples(index[hit], points[hit], s.normals[hit], s.dpdx[hit], s.dpdy[hit], rays=rays,
+                           transfer_missed=int((~hit).sum()), frame=None if s.frame is None else s.frame[hit])

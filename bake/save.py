@@ -24,7 +24,7 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
     baked, and ``coverage.png`` (1 where the atlas covers a texel); mesh: ``<name>.glb``
     with the albedo (of the first frame) bound as base colour, the normal map (if baked)
     as normal texture with the tangents it was baked in, and, for a texture that emits
-    light (the flame), the albedo as emissive too (PNG copies ``<map>_gltf.png`` when the
+    light (the flame), the albedo as emissive, its base colour factor black (PNG copies ``<map>_gltf.png`` when the
     format is not PNG); ``<name>.obj`` + MTL if ``obj``; ``report.json`` last, so its
     presence means the rest is complete. Colour maps are sRGB; the normal map and the
     coverage are data (a linear PNG: ``bake.imageio``).
@@ -46,7 +46,7 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
     for name, pixels in result.images.items():
         kind = "data" if name == "normal" else "linear"  # a normal map is not a colour
         written[name] = write_image(folder / f"{name}.{fmt}", pixels, bits=bits, colorspace=kind)
-    written["coverage"] = write_image(folder / "coverage.png", result.coverage[:, :, None].astype("float32"), colorspace="data")
+    written["coverage"] = write_image(folder / "coverage.png", result.coverage[:, :, None], colorspace="data")
 
     # the GLB's textures (glTF embeds PNG or JPEG only: PNG copies of other formats)
     colour = "albedo" if "albedo" in result.images else min(n for n in result.images if n.startswith("albedo_"))
@@ -57,12 +57,13 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
         if fmt != "png":
             slots[slot] = folder / f"{name}_gltf.png"
             written[f"{name}_gltf"] = write_image(slots[slot], result.images[name], colorspace="data" if name == "normal" else "linear")
-    if result.settings.texture.emits:  # the flame: its colour is light
+    emits = result.settings.texture.emits  # the flame: its colour is light, not paint
+    if emits:
         slots["emissive"] = slots["baseColor"]
     texture = slots["baseColor"]
     m = result.mesh
     written["glb"] = write_glb(folder / f"{m.name}.glb", m.vertices, m.faces, m.uv, slots, normals=m.normals, tangents=m.tangents,
-                               name=m.name)
+                               name=m.name, base_factor=(0.0, 0.0, 0.0, 1.0) if emits else (1.0, 1.0, 1.0, 1.0))
     if obj:
         written["obj"] = write_obj(folder / f"{m.name}.obj", m.vertices, m.faces, m.uv, texture.name, normals=m.normals)
 

@@ -1,9 +1,10 @@
 """Texel lookup: which atlas face lies under each texel sample, and where in it.
 
 The UV triangles are laid flat at z = 0 in an Embree scene (:class:`bake.rays.Scene`) and
-one vertical ray is cast per sample. Embree answers only the face; the barycentric coordinates are then solved
-in float64 from the sample's UV position, so that their precision does not depend on
-Embree's float32 arithmetic.
+one vertical ray is cast per texel, and for the samples of a texel that lie outside its
+first sample's face (:meth:`UVLookup.locate`). Embree answers only the face; the
+barycentric coordinates are then solved in float64 from the sample's UV position, so that
+their precision does not depend on Embree's float32 arithmetic.
 
 Image convention: texel ``(row, col)`` of an image of ``width x height`` texels has its
 centre at ``u = (col + 0.5) / width``, ``v = 1 - (row + 0.5) / height`` (row 0 at the top,
@@ -14,6 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba as nb
 import numpy as np
 
 from .errors import ParameterError
@@ -128,17 +130,61 @@ class UVLookup:
             face[(face >= 0) & self.degenerate[np.maximum(face, 0)]] = -1
         return face
 
+    def locate(self, uv: np.ndarray, samples: int = 1) -> tuple[np.ndarray, np.ndarray, int]:
+        """``(face (n,) int32, barycentric (n, 3) float64, rays cast)`` for ``(n, 2)`` UV
+        points that come ``samples`` a texel, contiguous (``sample_uv``'s order); face -1
+        (and coordinates 0) where no face is.
+
+        Rays only where needed: one for each texel's first sample; its other samples that
+        lie inside that face (by their float64 barycentrics: most of them) take it without
+        a ray, and only the rest are cast.
+        """
+        uv = np.ascontiguousarray(uv, dtype=np.float64)
+        bary = np.zeros((len(uv), 3))
+        inside = np.zeros(len(uv), dtype=np.bool_)
+        if samples == 1:
+            face = self.faces_at(uv)
+            _barycentric(uv, face, self._origin, self._inv, bary, inside)
+            return face, bary, len(uv)
+        first = self.faces_at(uv[::samples])
+        face = np.repeat(first, samples)
+        _barycentric(uv, face, self._origin, self._inv, bary, inside)
+        inside[::samples] = True  # cast already
+        redo = np.flatnonzero(~inside)
+        if len(redo):
+            again = self.faces_at(uv[redo])
+            face[redo] = again
+            b = np.zeros((len(redo), 3))
+            _barycentric(uv[redo], again, self._origin, self._inv, b, np.zeros(len(redo), dtype=np.bool_))
+            bary[redo] = b
+        return face, bary, len(first) + len(redo)
+
     def barycentric(self, uv: np.ndarray, face: np.ndarray) -> np.ndarray:
         """``(n, 3)`` float64 barycentric coordinates of UV points in their faces.
 
         Clamped into the triangle (Embree may report a face for a point a rounding
         error outside it).
         """
-        d = uv - self._origin[face]
-        inv = self._inv[face]
-        b1 = inv[:, 0, 0] * d[:, 0] + inv[:, 0, 1] * d[:, 1]
-        b2 = inv[:, 1, 0] * d[:, 0] + inv[:, 1, 1] * d[:, 1]
-        b = np.stack([1.0 - b1 - b2, b1, b2], axis=1)
-        np.clip(b, 0.0, 1.0, out=b)
-        b /= b.sum(axis=1, keepdims=True)
-        return b
+        bary = np.zeros((len(uv), 3))
+        _barycentric(np.ascontiguousarray(uv, dtype=np.float64), np.asarray(face), self._origin, self._inv, bary,
+                     np.zeros(len(uv), dtype=np.bool_))
+        return bary
+
+
+@nb.njit(cache=True, nogil=True)
+def _barycentric(uv, face, origin, inv, bary, inside):  # pragma: no cover - compiled
+    """Fill ``bary`` (n, 3) with each point's coordinates in its face, clamped into the
+    triangle and renormalised, and ``inside`` (n,) with whether the point lies in it
+    unclamped; rows of face -1 are left as they are. No GIL: tiles overlap."""
+    for i in range(face.shape[0]):
+        f = face[i]
+        if f < 0:
+            continue
+        dx, dy = uv[i, 0] - origin[f, 0], uv[i, 1] - origin[f, 1]
+        b1 = inv[f, 0, 0] * dx + inv[f, 0, 1] * dy
+        b2 = inv[f, 1, 0] * dx + inv[f, 1, 1] * dy
+        b0 = 1.0 - b1 - b2
+        inside[i] = b0 >= 0.0 and b1 >= 0.0 and b2 >= 0.0
+        b0, b1, b2 = min(max(b0, 0.0), 1.0), min(max(b1, 0.0), 1.0), min(max(b2, 0.0), 1.0)
+        total = b0 + b1 + b2
+        bary[i, 0], bary[i, 1], bary[i, 2] = b0 / total, b1 / total, b2 / total

@@ -112,9 +112,19 @@ def overlapping_faces(uv: np.ndarray, faces: np.ndarray, size: int) -> np.ndarra
     return flags
 
 
+def coverage(uv: np.ndarray, faces: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(counts (size, size) uint16, covering (m,) bool)``: :func:`coverage_counts` and
+    :func:`covering_faces` of one rasterisation."""
+    return _counts(uv, faces, size)[2:]
+
+
 def overlap(uv: np.ndarray, faces: np.ndarray, size: int) -> tuple[float, int]:
     """``(share, most)``: the share of covered texel centres that two or more faces cover,
     and the most faces over one centre."""
-    counts = coverage_counts(uv, faces, size)
+    return overlap_of(coverage_counts(uv, faces, size))
+
+
+def overlap_of(counts: np.ndarray) -> tuple[float, int]:
+    """:func:`overlap` from :func:`coverage_counts`."""
     covered = int((counts > 0).sum())
     return (float((counts > 1).sum()) / covered if covered else 0.0), int(counts.max())

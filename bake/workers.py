@@ -174,15 +174,24 @@ class Worker:
             pass
         return f"exit code {self.end()}"
 
-    def end(self, *, polite: bool = False) -> int | None:
-        """Stop the worker (``polite``: ask it first, for an idle one); returns its exit code."""
+    def ask_to_quit(self) -> None:
+        """Ask an idle worker to exit (an empty line), without waiting."""
         p = self.process
-        if polite and p.poll() is None and p.stdin and not p.stdin.closed:
+        if p.poll() is None and p.stdin and not p.stdin.closed:
             try:
                 p.stdin.write(b"\n")
                 p.stdin.flush()
+            except OSError:
+                pass
+
+    def end(self, *, polite: bool = False) -> int | None:
+        """Stop the worker (``polite``: ask it first, for an idle one); returns its exit code."""
+        p = self.process
+        if polite:
+            self.ask_to_quit()
+            try:
                 p.wait(0.2)
-            except (OSError, subprocess.TimeoutExpired):
+            except subprocess.TimeoutExpired:
                 pass
         if p.poll() is None:
             p.kill()
@@ -197,7 +206,8 @@ class Worker:
 
 
 class Pool:
-    """Up to ``n`` workers of ``command`` sharing one wall-clock ``end`` (``time.monotonic``).
+    """Up to ``n`` workers of ``command`` sharing one wall-clock ``end`` (``time.monotonic``;
+    the owner may move it between runs).
 
     Started lazily, reused for every job of one use, and replaced when one dies. Use as a
     context manager: leaving it ends them all.
@@ -216,6 +226,9 @@ class Pool:
         self.close()
 
     def close(self) -> None:
+        for w in self.all:  # all asked at once, then each waited for
+            if not w.busy:
+                w.ask_to_quit()
         for w in self.all:
             w.end(polite=not w.busy)
         self.all.clear()

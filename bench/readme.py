@@ -24,6 +24,7 @@ BEGIN, END = "<!-- bench:begin -->", "<!-- bench:end -->"
 # (command as documented, extra arguments for --quick)
 COMMANDS = [
     ("bench/bench_bake.py", ["--runs", "1", "--skip-8k"]),
+    ("bench/bench_blender.py", ["--runs", "1", "--size", "512"]),
     ("bench/bench_unwrap.py", ["--runs", "1", "--only", "gear"]),
     ("bench/bench_textures.py", ["--runs", "1", "--points", "500000"]),
     ("bench/bench_service.py", ["--jobs", "4", "--uploads", "4"]),

@@ -1,7 +1,8 @@
-"""A service bake process: ``python -m service.bakejob MEMORY_MB`` serves bakes, one job
-after another (``bake.workers`` protocol), with the baking core imported once.
+"""A service bake process: ``python -m service.bakejob MEMORY_MB [CACHE]`` serves bakes, one
+job after another (``bake.workers`` protocol), with the baking core imported once.
 
-:func:`setup` caps the process's address space; :func:`run` reads ``JOB_DIR/job.json``
+:func:`setup` caps the process's address space and names the folder of the atlases kept
+for later bakes of the same mesh (``DATA_DIR/cache``, bounded: ``bake.cache``); :func:`run` reads ``JOB_DIR/job.json``
 (mesh file name and bake settings), bakes into ``JOB_DIR/out.tmp.LEASE`` (the lease's
 own folder) and returns None, or the reason the bake failed.
 """
@@ -21,15 +22,37 @@ from bake.settings import BakeSettings
 from bake.workers import serve
 
 _memory_mb = 0  # this process's address-space limit, set by setup()
+_cache: Path | None = None  # the atlases of earlier bakes on this machine (bake.cache), set by setup()
 _progress_file = "progress"  # of the running bake, set by run()
 
 
-def setup(memory_mb: int) -> None:
-    """Cap the address space at ``memory_mb``."""
-    global _memory_mb
-    _memory_mb = memory_mb
+def setup(memory_mb: int, cache: Path | None = None) -> None:
+    """Cap the address space at ``memory_mb``; keep atlases in ``cache``; load every
+    texture's kernels in the background (a job's first use of a texture otherwise pays
+    for it: 0.3-1 s)."""
+    global _memory_mb, _cache
+    _memory_mb, _cache = memory_mb, cache
     limit = memory_mb * 1024 * 1024
     resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+    threading.Thread(target=_warm, daemon=True).start()
+
+
+def _warm() -> None:
+    """Bake each texture (and a bump, shaded) into a square of two triangles with its own
+    UVs, 8 texels a side: every kernel a job can use is loaded (no unwrap, nothing written)."""
+    import numpy as np
+    import trimesh
+
+    from bake.textures.spec import TEXTURES
+
+    square = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[0, 1, 2], [0, 2, 3]], process=False,
+                             visual=trimesh.visual.TextureVisuals(uv=np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)))
+    try:
+        for name in TEXTURES:
+            bake_mesh(square, name, size=8, workers=1)
+        bake_mesh(square, "checker", size=8, workers=1, bump="noise", shading="full")
+    except Exception:  # a warm-up only: a real job reports what is wrong
+        traceback.print_exc()
 
 
 def _write_progress(fraction: float) -> None:
@@ -49,7 +72,7 @@ def run(job_dir: str, lease: int) -> str | None:
     try:
         settings = BakeSettings.build(job["settings"])
         # one core per bake: the service runs as many bakes at a time as it has workers
-        result = bake_mesh(Path(job["mesh"]), settings, workers=1, progress=_write_progress)
+        result = bake_mesh(Path(job["mesh"]), settings, workers=1, progress=_write_progress, cache=_cache)
         result.save(Path(f"out.tmp.{lease}"))
     except BakeError as exc:
         return str(exc)
@@ -62,5 +85,5 @@ def run(job_dir: str, lease: int) -> str | None:
 
 
 if __name__ == "__main__":
-    setup(int(sys.argv[1]))
+    setup(int(sys.argv[1]), Path(sys.argv[2]) if len(sys.argv) > 2 else None)
     serve({"bake": run})

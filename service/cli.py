@@ -28,20 +28,20 @@ def serve(
     then the worker (its running bakes finish within BAKE_STOP_SECONDS or go back to the
     queue), and leaves no process behind.
     """
-    import logging
     import signal
 
     try:
         import uvicorn
 
+        from . import logs
         from .main import create_app
         from .settings import get_settings
         from .supervise import Supervisor
     except ImportError as exc:
         _need_service_extra(exc)
 
-    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
     settings = get_settings()
+    logs.setup(settings.log_format)
     if host not in ("127.0.0.1", "localhost", "::1") and not settings.api_keys:
         print(f"texbake serve: listening on {host} with no API keys: anyone who can reach it can bake (set BAKE_API_KEYS)", file=sys.stderr)
     supervisor = None
@@ -56,7 +56,8 @@ def serve(
     for signum in (signal.SIGTERM, signal.SIGINT):
         signal.signal(signum, lambda *_: None)
     try:
-        uvicorn.run(app, host=host, port=port, log_level="warning")
+        # log_config=None: uvicorn's loggers go through ours (text or JSON)
+        uvicorn.run(app, host=host, port=port, log_level="warning", log_config=None)
     finally:
         if supervisor is not None:
             supervisor.stop()
@@ -73,20 +74,22 @@ def worker(workers: int | None = typer.Option(None, help="bakes at a time (defau
     import threading
 
     try:
+        from . import logs
         from .settings import get_settings
         from .tasks import hand_back, prestart, queue, reap_forever
     except ImportError as exc:
         _need_service_extra(exc)
 
-    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
     settings = get_settings()
+    logs.setup(settings.log_format)
     count = workers or settings.workers
     prestart(count)  # the first jobs find their bake processes warm
     stop = threading.Event()
     threading.Thread(target=reap_forever, args=(stop, count), daemon=True).start()  # re-queue dead workers' jobs
     try:  # threads are enough: each bake runs in its own child process
-        queue().huey.create_consumer(workers=count, worker_type="thread", periodic=True,
-                             graceful_signal="TERM", shutdown_timeout=settings.stop_seconds).run()
+        # an idle worker looks for work at least every second (huey's default backs off to 10 s)
+        queue().huey.create_consumer(workers=count, worker_type="thread", periodic=True, initial_delay=0.05, max_delay=1.0,
+                                     graceful_signal="TERM", shutdown_timeout=settings.stop_seconds).run()
     finally:
         stop.set()
         returned = hand_back()

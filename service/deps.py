@@ -13,9 +13,17 @@ from sqlalchemy.orm import Session
 
 from . import db
 from .settings import Settings, get_settings
+from .storage import Storage, get_storage
 
 JOB_ID = re.compile(r"[0-9a-f]{32}")  # uuid4().hex
 SettingsDep = Annotated[Settings, Depends(get_settings)]
+
+
+def storage_of(settings: SettingsDep) -> Storage:
+    return get_storage(settings)
+
+
+StorageDep = Annotated[Storage, Depends(storage_of)]
 
 
 def get_session(settings: SettingsDep):

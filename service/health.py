@@ -1,7 +1,7 @@
 """Health checks for containers and orchestrators: ``python -m service.health api|worker``.
 
 ``api`` asks the API's ``/healthz`` (on ``BAKE_PORT``, 8000 by default); ``worker`` checks
-that the jobs table and the queue answer. Exit code 0 when healthy, else 1 with the reason
+that the jobs table, the queue and the object store (if any) answer. Exit code 0 when healthy, else 1 with the reason
 on one line. :func:`ready` is ``/readyz``'s answer.
 """
 
@@ -17,7 +17,8 @@ logger = logging.getLogger("texbake.service")
 
 
 def ready() -> dict:
-    """What ``/readyz`` reports: each dependency ``ok`` or ``unavailable`` (the reason goes
+    """What ``/readyz`` reports: each dependency (``database``, ``queue``, ``storage``: the
+    object store; always ``ok`` for the data folder) ``ok`` or ``unavailable`` (the reason goes
     to the log, never to the client), the queue's length, live workers and their bake
     slots, free disk in the data folder; ``ok`` when all are up, a worker is alive and the
     disk has ``BAKE_MIN_FREE_MB``."""
@@ -25,10 +26,11 @@ def ready() -> dict:
 
     from . import db
     from .settings import get_settings
+    from .storage import get_storage
     from .tasks import queue
 
     s = get_settings()
-    answer: dict = {"database": "ok", "queue": "ok", "queued": None, "workers": None, "slots": None}
+    answer: dict = {"database": "ok", "queue": "ok", "storage": "ok", "queued": None, "workers": None, "slots": None}
     try:
         with db.sessions(s.database)() as session:
             session.execute(text("SELECT 1"))
@@ -41,8 +43,13 @@ def ready() -> dict:
     except Exception as exc:
         logger.warning("readiness: the queue: %s: %s", type(exc).__name__, exc)
         answer["queue"] = "unavailable"
+    try:
+        get_storage(s).check()
+    except Exception as exc:
+        logger.warning("readiness: the object store: %s: %s", type(exc).__name__, exc)
+        answer["storage"] = "unavailable"
     answer["disk_free_mb"] = shutil.disk_usage(s.data_dir).free >> 20
-    answer["ok"] = (answer["database"] == answer["queue"] == "ok" and bool(answer["workers"])
+    answer["ok"] = (answer["database"] == answer["queue"] == answer["storage"] == "ok" and bool(answer["workers"])
                     and answer["disk_free_mb"] >= s.min_free_mb)
     return answer
 
@@ -56,7 +63,7 @@ def main(argv: list[str]) -> int:
                 answer.read()
         elif what == "worker":
             answer = ready()
-            down = [name for name in ("database", "queue") if answer[name] != "ok"]
+            down = [name for name in ("database", "queue", "storage") if answer[name] != "ok"]
             if down:
                 print(f"unhealthy: {' and '.join(down)} unavailable", file=sys.stderr)
                 return 1

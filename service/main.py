@@ -22,6 +22,7 @@ from .routes import jobs, meta, swatch
 from .routes.page import add_page
 from .schemas import Problem
 from .settings import get_settings
+from .storage import StorageError, StorageMissing
 from .tasks import reap_forever
 
 logger = logging.getLogger("texbake.service")
@@ -91,7 +92,9 @@ class AccessLog:
             await self.app(scope, receive, sending)
         finally:
             client = scope.get("client") or ("-", 0)
-            access_log.info("%s %s %s %d %.3f", client[0], scope["method"], scope["path"], status, time.perf_counter() - began)
+            seconds = round(time.perf_counter() - began, 3)
+            access_log.info("%s %s %s %d %.3f", client[0], scope["method"], scope["path"], status, seconds,
+                            extra={"client": client[0], "method": scope["method"], "path": scope["path"], "status": status, "seconds": seconds})
 
 
 @asynccontextmanager
@@ -136,6 +139,14 @@ def create_app() -> FastAPI:
     async def queue_error(request: Request, exc: RedisError):
         logger.warning("%s %s: the queue is unavailable: %s", request.method, request.url.path, type(exc).__name__)
         return unavailable("the queue")
+
+    @app.exception_handler(StorageError)
+    async def storage_error(request: Request, exc: StorageError):
+        """The object store out of reach (or its bucket missing): 503, try again; an object gone: 404."""
+        if isinstance(exc, StorageMissing):
+            return JSONResponse(status_code=404, content={"detail": "the file is gone (its job expired?)"})
+        logger.warning("%s %s: the object store is unavailable: %s", request.method, request.url.path, exc)
+        return unavailable("the object store")
 
     @app.exception_handler(OSError)
     async def disk_error(request: Request, exc: OSError):

@@ -7,8 +7,9 @@ from __future__ import annotations
 
 from functools import lru_cache
 from pathlib import Path
+from typing import Literal
 
-from pydantic import Field
+from pydantic import Field, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 
@@ -19,6 +20,9 @@ class Settings(BaseSettings):
     redis_url: str | None = Field(None, description="Redis for the queue (default: SQLite in data_dir)")
     database_url: str | None = Field(None, description="SQLAlchemy URL of the jobs table (default: SQLite)")
     base_url: str | None = Field(None, description="the API's public URL, for job URLs (default: the request's, Host header included)")
+    storage_url: str | None = Field(None, description="s3://bucket/prefix: uploads and outputs in an object store (default: in data_dir)")
+    s3_endpoint: str | None = Field(None, description="the S3-compatible server's URL when not AWS's (http:// allowed), e.g. MinIO's")
+    log_format: Literal["text", "json"] = Field("text", description="json: one JSON object per log line")
     api_keys: list[str] = Field(default_factory=list, description="bearer tokens; empty: no authentication")
     max_upload_bytes: int = 256 * 1024 * 1024
     max_faces: int = 2_000_000
@@ -38,9 +42,12 @@ class Settings(BaseSettings):
     keep_hours: float = 168.0  # a done job (row, folder, outputs) is deleted this long after it finished
     keep_failed_hours: float = 24.0  # a failed or cancelled one this long after
 
-    def job_dir(self, job_id: str) -> Path:
-        """The folder of one job: its upload, ``job.json``, ``out.tmp.LEASE`` while baking, ``out``."""
-        return self.data_dir / "jobs" / job_id
+    @field_validator("storage_url")
+    @classmethod
+    def _s3_only(cls, url: str | None) -> str | None:
+        if url is not None and not (url.startswith("s3://") and len(url) > len("s3://")):
+            raise ValueError(f"{url!r} is not an s3://bucket/prefix URL")
+        return url
 
     @property
     def database(self) -> str:

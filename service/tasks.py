@@ -4,10 +4,11 @@ Nothing happens at import: :func:`queue` makes the huey queue from the settings 
 use and registers the tasks on it (``run_bake`` and the ``reaper``); :func:`enqueue_bake`
 puts a job id on it.
 
-A task claims its job in the jobs table, runs the bake in a child process with a
+A task claims its job in the jobs table, fetches its upload (:mod:`service.storage`: the
+data folder, or a copy from the object store), runs the bake in a child process with a
 deadline and a memory limit (a hang or a crash in native code fails that job only), beats
-the job's heartbeat meanwhile, stops the child when the job is cancelled, and moves the
-outputs into place only when the bake is complete.
+the job's heartbeat meanwhile, stops the child when the job is cancelled, and publishes
+the outputs only when the bake is complete and the job's lease still its own.
 
 Bakes run in bake processes, ``bake.workers.Worker``s running ``service.bakejob``: started
 when the worker starts (:func:`prestart`, one per worker thread), then reused from job to
@@ -28,6 +29,7 @@ import signal
 import sys
 import threading
 import time
+from concurrent.futures import ThreadPoolExecutor, TimeoutError
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -41,6 +43,7 @@ from bake.workers import Worker
 from . import db
 from .queue import make_huey
 from .settings import Settings, get_settings
+from .storage import StorageMissing, StorageUnavailable, get_storage
 
 logger = logging.getLogger("texbake.service")
 jobs_log = logging.getLogger("texbake.jobs")
@@ -53,6 +56,7 @@ class Queue:
 
 
 CLAIM_RETRY_SECONDS = 2.0  # a bake that cannot reach the jobs table to claim its job tries again this much later
+STORE_RETRY_SECONDS = 5.0  # one that cannot fetch its upload from the object store, this much later
 
 
 @functools.lru_cache
@@ -69,7 +73,7 @@ def enqueue_bake(job_id: str) -> None:
 
 def state_changed(job_id: str, state: str, detail: str = "") -> None:
     """The one log line of a job's change of state (``texbake.jobs``)."""
-    jobs_log.info("job %s %s%s", job_id, state, f": {detail}" if detail else "", extra={"job": job_id, "state": state})
+    jobs_log.info("job %s %s%s", job_id, state, f": {detail}" if detail else "", extra={"job": job_id, "state": state, "detail": detail})
 
 
 def queued_ids() -> set[str]:
@@ -88,7 +92,8 @@ def _new_bake_process(s: Settings) -> Worker:
     folder = s.data_dir / "workers"
     folder.mkdir(parents=True, exist_ok=True)
     # its stderr is the worker's: tracebacks of bugs land in the worker's log
-    return Worker([sys.executable, "-m", "service.bakejob", str(s.job_memory_mb)], str(folder), stderr=None)
+    return Worker([sys.executable, "-m", "service.bakejob", str(s.job_memory_mb), str(s.data_dir / "cache")], str(folder),
+                  stderr=None)
 
 
 def prestart(count: int) -> None:
@@ -140,7 +145,23 @@ def run_bake(job_id: str) -> str:
     if job is None:
         return "not queued"
     state_changed(job_id, "running", f"attempt {job.attempts}, lease {job.lease}")
-    folder = s.job_dir(job_id)
+    storage = get_storage(s)
+    try:
+        folder = _beating(job_id, job.lease, lambda: storage.fetch_input(job_id, job.lease))
+    except StorageUnavailable as exc:  # hand the job back, uncounted, and try again later
+        logger.warning("job %s: cannot fetch its upload (%s): trying again in %g s", job_id, exc, STORE_RETRY_SECONDS)
+        with Session() as session:
+            released = _patiently(f"job {job_id}", lambda: db.release(session, job_id, job.lease), s.job_seconds)
+        if released:
+            state_changed(job_id, "queued", "handed back: its upload could not be fetched")
+            raise RetryTask(delay=STORE_RETRY_SECONDS) from None
+        return "taken"
+    except StorageMissing as exc:
+        reason = f"its upload is gone: {exc}"
+        with Session() as session:
+            if _patiently(f"job {job_id}", lambda: db.finish(session, job_id, job.lease, "failed", error=reason), s.job_seconds):
+                state_changed(job_id, "failed", reason)
+        return "failed"
     tmp = f"out.tmp.{job.lease}"  # this lease's own: two bakes of one job never share a folder
     shutil.rmtree(folder / tmp, ignore_errors=True)
     worker = _take_bake_process(s)
@@ -152,18 +173,40 @@ def run_bake(job_id: str) -> str:
         _give_back(worker)
         shutil.rmtree(folder / tmp, ignore_errors=True)
         (folder / f"progress.{job.lease}").unlink(missing_ok=True)
+        storage.done_with(folder)
 
 
-def _with_database(what: str, call, seconds: float):
-    """``call()``, tried again for up to ``seconds`` while the jobs table is out of reach."""
+def _beating(job_id: str, token: int, call):
+    """``call()`` (a transfer to or from the object store, which may take a while) in a
+    thread, while this one beats the job's heartbeat: the reaper must not take the job
+    from a bake that is only moving its files."""
+    s = get_settings()
+    with ThreadPoolExecutor(1, thread_name_prefix=f"transfer-{job_id[:8]}") as pool:
+        done = pool.submit(call)
+        while True:
+            try:
+                return done.result(timeout=s.heartbeat_seconds)
+            except TimeoutError:
+                try:
+                    with db.sessions(s.database)() as session:
+                        db.beat(session, job_id, token)
+                except DBAPIError:
+                    pass  # the jobs table is out of reach: the bake's own loop says so
+
+
+def _patiently(what: str, call, seconds: float):
+    """``call()``, tried again for up to ``seconds`` while the jobs table or the object
+    store is out of reach."""
     end, delay = time.monotonic() + seconds, 0.2
     while True:
         try:
             return call()
-        except DBAPIError as exc:
+        except (DBAPIError, StorageUnavailable) as exc:
             if time.monotonic() + delay > end:
                 raise
-            logger.warning("%s: the jobs table is out of reach (%s): trying again in %.1f s", what, type(exc.orig).__name__, delay)
+            reason = type(exc.orig).__name__ if isinstance(exc, DBAPIError) else str(exc)
+            logger.warning("%s: %s is out of reach (%s): trying again in %.1f s", what,
+                           "the jobs table" if isinstance(exc, DBAPIError) else "the object store", reason, delay)
             time.sleep(delay)
             delay = min(5.0, delay * 2)
 
@@ -206,20 +249,21 @@ def _supervise(job_id: str, token: int, folder: Path, tmp: str, worker: Worker) 
     wait = s.job_seconds  # a finished bake waits out an outage as long as a bake may take
     if error is None:
         with Session() as session:
-            if not _with_database(f"job {job_id}", lambda: db.holds(session, job_id, token), wait):
+            if not _patiently(f"job {job_id}", lambda: db.holds(session, job_id, token), wait):
                 logger.info("job %s: lease %d lost before publishing: outputs discarded", job_id, token)
                 return "taken"
-            final = folder / "out"
-            (folder / "result.zip").unlink(missing_ok=True)  # of an earlier publication: made again on request
-            shutil.rmtree(final, ignore_errors=True)
-            (folder / tmp).rename(final)  # complete: all files at once
-            report = json.loads((final / "report.json").read_text())
-            if _with_database(f"job {job_id}", lambda: db.finish(session, job_id, token, "done", report=report), wait):
-                state_changed(job_id, "done")
-                return "done"
-            return "taken"
+            report = json.loads((folder / tmp / "report.json").read_text())
+            try:
+                _patiently(f"job {job_id}", lambda: _beating(job_id, token, lambda: get_storage(s).publish(job_id, token, folder / tmp)), wait)
+            except StorageUnavailable as exc:
+                error = f"its outputs could not be stored: {exc}"
+            if error is None:
+                if _patiently(f"job {job_id}", lambda: db.finish(session, job_id, token, "done", report=report), wait):
+                    state_changed(job_id, "done")
+                    return "done"
+                return "taken"
     with Session() as session:
-        if _with_database(f"job {job_id}", lambda: db.finish(session, job_id, token, "failed", error=error), wait):
+        if _patiently(f"job {job_id}", lambda: db.finish(session, job_id, token, "failed", error=error), wait):
             state_changed(job_id, "failed", error or "")
             return "failed"
     return "taken"

@@ -8,6 +8,7 @@ import socket
 import struct
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -21,6 +22,8 @@ MESHES = SHARED / "meshes"
 
 def pytest_configure(config):
     config.addinivalue_line("markers", "xatlas_failure: relies on a real xatlas failure (a hang or a crash a new xatlas may fix)")
+    # the command line keeps atlases for later bakes: in a folder of this run, not the user's
+    os.environ["TEXBAKE_CACHE"] = tempfile.mkdtemp(prefix="texbake-test-cache-")
 
 
 @pytest.fixture(scope="session")
@@ -275,3 +278,61 @@ def wait(url, job_id, states=("done", "failed", "cancelled"), timeout=120):
     pytest.fail(f"job {job_id} still {job['state']} after {timeout} s")
 
 
+
+
+class OwnS3:
+    """moto's S3 server (``python -m moto.server``) of the test's own on a free port: an
+    S3-compatible store on 127.0.0.1, its objects in memory (gone with stop())."""
+
+    KEYS = {"AWS_ACCESS_KEY_ID": "testing", "AWS_SECRET_ACCESS_KEY": "testing", "AWS_REGION": "us-east-1"}
+
+    def __init__(self, folder: Path):
+        self.port, self.folder = free_port(), folder
+        self.endpoint = f"http://127.0.0.1:{self.port}"
+        self.env = {**self.KEYS, "BAKE_S3_ENDPOINT": self.endpoint}  # what the service needs to use it
+        self.process: subprocess.Popen | None = None
+
+    def start(self):
+        self.log = open(self.folder / "moto.log", "wb")
+        self.process = subprocess.Popen([sys.executable, "-m", "moto.server", "-H", "127.0.0.1", "-p", str(self.port)],
+                                        stdout=self.log, stderr=subprocess.STDOUT)
+        end = time.monotonic() + 30
+        while True:
+            try:
+                httpx.get(f"{self.endpoint}/moto-api/", timeout=1)
+                return self
+            except httpx.HTTPError:
+                if self.process.poll() is not None or time.monotonic() > end:
+                    raise RuntimeError(f"moto's server did not start: {(self.folder / 'moto.log').read_text()[-2000:]}") from None
+                time.sleep(0.1)
+
+    def client(self):
+        """A boto3 S3 client of the server (moto's own dependency)."""
+        import boto3
+
+        return boto3.client("s3", endpoint_url=self.endpoint, region_name="us-east-1",
+                            aws_access_key_id="testing", aws_secret_access_key="testing")
+
+    def keys(self, bucket: str, prefix: str = "") -> dict[str, bytes]:
+        """Every object under ``prefix``: key -> its bytes."""
+        client = self.client()
+        found = client.list_objects_v2(Bucket=bucket, Prefix=prefix).get("Contents", [])
+        return {o["Key"]: client.get_object(Bucket=bucket, Key=o["Key"])["Body"].read() for o in found}
+
+    def stop(self):
+        if self.process is not None:
+            self.process.kill()
+            self.process.wait()
+            self.process = None
+            self.log.close()
+
+
+@pytest.fixture
+def own_s3(tmp_path_factory):
+    try:
+        import moto.server  # noqa: F401
+    except ImportError as exc:
+        need(f"moto's S3 server needed (pip install -c constraints.txt -e '.[test]'): {exc}")
+    server = OwnS3(tmp_path_factory.mktemp("s3")).start()
+    yield server
+    server.stop()

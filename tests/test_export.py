@@ -342,6 +342,8 @@ def test_every_baked_glb_variant_binds_its_maps_and_validates(meshes, tmp_path, 
         image = doc["images"][doc["textures"][ref["index"]]["source"]]
         assert view_bytes(doc, binary, image["bufferView"]) == (tmp_path / maps[slot]).read_bytes()
     assert material.get("emissiveFactor") == ([1.0, 1.0, 1.0] if "emissive" in maps else None)
+    # the flame is light, not paint: no diffuse colour on top of its emission
+    assert material["pbrMetallicRoughness"].get("baseColorFactor") == ([0.0, 0.0, 0.0, 1.0] if "emissive" in maps else None)
     attributes = doc["meshes"][0]["primitives"][0]["attributes"]
     assert ("TANGENT" in attributes) == ("normal" in maps) and "NORMAL" in attributes
     if "normal" in maps:

@@ -47,3 +47,11 @@ def test_seams_split_vertices_by_texcoord():
 def test_bad_files(text, words):
     with pytest.raises(MeshError, match=words):
         read(text)
+
+
+def test_indented_lines_tabs_long_rows_and_short_texcoords():
+    # what other writers produce: indentation, tabs, vertex colours after x y z, a "vt u"
+    text = "  v 0 0 0 1 0 0\nv\t1 0 0\n\tv 0 1 0 0.5 0.5 0.5\nvt 0.25\nvt 1 1 0\nvt 0 1\nf 1/1 2/2 3/3\n"
+    v, f, uv = read(text)
+    assert np.array_equal(v[f[0]], [[0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    assert np.array_equal(uv[f[0]], [[0.25, 0], [1, 1], [0, 1]])

@@ -204,3 +204,16 @@ def test_progress_is_reported_from_start_to_end(meshes):
     bake.bake_mesh(meshes / "suzanne.ply", "marble", size=256, tile_samples=4096, progress=seen.append)
     assert seen[0] == 0.05 and seen[-1] == 1.0 and len(seen) > 10
     assert all(0 <= f <= 1 for f in seen) and max(seen[:-1]) < 1.0
+
+
+def test_the_lit_map_shades_with_the_normals_the_glb_gets():
+    # a box's faces meet at hard edges: split normals, so each face is lit evenly (lit /
+    # albedo constant over it), as a viewer shades the GLB; smooth normals would grade
+    # every face towards its corners (they gave 718 distinct shades here)
+    result = bake.bake_mesh(trimesh.creation.box(), "checker", size=64, shading="ambient-diffuse", margin=0)
+    cov = result.coverage
+    ratio = result.images["lit"][cov][:, 0] / np.maximum(result.images["albedo"][cov][:, 0], 1e-6)
+    bright = result.images["albedo"][cov][:, 0] > 0.05
+    levels = np.unique(np.round(ratio[bright], 4))
+    assert len(levels) <= 6, levels  # one shade a face at most
+    assert np.allclose(result.mesh.normals[result.mesh.faces].std(axis=1), 0)  # the GLB's: flat per face

@@ -16,7 +16,7 @@ def job(session, settings, key, state, hours_ago):
     made, _ = db.create_job(session, key=key, client="c", mesh_name="m.obj", settings={})
     session.execute(update(db.Job).where(db.Job.id == made.id).values(state=state, updated=db.now() - timedelta(hours=hours_ago)))
     session.commit()
-    folder = settings.job_dir(made.id)
+    folder = settings.data_dir / "jobs" / made.id
     (folder / "out").mkdir(parents=True)
     (folder / "out" / "albedo.png").write_bytes(b"png")
     return made.id
@@ -38,7 +38,7 @@ def test_collect_expires_old_jobs_and_left_overs_only(tmp_path):
     orphan.mkdir()
     fresh_orphan = tmp_path / "jobs" / ("e" * 32)  # maybe being staged right now
     fresh_orphan.mkdir()
-    half = settings.job_dir(new_done) / "out.tmp.1"  # a bake that lost its lease and died before cleaning
+    half = settings.data_dir / "jobs" / new_done / "out.tmp.1"  # a bake that lost its lease and died before cleaning
     half.mkdir()
     (tmp_path / "uploads").mkdir()
     stale_upload, fresh_upload = tmp_path / "uploads" / "x.obj", tmp_path / "uploads" / "y.obj"
@@ -51,7 +51,7 @@ def test_collect_expires_old_jobs_and_left_overs_only(tmp_path):
     assert sorted(collected.jobs) == sorted([old_done, old_failed])
     assert sorted(collected.leftovers) == sorted([f"jobs/{orphan.name}", f"jobs/{new_done}/out.tmp.1", "uploads/x.obj"])
     assert sorted(p.name for p in (tmp_path / "jobs").iterdir()) == sorted([new_done, queued, fresh_orphan.name])
-    assert fresh_upload.exists() and (settings.job_dir(new_done) / "out" / "albedo.png").exists()
+    assert fresh_upload.exists() and (settings.data_dir / "jobs" / new_done / "out" / "albedo.png").exists()
     with db.sessions(settings.database)() as session:
         assert session.get(db.Job, old_done) is None and session.get(db.Job, new_done) is not None
         # an expired done job no longer answers for its key: the same upload bakes again

@@ -3,17 +3,17 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import json
 import logging
 import shutil
 import uuid
-import zipfile
 from pathlib import Path
 from typing import Annotated
 
 from fastapi import APIRouter, File, Form, HTTPException, Query, Request, Response, UploadFile
-from fastapi.responses import FileResponse
+from fastapi.responses import StreamingResponse
 from pydantic import Json
 from sqlalchemy import func, select, true
 
@@ -21,9 +21,10 @@ from bake.errors import MeshError
 from bake.load import FORMATS, check_file
 
 from .. import db
-from ..deps import ClientDep, JobDep, SessionDep, SettingsDep
+from ..deps import ClientDep, JobDep, SessionDep, SettingsDep, StorageDep
 from ..schemas import BakeSettings, JobOut, JobPage
 from ..settings import get_settings
+from ..storage import Storage, StorageMissing, get_storage, zip_stream
 from ..tasks import enqueue_bake, state_changed
 
 router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
@@ -40,8 +41,7 @@ def job_url(job_id: str, request: Request) -> str:
 
 
 def _out(job: db.Job, request: Request) -> JobOut:
-    out = get_settings().job_dir(job.id) / "out"
-    files = sorted(p.name for p in out.iterdir()) if job.state == "done" and out.is_dir() else []
+    files = sorted(get_storage().outputs(job.id, job.lease)) if job.state == "done" else []
     data = job.as_dict()
     warnings = (data["report"] or {}).get("warnings", [])
     return JobOut(url=job_url(job.id, request), files=files, warnings=warnings, **data)
@@ -106,21 +106,17 @@ def _check_unfinished(session, client: str, settings) -> None:
         raise HTTPException(429, detail=f"{unfinished} unfinished jobs: the limit per client is {settings.jobs_per_client}")
 
 
-def _make_job(request: Request, response: Response, session, settings, client: str, *,
+def _make_job(request: Request, response: Response, session, settings, storage: Storage, client: str, *,
               upload: Path, name: str, mesh_name: str, options: dict, key: str) -> JobOut:
-    """The job of the mesh in ``upload`` (moved into the job's folder as ``name``) with
-    bake ``options``, queued; or the queued, running or done job with the same ``key``
-    (the answer's status then 200)."""
-    # the folder first, the row second: a job in the table always has its upload
+    """The job of the mesh in ``upload`` (stored as ``name``) with bake ``options``, queued;
+    or the queued, running or done job with the same ``key`` (the answer's status then 200)."""
+    # the upload first, the row second: a job in the table always has its upload
     job_id = uuid.uuid4().hex
-    folder = settings.job_dir(job_id)
-    folder.mkdir(parents=True)
-    shutil.move(upload, folder / name)  # outputs are named after it
-    (folder / "job.json").write_text(json.dumps({"mesh": name, "settings": options}))
+    storage.save_input(job_id, upload, name, {"mesh": name, "settings": options})  # outputs are named after it
     try:
         job, created = db.create_job(session, job_id=job_id, key=key, client=client, mesh_name=mesh_name, settings=options)
     except BaseException:
-        shutil.rmtree(folder, ignore_errors=True)
+        storage.delete(job_id)
         raise
     if created:
         state_changed(job.id, "queued", f"{name}, client {client}")
@@ -130,7 +126,7 @@ def _make_job(request: Request, response: Response, session, settings, client: s
             logger.warning("job %s: the queue write failed (%s: %s): the reaper enqueues it within %g s",
                            job.id, type(exc).__name__, exc, settings.requeue_seconds)
     else:  # the same upload's job exists already
-        shutil.rmtree(folder, ignore_errors=True)
+        storage.delete(job_id)
         response.status_code = 200
     response.headers["Location"] = job_url(job.id, request)
     return _out(job, request)
@@ -138,7 +134,7 @@ def _make_job(request: Request, response: Response, session, settings, client: s
 
 @router.post("", status_code=202, response_model=JobOut)
 def create_job(
-    request: Request, response: Response, session: SessionDep, settings: SettingsDep, client: ClientDep,
+    request: Request, response: Response, session: SessionDep, settings: SettingsDep, client: ClientDep, storage: StorageDep,
     mesh: Annotated[UploadFile, File(description="OBJ, PLY, STL, OFF, glTF or GLB")],
     bake_settings: Annotated[Json[BakeSettings] | None, Form(alias="settings", description="BakeSettings as JSON (default: all defaults)")] = None,
 ):
@@ -159,30 +155,34 @@ def create_job(
         digest.update(json.dumps(_resolved(options), sort_keys=True).encode())
         if settings.api_keys:  # with keys, each client has its own jobs
             digest.update(client.encode())
-        return _make_job(request, response, session, settings, client, upload=tmp, name=_safe_stem(mesh.filename) + suffix,
+        return _make_job(request, response, session, settings, storage, client, upload=tmp, name=_safe_stem(mesh.filename) + suffix,
                          mesh_name=mesh.filename or "mesh", options=options, key=digest.hexdigest())
     finally:
         tmp.unlink(missing_ok=True)
 
 
 @router.post("/{job_id}/retry", status_code=202, response_model=JobOut)
-def retry_job(job: JobDep, request: Request, response: Response, session: SessionDep, settings: SettingsDep, client: ClientDep):
+def retry_job(job: JobDep, request: Request, response: Response, session: SessionDep, settings: SettingsDep, client: ClientDep,
+              storage: StorageDep):
     """Bake a failed or cancelled job again: a new job from its upload and settings (202),
     or the queued, running or done job that has them already (200)."""
     if job.state not in ("failed", "cancelled"):
         raise HTTPException(409, detail=f"job {job.id} is {job.state}: only a failed or cancelled job is retried")
-    folder = settings.job_dir(job.id)
+    _check_unfinished(session, client, settings)
+    uploads = settings.data_dir / "uploads"
+    uploads.mkdir(parents=True, exist_ok=True)
     try:
-        name = json.loads((folder / "job.json").read_text())["mesh"]
-        _check_unfinished(session, client, settings)
-        uploads = settings.data_dir / "uploads"
-        uploads.mkdir(parents=True, exist_ok=True)
-        tmp = uploads / f"{uuid.uuid4().hex}{Path(name).suffix}"
-        shutil.copyfile(folder / name, tmp)
-    except FileNotFoundError:
+        folder = storage.fetch_input(job.id, job.lease)  # (from an object store: a copy of its own)
+        try:
+            name = json.loads((folder / "job.json").read_text())["mesh"]
+            tmp = uploads / f"{uuid.uuid4().hex}{Path(name).suffix}"
+            shutil.copyfile(folder / name, tmp)
+        finally:
+            storage.done_with(folder)
+    except (StorageMissing, FileNotFoundError):  # deleted by retention, or from the store
         raise HTTPException(409, detail=f"job {job.id}: its upload is no longer kept; upload the mesh again") from None
     try:
-        return _make_job(request, response, session, settings, client, upload=tmp, name=name, mesh_name=job.mesh_name,
+        return _make_job(request, response, session, settings, storage, client, upload=tmp, name=name, mesh_name=job.mesh_name,
                          options=json.loads(job.settings), key=job.key)
     finally:
         tmp.unlink(missing_ok=True)
@@ -212,45 +212,24 @@ def cancel_job(job: JobDep, session: SessionDep, request: Request):
     return _out(job, request)
 
 
-def _outputs(job: db.Job) -> Path:
-    out = get_settings().job_dir(job.id) / "out"
-    if job.state != "done" or not out.is_dir():
+def _outputs(job: db.Job, storage: Storage) -> dict[str, int]:
+    files = storage.outputs(job.id, job.lease) if job.state == "done" else {}
+    if not files:
         raise HTTPException(409, detail=f"job {job.id} is {job.state}: no outputs yet")
-    return out
+    return files
 
 
 @router.get("/{job_id}/files/{name}")
-def get_file(job: JobDep, name: str):
-    out = _outputs(job)
-    files = {p.name: p for p in out.iterdir() if p.is_file()}
+def get_file(job: JobDep, name: str, storage: StorageDep):
+    files = _outputs(job, storage)
     if name not in files:  # names are matched, never joined: no path traversal
         raise HTTPException(404, detail=f"job {job.id} has no file {name!r} (has: {', '.join(sorted(files))})")
-    return FileResponse(files[name], filename=name)
-
-
-# already compressed: stored as they are (deflating them again takes seconds per 100 MB and saves nothing)
-_STORED = {".png", ".jpg", ".jpeg", ".exr", ".zip", ".gz", ".ktx2"}
-
-
-def _result_zip(out: Path) -> Path:
-    """The job's ``result.zip`` beside ``out``, written once (to a temporary file, then
-    renamed) and served from disk; publishing a new ``out`` removes it."""
-    target = out.parent / "result.zip"
-    if target.is_file():
-        return target
-    tmp = out.parent / f"result.zip.{uuid.uuid4().hex}.tmp"
-    try:
-        with zipfile.ZipFile(tmp, "w") as z:
-            for p in sorted(out.iterdir()):
-                stored = p.suffix.lower() in _STORED
-                z.write(p, p.name, compress_type=zipfile.ZIP_STORED if stored else zipfile.ZIP_DEFLATED, compresslevel=None if stored else 1)
-        tmp.replace(target)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return target
+    return storage.file_response(job.id, job.lease, name, files[name])
 
 
 @router.get("/{job_id}/result.zip")
-def get_zip(job: JobDep):
-    """Every output in one zip, streamed from a file on disk (constant memory, any size)."""
-    return FileResponse(_result_zip(_outputs(job)), media_type="application/zip", filename=f"{job.id}.zip")
+def get_zip(job: JobDep, storage: StorageDep):
+    """Every output in one zip, written as it is sent (constant memory, any size)."""
+    members = [(name, size, functools.partial(storage.read, job.id, job.lease, name)) for name, size in sorted(_outputs(job, storage).items())]
+    return StreamingResponse(zip_stream(members), media_type="application/zip",
+                             headers={"Content-Disposition": f'attachment; filename="{job.id}.zip"'})

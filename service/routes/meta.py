@@ -42,7 +42,8 @@ def readyz():
     answer = ready()
     if answer["ok"]:
         return answer
-    missing = [f"the {name} is unavailable" for name in ("database", "queue") if answer[name] != "ok"]
+    names = {"database": "database", "queue": "queue", "storage": "object store"}
+    missing = [f"the {said} is unavailable" for name, said in names.items() if answer[name] != "ok"]
     if answer["database"] == "ok" and not answer["workers"]:
         missing.append("no worker is alive")
     if not missing:
