@@ -30,6 +30,7 @@ COMMANDS = [
     ("bench/bench_textures.py", ["--runs", "1", "--points", "500000"]),
     ("bench/bench_service.py", ["--jobs", "4", "--uploads", "4"]),
     ("bench/bench_error.py", ["--sizes", "256", "--repeats", "1", "--textures", "marble"]),
+    ("bench/bench_swatch.py", ["--requests", "5"]),
 ]
 
 

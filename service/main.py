@@ -18,7 +18,8 @@ from sqlalchemy.exc import DataError, DBAPIError
 from bake import __version__
 from bake.errors import BakeError
 
-from .routes import jobs, meta
+from .routes import jobs, meta, swatch
+from .routes.page import add_page
 from .schemas import Problem
 from .settings import get_settings
 from .storage import StorageError, StorageMissing
@@ -119,6 +120,8 @@ def create_app() -> FastAPI:
     app.add_middleware(AccessLog)  # outermost: sees the 413s too
     app.include_router(jobs.router)
     app.include_router(meta.router)
+    app.include_router(swatch.router)
+    add_page(app)  # the web page at /
 
     @app.exception_handler(BakeError)
     async def bake_error(request: Request, exc: BakeError):

@@ -6,7 +6,7 @@ from pydantic import BaseModel
 
 from bake.settings import BakeSettings
 
-__all__ = ["BakeSettings", "JobOut", "JobPage", "Problem"]
+__all__ = ["BakeSettings", "JobOut", "JobPage", "Problem", "ServerConfig", "ServerLimits"]
 
 
 class Problem(BaseModel):
@@ -38,3 +38,24 @@ class JobPage(BaseModel):
     total: int
     offset: int
     limit: int
+
+
+class ServerLimits(BaseModel):
+    """This server's limits (``BAKE_MAX_*``), tighter than or equal to the bake's own."""
+
+    max_upload_bytes: int
+    max_size: int
+    max_samples: int
+    max_frames: int
+    max_faces: int
+    jobs_per_client: int
+
+
+class ServerConfig(BaseModel):
+    """What a client needs to know before it uploads: whether an API key is needed, the
+    limits, the mesh formats taken, and the JSON Schema of ``BakeSettings``."""
+
+    auth: bool
+    limits: ServerLimits
+    formats: list[str]
+    settings_schema: dict

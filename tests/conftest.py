@@ -62,6 +62,32 @@ def glb_with_accessor(count):
     return struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body
 
 
+# --- a real browser ------------------------------------------------------------------
+
+def chromium() -> str:
+    """Debian's chromium (no browser is downloaded). Missing, the test is skipped only
+    when it cannot be installed (not root) and not under CI (CI=true fails instead)."""
+    import shutil
+
+    found = shutil.which("chromium") or shutil.which("chromium-browser")
+    if found:
+        return found
+    message = "chromium not found: `apt-get install chromium` (scripts/run installs it when running as root)"
+    if os.environ.get("CI", "").lower() in ("1", "true", "yes") or os.geteuid() == 0:
+        pytest.fail(message)
+    pytest.skip(message)
+
+
+def keep_artefact(path: Path) -> None:
+    """Copy a file (a screenshot) into the folder TEXBAKE_ARTEFACTS names, if set."""
+    import shutil
+
+    artefacts = os.environ.get("TEXBAKE_ARTEFACTS")
+    if artefacts:
+        Path(artefacts).mkdir(parents=True, exist_ok=True)
+        shutil.copy(path, Path(artefacts) / path.name)
+
+
 # --- Redis and PostgreSQL servers -------------------------------------------------------
 # Tests of the service against the real servers: the machine's shared ones (a database of
 # its own on PostgreSQL 127.0.0.1:5432), or instances a test starts itself (redis-server,

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-from conftest import ROOT
+from conftest import ROOT, chromium, keep_artefact
 
 import bake
 from bake.export import write_glb
@@ -30,16 +30,6 @@ from bake.imageio import encode_png_bytes, read_image
 TOOLS = ROOT / "tools"
 SIZE = 320  # screenshot width and height, pixels
 MAGENTA = np.array([1.0, 0.0, 1.0])
-
-
-def chromium() -> str:
-    found = shutil.which("chromium") or shutil.which("chromium-browser")
-    if found:
-        return found
-    message = "chromium not found: `apt-get install chromium` (scripts/run installs it when running as root)"
-    if os.environ.get("CI", "").lower() in ("1", "true", "yes") or os.geteuid() == 0:
-        pytest.fail(message)
-    pytest.skip(message)
 
 
 @pytest.fixture
@@ -96,10 +86,7 @@ def render(server, glb: Path, name: str, tmp_path: Path) -> np.ndarray:
             if not (np.abs(image - MAGENTA).max(axis=2) < 0.05).all():
                 break
     assert shot.is_file(), f"chromium wrote no screenshot of {name}"
-    artefacts = os.environ.get("TEXBAKE_ARTEFACTS")
-    if artefacts:
-        Path(artefacts).mkdir(parents=True, exist_ok=True)
-        shutil.copy(shot, Path(artefacts) / shot.name)
+    keep_artefact(shot)
     return image
 
 

@@ -190,3 +190,97 @@ def test_job_urls_use_the_configured_base_url_not_the_host_header(client, meshes
         r = client.post("/v1/jobs", files={"mesh": ("suzanne.ply", f)}, headers={"Host": "evil.example.com"})
     job = r.json()
     assert r.status_code == 202 and job["url"] == f"https://bake.example.org/v1/jobs/{job['id']}" == r.headers["Location"]
+
+
+# --- the web page's endpoints -------------------------------------------------------------
+
+def test_the_swatch_is_a_png_cached_by_its_spec(client):
+    from bake.imageio import read_image
+
+    r = client.get("/v1/swatch", params={"texture": "marble"})
+    assert r.status_code == 200 and r.headers["content-type"] == "image/png" and r.content[:8] == b"\x89PNG\r\n\x1a\n"
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as folder:
+        (Path(folder) / "s.png").write_bytes(r.content)
+        image = read_image(Path(folder) / "s.png")
+    assert image.shape == (256, 256, 4) and image[0, 0, 3] == 0 and image[128, 128, 3] == 1
+    etag = r.headers["ETag"]
+    assert client.get("/v1/swatch", params={"texture": "marble"}, headers={"If-None-Match": etag}).status_code == 304
+    # the same spec written otherwise is the same swatch; POST answers the same
+    same = client.get("/v1/swatch", params={"texture": json.dumps({"name": "marble", "frequency": 12.0})})
+    posted = client.post("/v1/swatch", json={"texture": {"name": "marble"}})
+    assert same.headers["ETag"] == posted.headers["ETag"] == etag and posted.content == r.content
+    other = client.get("/v1/swatch", params={"texture": json.dumps({"name": "marble", "frequency": 30}), "size": 64, "view": "slice"})
+    assert other.status_code == 200 and other.headers["ETag"] != etag
+
+
+@pytest.mark.parametrize("method, request_args, words", [
+    ("get", {"params": {"texture": json.dumps({"name": "marble", "frequency": -1})}}, "texture 'marble': frequency: Input should be greater than 0"),
+    ("get", {"params": {"texture": "plaid"}}, "unknown texture 'plaid'"),
+    ("get", {"params": {"texture": "/etc/passwd"}}, "unknown texture '/etc/passwd'"),
+    ("get", {"params": {"texture": "marble", "size": 4096}}, "size: Input should be less than or equal to 512"),
+    ("get", {"params": {"texture": "marble", "view": "cube"}}, "view: Input should be 'sphere' or 'slice'"),
+    ("get", {"params": {"texture": "x" * 9000}}, "texture: String should have at most 8192 characters"),
+    ("get", {"params": {"texture": '{"name": "marble", "x": ' + '{"a":' * 800 + "1" + "}" * 800 + "}"}}, "unknown texture"),  # nesting refused unparsed
+    ("get", {}, "texture: Field required"),
+    ("post", {"json": {"texture": {"name": "wood", "rings": 3}}}, "texture: texture 'wood': rings: Extra inputs are not permitted"),
+    ("post", {"json": {"texture": "marble", "colour": "red"}}, "colour: Extra inputs are not permitted"),
+    ("post", {"json": {"texture": {"name": {}}}}, "unknown texture {}"),  # was a 500: a dict as the name
+])
+def test_a_bad_swatch_is_a_422_naming_the_parameter(client, method, request_args, words):
+    r = getattr(client, method)("/v1/swatch", **request_args)
+    assert r.status_code == 422 and words in r.json()["detail"], r.text[:300]
+
+
+def test_with_api_keys_a_swatch_needs_a_key(client, monkeypatch):
+    from service import settings
+
+    monkeypatch.setenv("BAKE_API_KEYS", '["sesame"]')
+    settings.get_settings.cache_clear()
+    assert client.get("/v1/swatch", params={"texture": "wood"}).status_code == 401
+    assert client.get("/v1/swatch", params={"texture": "wood"}, headers={"Authorization": "Bearer sesame"}).status_code == 200
+    assert client.get("/v1/config").json()["auth"] is True  # the page asks for the key
+
+
+def test_the_config_gives_the_limits_the_formats_and_the_settings_schema(client):
+    config = client.get("/v1/config").json()
+    assert config["auth"] is False
+    assert config["limits"]["max_size"] == 2048 and config["limits"]["max_upload_bytes"] == 256 * 1024 * 1024
+    assert config["formats"] == [".obj", ".ply", ".stl", ".off", ".glb"]
+    assert config["settings_schema"]["properties"]["size"]["default"] == 1024
+
+
+def test_the_page_and_everything_it_loads_are_served_here(client):
+    import re
+
+    r = client.get("/")
+    assert r.status_code == 200 and r.headers["content-type"].startswith("text/html")
+    csp = r.headers["Content-Security-Policy"]
+    assert "default-src 'self'" in csp and "script-src 'self' 'sha256-" in csp  # nothing from elsewhere, the import map by its hash
+    local = re.findall(r'(?:src|href)="([^"]+)"', r.text)
+    importmap = json.loads(re.search(r'<script type="importmap">(.*?)</script>', r.text, re.S).group(1))["imports"]
+    assert all(u.startswith("/") or u == "data:," for u in [*local, *importmap.values()]), local
+    for path in [u for u in local if u.startswith("/static/")] + [importmap["three"]]:
+        assert client.get(path).status_code == 200, path
+    app = client.get("/static/app.js").text
+    for module in re.findall(r'from "three/addons/([^"]+)"', app):  # each addon the page imports, and what it imports
+        assert client.get(importmap["three/addons/"] + module).status_code == 200, module
+    assert client.get("/static/../service/main.py").status_code == 404
+    assert "/" not in client.get("/openapi.json").json()["paths"]  # the page is no API
+
+
+def test_retry_bakes_a_failed_or_cancelled_job_again(client, meshes):
+    job = post(client, meshes / "suzanne.ply", {"texture": "wood", "size": 64}).json()
+    r = client.post(f"/v1/jobs/{job['id']}/retry")
+    assert r.status_code == 409 and "queued: only a failed or cancelled job is retried" in r.json()["detail"]
+    client.delete(f"/v1/jobs/{job['id']}")
+    again = client.post(f"/v1/jobs/{job['id']}/retry")
+    assert again.status_code == 202 and again.json()["id"] != job["id"] and again.json()["state"] == "queued"
+    assert again.json()["settings"] == job["settings"] and again.json()["mesh"] == "suzanne.ply"
+    assert again.headers["Location"] == again.json()["url"]
+    # the same upload and settings are live again: a second retry gives that job
+    same = client.post(f"/v1/jobs/{job['id']}/retry")
+    assert same.status_code == 200 and same.json()["id"] == again.json()["id"]
+    assert client.post(f"/v1/jobs/{'0' * 32}/retry").status_code == 404

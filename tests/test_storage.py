@@ -268,3 +268,21 @@ def test_a_slow_publish_keeps_its_lease(own_s3, tmp_path, meshes):
         stop(worker)
         stop(api)
         slow.close()
+
+
+def test_retry_takes_the_upload_from_the_store(own_s3, tmp_path, meshes):
+    """POST /v1/jobs/ID/retry of a cancelled job: a new job whose upload is copied in the store."""
+    own_s3.client().create_bucket(Bucket=BUCKET)
+    port = free_port()
+    api = start(["serve", "--port", str(port), "--workers", "0"], tmp_path, {**own_s3.env, "BAKE_STORAGE_URL": f"s3://{BUCKET}/retry"}, port=port)
+    url = f"http://127.0.0.1:{port}"
+    try:
+        job = upload(url, meshes / "suzanne.ply", {"size": 64}).json()
+        assert httpx.delete(f"{url}/v1/jobs/{job['id']}", timeout=10).json()["state"] == "cancelled"
+        r = httpx.post(f"{url}/v1/jobs/{job['id']}/retry", timeout=30)
+        assert r.status_code == 202 and r.json()["state"] == "queued", r.text
+        keys = {o["Key"] for o in own_s3.client().list_objects_v2(Bucket=BUCKET, Prefix=f"retry/jobs/{r.json()['id']}/")["Contents"]}
+        assert keys == {f"retry/jobs/{r.json()['id']}/suzanne.ply", f"retry/jobs/{r.json()['id']}/job.json"}, keys
+        assert not list((tmp_path / "uploads").iterdir()) and not list((tmp_path / "work").glob("*"))  # no copy left behind
+    finally:
+        stop(api)

@@ -390,10 +390,13 @@ TEXTURES = {cls.model_fields["name"].default: cls for cls in TEXTURE_CLASSES}
 
 
 def _describe(error: ValidationError) -> str:
+    """``field.sub: problem; ...``, each path from the spec's top (without the union's tag,
+    the texture's name, which the message names already)."""
     parts = []
     for e in error.errors():
-        where = ".".join(str(x) for x in e["loc"]) or "spec"
-        parts.append(f"{where}: {e['msg']}")
+        loc = e["loc"][1:] if e["loc"] and e["loc"][0] in TEXTURES else e["loc"]
+        where = ".".join(str(x) for x in loc) or "spec"
+        parts.append(f"{where}: {str(e['msg']).removeprefix('Value error, ')}")
     return "; ".join(parts)
 
 
@@ -495,7 +498,7 @@ def parse_spec(value) -> _Texture:
         raise TextureError(f"texture spec must be a name or a mapping, got {type(value).__name__}")
     if "name" not in value:
         raise TextureError("texture spec has no 'name'")
-    if value["name"] not in TEXTURES:
+    if not isinstance(value["name"], str) or value["name"] not in TEXTURES:  # a dict would not even hash
         known = ", ".join(sorted(TEXTURES))
         raise TextureError(f"unknown texture {value['name']!r} (known: {known})")
     try:

@@ -7,6 +7,7 @@ import functools
 import hashlib
 import json
 import logging
+import shutil
 import uuid
 from pathlib import Path
 from typing import Annotated
@@ -23,12 +24,13 @@ from .. import db
 from ..deps import ClientDep, JobDep, SessionDep, SettingsDep, StorageDep
 from ..schemas import BakeSettings, JobOut, JobPage
 from ..settings import get_settings
-from ..storage import Storage, get_storage, zip_stream
+from ..storage import Storage, StorageMissing, get_storage, zip_stream
 from ..tasks import enqueue_bake, state_changed
 
 router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
 logger = logging.getLogger("texbake.service")
 _CHUNK = 1 << 20
+UPLOAD_FORMATS = tuple(suffix for suffix in FORMATS if suffix != ".gltf")  # a glTF's buffers would be separate files
 
 
 def job_url(job_id: str, request: Request) -> str:
@@ -98,6 +100,38 @@ def _resolved(options: dict) -> dict:
     return {**settings.model_dump(mode="json"), **dataclasses.asdict(settings.quality_settings())}
 
 
+def _check_unfinished(session, client: str, settings) -> None:
+    unfinished = session.scalar(select(func.count()).select_from(db.Job).where(db.Job.client == client, db.Job.state.in_(("queued", "running")))) or 0
+    if unfinished >= settings.jobs_per_client:
+        raise HTTPException(429, detail=f"{unfinished} unfinished jobs: the limit per client is {settings.jobs_per_client}")
+
+
+def _make_job(request: Request, response: Response, session, settings, storage: Storage, client: str, *,
+              upload: Path, name: str, mesh_name: str, options: dict, key: str) -> JobOut:
+    """The job of the mesh in ``upload`` (stored as ``name``) with bake ``options``, queued;
+    or the queued, running or done job with the same ``key`` (the answer's status then 200)."""
+    # the upload first, the row second: a job in the table always has its upload
+    job_id = uuid.uuid4().hex
+    storage.save_input(job_id, upload, name, {"mesh": name, "settings": options})  # outputs are named after it
+    try:
+        job, created = db.create_job(session, job_id=job_id, key=key, client=client, mesh_name=mesh_name, settings=options)
+    except BaseException:
+        storage.delete(job_id)
+        raise
+    if created:
+        state_changed(job.id, "queued", f"{name}, client {client}")
+        try:
+            enqueue_bake(job.id)
+        except Exception as exc:  # the job is in the table: the reaper enqueues it once the queue answers
+            logger.warning("job %s: the queue write failed (%s: %s): the reaper enqueues it within %g s",
+                           job.id, type(exc).__name__, exc, settings.requeue_seconds)
+    else:  # the same upload's job exists already
+        storage.delete(job_id)
+        response.status_code = 200
+    response.headers["Location"] = job_url(job.id, request)
+    return _out(job, request)
+
+
 @router.post("", status_code=202, response_model=JobOut)
 def create_job(
     request: Request, response: Response, session: SessionDep, settings: SettingsDep, client: ClientDep, storage: StorageDep,
@@ -112,43 +146,46 @@ def create_job(
     if mesh.filename and (len(mesh.filename) > 255 or "\x00" in mesh.filename):
         raise HTTPException(422, detail=f"mesh: the file name must be at most 255 characters, without NUL (got {len(mesh.filename)}: {mesh.filename[:40]!r}...)")
     suffix = Path(mesh.filename or "").suffix.lower()
-    if suffix not in FORMATS or suffix == ".gltf":  # a glTF's buffers would be separate files
-        raise HTTPException(422, detail=f"mesh: {mesh.filename!r} is not a single-file mesh (.obj .ply .stl .off .glb)")
+    if suffix not in UPLOAD_FORMATS:
+        raise HTTPException(422, detail=f"mesh: {mesh.filename!r} is not a single-file mesh ({' '.join(UPLOAD_FORMATS)})")
     options = _bake_options(bake_settings, settings)
-    unfinished = session.scalar(select(func.count()).select_from(db.Job).where(db.Job.client == client, db.Job.state.in_(("queued", "running")))) or 0
-    if unfinished >= settings.jobs_per_client:
-        raise HTTPException(429, detail=f"{unfinished} unfinished jobs: the limit per client is {settings.jobs_per_client}")
-
+    _check_unfinished(session, client, settings)
     tmp, digest = _receive(mesh, suffix, settings)
     try:
         digest.update(json.dumps(_resolved(options), sort_keys=True).encode())
         if settings.api_keys:  # with keys, each client has its own jobs
             digest.update(client.encode())
-        # the upload first, the row second: a job in the table always has its upload
-        job_id = uuid.uuid4().hex
-        name = _safe_stem(mesh.filename) + suffix  # outputs are named after it
-        storage.save_input(job_id, tmp, name, {"mesh": name, "settings": options})
-        try:
-            job, created = db.create_job(session, job_id=job_id, key=digest.hexdigest(), client=client,
-                                         mesh_name=mesh.filename or "mesh", settings=options)
-        except BaseException:
-            storage.delete(job_id)
-            raise
-        if not created:  # the same upload's job exists already
-            storage.delete(job_id)
-        if created:
-            state_changed(job.id, "queued", f"{name}, client {client}")
-            try:
-                enqueue_bake(job.id)
-            except Exception as exc:  # the job is in the table: the reaper enqueues it once the queue answers
-                logger.warning("job %s: the queue write failed (%s: %s): the reaper enqueues it within %g s",
-                               job.id, type(exc).__name__, exc, settings.requeue_seconds)
-        else:
-            response.status_code = 200
+        return _make_job(request, response, session, settings, storage, client, upload=tmp, name=_safe_stem(mesh.filename) + suffix,
+                         mesh_name=mesh.filename or "mesh", options=options, key=digest.hexdigest())
     finally:
         tmp.unlink(missing_ok=True)
-    response.headers["Location"] = job_url(job.id, request)
-    return _out(job, request)
+
+
+@router.post("/{job_id}/retry", status_code=202, response_model=JobOut)
+def retry_job(job: JobDep, request: Request, response: Response, session: SessionDep, settings: SettingsDep, client: ClientDep,
+              storage: StorageDep):
+    """Bake a failed or cancelled job again: a new job from its upload and settings (202),
+    or the queued, running or done job that has them already (200)."""
+    if job.state not in ("failed", "cancelled"):
+        raise HTTPException(409, detail=f"job {job.id} is {job.state}: only a failed or cancelled job is retried")
+    _check_unfinished(session, client, settings)
+    uploads = settings.data_dir / "uploads"
+    uploads.mkdir(parents=True, exist_ok=True)
+    try:
+        folder = storage.fetch_input(job.id, job.lease)  # (from an object store: a copy of its own)
+        try:
+            name = json.loads((folder / "job.json").read_text())["mesh"]
+            tmp = uploads / f"{uuid.uuid4().hex}{Path(name).suffix}"
+            shutil.copyfile(folder / name, tmp)
+        finally:
+            storage.done_with(folder)
+    except (StorageMissing, FileNotFoundError):  # deleted by retention, or from the store
+        raise HTTPException(409, detail=f"job {job.id}: its upload is no longer kept; upload the mesh again") from None
+    try:
+        return _make_job(request, response, session, settings, storage, client, upload=tmp, name=name, mesh_name=job.mesh_name,
+                         options=json.loads(job.settings), key=job.key)
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 @router.get("", response_model=JobPage)

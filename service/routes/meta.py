@@ -1,4 +1,4 @@
-"""The texture catalogue, health and readiness."""
+"""The texture catalogue, the server's configuration, health and readiness."""
 
 from __future__ import annotations
 
@@ -7,7 +7,10 @@ from fastapi.responses import JSONResponse
 
 from bake.textures.spec import catalogue, json_schema
 
+from ..deps import SettingsDep
 from ..health import ready
+from ..schemas import BakeSettings, ServerConfig, ServerLimits
+from .jobs import UPLOAD_FORMATS
 
 router = APIRouter(tags=["meta"])
 
@@ -15,6 +18,15 @@ router = APIRouter(tags=["meta"])
 @router.get("/v1/textures")
 def textures():
     return {"textures": catalogue(), "schema": json_schema()}
+
+
+@router.get("/v1/config", response_model=ServerConfig)
+def config(settings: SettingsDep):
+    """Whether this server needs an API key, its limits (a client can check a file's size
+    before sending it), the mesh formats it takes and the JSON Schema of the settings."""
+    limits = ServerLimits(**{name: getattr(settings, name) for name in ServerLimits.model_fields})
+    return ServerConfig(auth=bool(settings.api_keys), limits=limits, formats=list(UPLOAD_FORMATS),
+                        settings_schema=BakeSettings.model_json_schema())
 
 
 @router.get("/healthz")
