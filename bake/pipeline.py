@@ -235,16 +235,25 @@ def _bake_tiles(sampler: Sampler, maps: Maps, quality, seed: int, timer: Timer, 
     tile_list = tiles(height, width, quality.samples, tile_samples)
     finished = itertools.count(1)
     known = None if lookups is None else lookups[0].lookups(lookups[1])
-    made: list = [None] * len(tile_list)
+    made: list | None = None if lookups is None or known is not None else [None] * len(tile_list)
+    kept = [0]  # bytes of the lookups recorded so far: past the cache's budget, none are
+    lock = threading.Lock()
 
     def bake_tile(i: int) -> np.ndarray:
+        nonlocal made
         if known is not None:
             texels, located = known[i]
         else:
             with timer.stage("lookup"):
                 texels = sampler.candidates(tile_list[i])
                 located = sampler.locate(sample_uv(tile_list[i], texels, width, height, offsets), quality.samples)
-            made[i] = texels, located
+            with lock:
+                if made is not None and lookups is not None:
+                    kept[0] += texels.nbytes + located.nbytes
+                    if kept[0] > lookups[0].max_lookup_bytes:
+                        made = None  # too large to keep: not held meanwhile either
+                    else:
+                        made[i] = texels, located
         s = sampler.at_located(located, timer)
         values = maps.values(s, timer)
         texel = texels[s.index // quality.samples]
@@ -255,7 +264,7 @@ def _bake_tiles(sampler: Sampler, maps: Maps, quality, seed: int, timer: Timer, 
 
     with timer.stage("tiles (wall)"), ThreadPoolExecutor(max(1, workers)) as pool:
         counts = sum(pool.map(bake_tile, range(len(tile_list))), np.zeros(3))
-    if lookups is not None and known is None:
+    if lookups is not None and made is not None:
         lookups[0].keep_lookups(lookups[1], made)
     return counts, known is not None
 

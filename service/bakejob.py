@@ -10,6 +10,7 @@ own folder) and returns None, or the reason the bake failed.
 
 from __future__ import annotations
 
+import ctypes
 import json
 import os
 import resource
@@ -36,7 +37,18 @@ def setup(memory_mb: int, cache: Path | None = None) -> None:
     _memory_mb, _cache = memory_mb, None if cache is None else AtlasCache(cache)
     limit = memory_mb * 1024 * 1024
     resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+    _few_arenas()
     threading.Thread(target=_warm, daemon=True).start()
+
+
+def _few_arenas() -> None:
+    """At most two malloc arenas (glibc's ``mallopt(M_ARENA_MAX, 2)``): each thread that
+    allocates may otherwise reserve an arena of 64 MB of address space, which the limit
+    counts (the tile threads, the kernels' pool, the warm-up: a 1500 MB bake failed)."""
+    try:
+        ctypes.CDLL("libc.so.6").mallopt(-8, 2)  # M_ARENA_MAX
+    except (OSError, AttributeError):
+        pass
 
 
 def _warm() -> None:
