@@ -139,6 +139,9 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
     cache : folder or ``bake.cache.AtlasCache``, optional
         Where atlases are kept for later bakes: the same mesh at the same atlas settings
         (``uv``, size, ``charting``) then skips the unwrap (``report["atlas"]["cached"]``).
+        An ``AtlasCache`` object also keeps its latest bakes' texel lookups in memory: the
+        next bake of the atlas at the same size, samples and seed casts no ray
+        (``report["rays"]["lookup_reused"]``).
 
     The report's ``error_estimate`` estimates the RMSE of the colour map against the
     converged texel means (see ``bake.estimate``).
