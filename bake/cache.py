@@ -64,13 +64,13 @@ class AtlasCache:
     def keep_lookups(self, key: tuple, tiles: list) -> None:
         """Keep a bake's per-tile lookups (``(texels, Located)`` each), dropping the oldest
         beyond ``max_lookup_bytes``; a bake's that alone is over it is not kept."""
-        size = sum(texels.nbytes + located.nbytes for texels, located in tiles)
-        if size > self.max_lookup_bytes:
+        if _nbytes(tiles) > self.max_lookup_bytes:
             return
         with self._lock:
             self._lookups[key] = tiles
-            while sum(sum(t.nbytes + loc.nbytes for t, loc in v) for v in self._lookups.values()) > self.max_lookup_bytes:
-                self._lookups.popitem(last=False)
+            total = sum(_nbytes(v) for v in self._lookups.values())
+            while total > self.max_lookup_bytes:
+                total -= _nbytes(self._lookups.popitem(last=False)[1])
 
     def _path(self, key: str) -> Path:
         return self.folder / f"atlas-{key}.npz"
@@ -122,3 +122,8 @@ class AtlasCache:
                 break
             p.unlink(missing_ok=True)
             total -= size
+
+
+def _nbytes(tiles: list) -> int:
+    """Bytes of a bake's per-tile lookups (``(texels, Located)`` each)."""
+    return sum(texels.nbytes + located.nbytes for texels, located in tiles)

@@ -52,7 +52,7 @@ SRGB = "srgb_rec709_scene"
 LINEAR = "lin_rec709_scene"
 DATA = "data"
 BITS = {"png": (8, 16), "exr": (16, 32), "tif": (8, 16, 32)}
-_DEFAULT_BITS = {"png": 8, "exr": 16, "tif": 16}
+DEFAULT_BITS = {"png": 8, "exr": 16, "tif": 16}
 _EXTENSION = {"png": ".png", "exr": ".exr", "tif": ".tif"}
 _COLORSPACES = {"linear": "linear", "lin_rec709_scene": "linear", "srgb": "srgb", "srgb_rec709_scene": "srgb",
                 "data": "data", "raw": "data"}
@@ -169,7 +169,7 @@ def write_image(path, pixels, *, fmt: str | None = None, bits: int | None = None
 
     path = Path(path)
     fmt = _format(path, fmt)
-    bits = _DEFAULT_BITS[fmt] if bits is None else bits
+    bits = DEFAULT_BITS[fmt] if bits is None else bits
     if bits not in BITS[fmt]:
         raise ParameterError("bits", f"{fmt} takes {' or '.join(map(str, BITS[fmt]))} bits, got {bits!r}")
     given = _COLORSPACES.get(str(colorspace).lower())

@@ -19,6 +19,7 @@ from contextlib import nullcontext
 import numpy as np
 
 from .bump import LUMINANCE, normal_map
+from .imageio import DEFAULT_BITS
 from .quality import Quality
 from .samples import Samples
 from .settings import BakeSettings
@@ -43,7 +44,7 @@ class Maps:
         self.settings, self.quality, self.mapping = settings, quality, mapping
         self.width, self.height, self.samples = width, height, quality.samples
         names = [*self.colours, *(["lit"] if settings.shading != "decal" else []), *(["normal"] if settings.bump is not None else [])]
-        eight_bit = (settings.bits or (8 if settings.format == "png" else 16)) == 8  # png's default is 8 bits
+        eight_bit = (settings.bits or DEFAULT_BITS[settings.format]) == 8
         dtype = np.float16 if eight_bit and width * height > HALF_TEXELS else np.float32
         self.images = {name: np.zeros((height, width, 3), dtype=dtype) for name in names}
         self.hits = np.zeros((height, width), dtype=np.uint8 if self.samples < 256 else np.uint16 if self.samples < 65536 else np.uint32)

@@ -204,7 +204,7 @@ def _trim_heap() -> None:
     tiles' temporaries, freed but kept by malloc, would otherwise add to the peak of the
     stages after them (16384²: 0.6 GB). Elsewhere a no-op."""
     try:
-        ctypes.CDLL("libc.so.6").malloc_trim(0)
+        ctypes.CDLL(None).malloc_trim(0)
     except (OSError, AttributeError):
         pass
 

@@ -46,7 +46,7 @@ def _few_arenas() -> None:
     allocates may otherwise reserve an arena of 64 MB of address space, which the limit
     counts (the tile threads, the kernels' pool, the warm-up: a 1500 MB bake failed)."""
     try:
-        ctypes.CDLL("libc.so.6").mallopt(-8, 2)  # M_ARENA_MAX
+        ctypes.CDLL(None).mallopt(-8, 2)  # M_ARENA_MAX
     except (OSError, AttributeError):
         pass
 
