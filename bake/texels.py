@@ -1,8 +1,9 @@
 """Texel lookup: which atlas face lies under each texel sample, and where in it.
 
 The UV triangles are laid flat at z = 0 in an Embree scene (:class:`bake.rays.Scene`) and
-one vertical ray is cast per texel, and for the samples of a texel that lie outside its
-first sample's face (:meth:`UVLookup.locate`). Embree answers only the face; the
+one vertical ray is cast per texel; the texel's other samples walk from that face across
+UV edges to the face that holds them, and only those the walk does not place are cast
+(:meth:`UVLookup.locate`). Embree answers only the face; the
 barycentric coordinates are then solved in float64 from the sample's UV position, so that
 their precision does not depend on Embree's float32 arithmetic.
 
@@ -93,6 +94,7 @@ class UVLookup:
         self._origin, self._inv, ok = uv_inverse(uv, faces)  # (m, 2), (m, 2, 2), (m,)
         self.degenerate = ~ok
         self._any_degenerate = bool(self.degenerate.any())
+        self._across = uv_neighbours(uv, faces, ok)  # (m, 3): the face across each edge
         t = uv[faces]  # (m, 3, 2)
         lo, hi = t.min(axis=1), t.max(axis=1)
         self._box = np.stack([lo[:, 0], hi[:, 0], 1.0 - hi[:, 1], 1.0 - lo[:, 1]], axis=1)[ok]
@@ -135,9 +137,10 @@ class UVLookup:
         points that come ``samples`` a texel, contiguous (``sample_uv``'s order); face -1
         (and coordinates 0) where no face is.
 
-        Rays only where needed: one for each texel's first sample; its other samples that
-        lie inside that face (by their float64 barycentrics: most of them) take it without
-        a ray, and only the rest are cast.
+        Rays only where needed: one for each texel's first sample; its other samples take
+        the face of that sample that contains them, found from it by a short walk across
+        UV edges (:func:`_walk`: most lie inside it, the rest in a neighbour); only the
+        samples the walk does not place (across a chart's border, or a miss) are cast.
         """
         uv = np.ascontiguousarray(uv, dtype=np.float64)
         bary = np.zeros((len(uv), 3))
@@ -148,7 +151,7 @@ class UVLookup:
             return face, bary, len(uv)
         first = self.faces_at(uv[::samples])
         face = np.repeat(first, samples)
-        _barycentric(uv, face, self._origin, self._inv, bary, inside)
+        _walk(uv, face, self._origin, self._inv, self._across, WALK_STEPS, bary, inside)
         inside[::samples] = True  # cast already
         redo = np.flatnonzero(~inside)
         if len(redo):
@@ -169,6 +172,67 @@ class UVLookup:
         _barycentric(np.ascontiguousarray(uv, dtype=np.float64), np.asarray(face), self._origin, self._inv, bary,
                      np.zeros(len(uv), dtype=np.bool_))
         return bary
+
+
+WALK_STEPS = 4  # faces a sample's walk visits past its texel's first face before a ray is cast
+
+
+def uv_neighbours(uv: np.ndarray, faces: np.ndarray, usable: np.ndarray) -> np.ndarray:
+    """``(m, 3)`` int64: for each face and corner ``c``, the face across the UV edge
+    opposite ``c`` (corners ``c + 1``, ``c + 2``), -1 where there is none.
+
+    ``uv``: ``(k, 2)`` float; ``faces``: ``(m, 3)`` int into it; ``usable``: ``(m,)`` bool,
+    faces that may be crossed into (not UV-degenerate). Corners are matched by their UV
+    position, not their index (an atlas may repeat a vertex along a seam it does not cut);
+    an edge of more than two faces (overlapping UVs) links one pair of them.
+    """
+    m = len(faces)
+    across = np.full((m, 3), -1, dtype=np.int64)
+    if m == 0:
+        return across
+    _, weld = np.unique(np.asarray(uv, dtype=np.float64), axis=0, return_inverse=True)
+    corner = weld.ravel()[np.asarray(faces, dtype=np.int64)]  # (m, 3) welded corners
+    a, b = corner[:, [1, 2, 0]].ravel(), corner[:, [2, 0, 1]].ravel()  # edge opposite corner c
+    key = np.minimum(a, b) * (int(weld.max()) + 1) + np.maximum(a, b)
+    half = np.arange(3 * m)[np.repeat(usable, 3) & (a != b)]
+    half = half[np.argsort(key[half], kind="stable")]
+    pair = np.flatnonzero(key[half[1:]] == key[half[:-1]])
+    lo, hi = half[pair], half[pair + 1]
+    across.ravel()[lo] = hi // 3
+    across.ravel()[hi] = lo // 3
+    return across
+
+
+@nb.njit(cache=True, nogil=True)
+def _walk(uv, face, origin, inv, across, steps, bary, inside):  # pragma: no cover - compiled
+    """Each point ``i`` with ``face[i] >= 0``: its barycentrics in that face; if it lies
+    outside, the walk steps to the face across the edge it is furthest beyond, at most
+    ``steps`` times, and takes the first face that contains it (``face[i]``, ``bary[i]``,
+    ``inside[i]`` True). A point the walk does not place keeps its face, clamped
+    coordinates in it, and ``inside`` False. No GIL."""
+    for i in range(face.shape[0]):
+        f = face[i]
+        if f < 0:
+            continue
+        for step in range(steps + 1):
+            dx, dy = uv[i, 0] - origin[f, 0], uv[i, 1] - origin[f, 1]
+            b1 = inv[f, 0, 0] * dx + inv[f, 0, 1] * dy
+            b2 = inv[f, 1, 0] * dx + inv[f, 1, 1] * dy
+            b0 = 1.0 - b1 - b2
+            if b0 >= 0.0 and b1 >= 0.0 and b2 >= 0.0:
+                face[i] = f
+                inside[i] = True
+                total = b0 + b1 + b2
+                bary[i, 0], bary[i, 1], bary[i, 2] = b0 / total, b1 / total, b2 / total
+                break
+            if step == 0:  # the texel's face, clamped: what the point keeps if no face is found
+                c0, c1, c2 = min(max(b0, 0.0), 1.0), min(max(b1, 0.0), 1.0), min(max(b2, 0.0), 1.0)
+                total = c0 + c1 + c2
+                bary[i, 0], bary[i, 1], bary[i, 2] = c0 / total, c1 / total, c2 / total
+            c = 0 if b0 <= b1 and b0 <= b2 else (1 if b1 <= b2 else 2)
+            f = across[f, c]
+            if f < 0:
+                break
 
 
 @nb.njit(cache=True, nogil=True)
