@@ -334,8 +334,8 @@ def octave_point(x, y, z, w, big, noise, index, noise2, hash4, basis, interp, co
 
 # Points a block of octave_block; its buffers (NBUF rows of BLOCK float64) stay in the L1 cache.
 BLOCK = 128
-NBUF = 13
-_X, _Y, _Z, _W, _ACC, _TX, _TY, _TZ, _F, _X0, _X1, _X2, _X3 = range(NBUF)
+NBUF = 14
+_X, _Y, _Z, _W, _ACC, _TX, _TY, _TZ, _F, _X0, _X1, _X2, _X3, _P = range(NBUF)  # _P: marble_kernel's coordinate
 
 
 @inline
@@ -551,6 +551,32 @@ def wave_kernel(phase, spread, table, max_spread, out):
         wave_colour(phase[i], spread[i], table, max_spread, out, i)
 
 
+@inline
+def sine_block(buf, cells, points, start, m, spread_per_width, width, axis, frequency, amplitude, capped, norm, table, out):
+    """:func:`sine_colour` of those of a block's ``m`` points from ``start`` whose phase has
+    no spread, their turbulence in ``buf[_ACC]``: the phases and the table's rows in a loop that LLVM vectorises, the
+    table's loads in a scalar one (a NaN phase: a NaN fraction, NaN colours)."""
+    coordinate, turbulence, fraction = buf[_P], buf[_ACC], buf[_TX]
+    for i in range(m):
+        coordinate[i] = points[start + i, axis]
+    for i in range(m, BLOCK):
+        coordinate[i] = 0.0
+    rows = table.shape[0] - 1
+    for i in range(BLOCK):
+        phase = frequency * coordinate[i] + amplitude * ((turbulence[i] + capped) / norm)
+        x = phase / (2.0 * np.pi)
+        x = (x - np.floor(x)) * rows  # in [0, rows] (rows: a tiny negative phase rounds up to the period)
+        j = min(np.int64(x if x <= rows else 0.0), rows - 1)
+        cells[i] = np.uint64(j)
+        fraction[i] = x - j
+    for i in range(m):
+        if not spread_per_width * width[start + i] > 0.0:  # (the others have their wave_colour)
+            j = cells[i]
+            f = fraction[i]
+            for c in range(3):
+                out[start + i, c] = table[j, c] * (1.0 - f) + table[j + np.uint64(1), c] * f
+
+
 @fast
 def marble_kernel(points, width, axis, frequency, amplitude, scale, offset, noise, index, noise2, hash4, basis, interp, count,
                   lacunarity, gain, basis_mean, capped, norm, sines, table, max_spread, out):
@@ -568,10 +594,14 @@ def marble_kernel(points, width, axis, frequency, amplitude, scale, offset, nois
     for start in range(0, points.shape[0], BLOCK):
         m = block_sums(points, width, start, scale, offset, noise, index, noise2, hash4, basis, interp, count, lacunarity, gain,
                        1.0, basis_mean, top, buf, cells)
+        sampled = 0  # points without a spread: the colour of their phase
         for i in range(start, start + m):
-            phase = frequency * points[i, axis] + amplitude * ((buf[_ACC, i - start] + capped) / norm)
             spread = spread_per_width * width[i]
             if spread > 0.0:  # the mean colour over the texel, not the colour of the mean
+                phase = frequency * points[i, axis] + amplitude * ((buf[_ACC, i - start] + capped) / norm)
                 wave_colour(phase, spread, table, max_spread, out, i)
             else:
-                sine_colour(phase, sines, out, i)
+                sampled += 1
+        if sampled:
+            sine_block(buf, cells, points, start, m, spread_per_width, width, axis, frequency, amplitude, capped, norm, sines,
+                       out)
