@@ -422,33 +422,41 @@ def load_block(points, width, start, scale, offset, wscale, top, buf):
     return m, out
 
 
-@inline
+@fast
 def block_sums(points, width, start, scale, offset, noise, index, noise2, hash4, basis, interp, count, lacunarity, gain, sign,
                mean, top, buf, cells):
     """``buf[_ACC, :m]``: the octave sums of the ``m`` points from ``start`` (a block's, or
     fewer at the end); returns ``m``. Value noise (linear or cubic) goes through
     :func:`octave_block`, but a point whose octaves reach past 4e18 (and every point of
-    another basis or interpolation) through :func:`octave_point`."""
-    wscale = abs(scale)
-    if not (basis == 0 and interp < 2):  # another basis or interpolation: no tables
-        m = min(BLOCK, points.shape[0] - start)
-        for i in range(m):
-            x, y, z = (points[start + i, 0] * scale + offset, points[start + i, 1] * scale + offset,
-                       points[start + i, 2] * scale + offset)
-            buf[_ACC, i] = octave_point(x, y, z, width[start + i] * wscale, max(abs(x), abs(y), abs(z)), noise, index, noise2,
-                                        hash4, basis, interp, count, lacunarity, gain, sign, mean)
-        return m
-    m, left = load_block(points, width, start, scale, offset, wscale, top, buf)
-    octave_block(buf, cells, noise2, hash4, interp, count, lacunarity, gain, sign, mean)
+    another basis or interpolation) through :func:`point_sums`. Compiled once for both
+    kernels, and called once a block (numba inlines by copying a function's IR for each
+    call: the kernels' compile would take twice as long)."""
+    tables = basis == 0 and interp < 2
+    if tables:
+        m, left = load_block(points, width, start, scale, offset, abs(scale), top, buf)
+        octave_block(buf, cells, noise2, hash4, interp, count, lacunarity, gain, sign, mean)
+    else:  # another basis or interpolation: every point by itself
+        m, left = min(BLOCK, points.shape[0] - start), 1
     if left:
-        for i in range(m):
-            x, y, z = (points[start + i, 0] * scale + offset, points[start + i, 1] * scale + offset,
-                       points[start + i, 2] * scale + offset)
-            big = max(abs(x), abs(y), abs(z))
-            if not big * top < 4.0e18:
-                buf[_ACC, i] = octave_point(x, y, z, width[start + i] * wscale, big, noise, index, noise2, hash4, basis, interp,
-                                            count, lacunarity, gain, sign, mean)
+        point_sums(points, width, start, m, scale, offset, noise, index, noise2, hash4, basis, interp, count, lacunarity, gain,
+                   sign, mean, top, tables, buf[_ACC])
     return m
+
+
+@fast
+def point_sums(points, width, start, m, scale, offset, noise, index, noise2, hash4, basis, interp, count, lacunarity, gain,
+               sign, mean, top, far_only, acc):
+    """``acc[i]``: :func:`octave_point` of point ``start + i`` for ``i < m`` (``far_only``:
+    only of those whose top octave is past 4e18, which :func:`load_block` left out)."""
+    wscale = abs(scale)
+    for i in range(m):
+        x, y, z = (points[start + i, 0] * scale + offset, points[start + i, 1] * scale + offset,
+                   points[start + i, 2] * scale + offset)
+        big = max(abs(x), abs(y), abs(z))
+        if far_only and big * top < 4.0e18:
+            continue
+        acc[i] = octave_point(x, y, z, width[start + i] * wscale, big, noise, index, noise2, hash4, basis, interp, count,
+                              lacunarity, gain, sign, mean)
 
 
 @fast
@@ -477,7 +485,7 @@ def octave_kernel(points, width, scale, offset, noise, index, noise2, hash4, bas
             out[start + i] = buf[_ACC, i]
 
 
-@inline
+@jit
 def block_top(count, lacunarity):
     """The highest of the octaves' frequencies (``lacunarity^k``, as the loops compute them)."""
     top = freq = 1.0
