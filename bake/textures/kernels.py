@@ -17,10 +17,19 @@ and ``PERM(j + 1 + PERM(k + 1))``, a byte each of one uint32: one load for the f
 of a cell; ``noise2`` holds ``noiseTable[PERM(h)]`` twice over (512 entries), so a row's
 corners ``i`` and ``i + 1`` are ``noise2[row + i]`` and ``noise2[row + i + 1]``
 (``INDEX(i, j, k) = PERM(i + PERM(j + PERM(k)))``, the lecture's hash, exactly). Nine
-loads a cell instead of twelve; the points go one at a time through all their octaves (no
-temporaries, and the CPU overlaps the loads of one octave with the arithmetic of others).
-Vectorised loops (AVX-512 gathers) were tried: 0.6x the speed of these scalar loads on the
-CPU measured (AMD Zen 4), where the arithmetic, not the loads, is what a cell costs.
+loads a cell instead of twelve.
+
+The octave sums go a block of BLOCK points at a time (:func:`octave_block`), an octave
+at a time in stages over buffers that stay in the L1 cache: the arithmetic (floor,
+fractions, s-curves, the lerps along y and z, the footprint's share, the sum) in loops
+that LLVM vectorises (AVX-512: 8 points an instruction), the table loads and the lerps
+along x in one scalar loop between them; the marble's colour likewise
+(:func:`sine_block`). Vectorised loads (AVX-512 gathers, a point at a time through its
+octaves) were tried: 0.6x the speed of scalar loads on the CPU measured (AMD Zen 4).
+Per point the operations and their order are those of the one-point path
+(:func:`octave_point`), and which path a point takes depends on the point alone, so its
+value does not depend on the block it is in (FMA contraction may round the two paths
+differently: by an ulp or so).
 """
 
 from __future__ import annotations
@@ -55,6 +64,8 @@ fast = _compiled(fastmath=FAST)
 # numba compiles each function on its own and does not inline across them: a call with
 # arrays also costs their reference counts. The per-point steps are inlined (numba IR).
 inline = _compiled(fastmath=FAST, inline="always")
+# Called from Python too (exact there); inlined, they take the caller's flags.
+exact_inline = _compiled(fastmath=False, inline="always")
 
 
 # -- threads ---------------------------------------------------------------------------
@@ -264,7 +275,7 @@ def basis_value(noise, index, x, y, z, basis, interp):
 DROP_CELLS = 8.0
 
 
-@jit
+@exact_inline
 def box_keep(s):
     """The share of an octave that survives a box filter ``s`` lattice cells wide.
 
@@ -291,11 +302,167 @@ def box_keep(s):
     return rho * rho
 
 
-@jit
+@exact_inline
 def fade_factor(s):
     """Weight of an octave whose lattice cell is ``1/s`` of the footprint: its box-filter
     share, or 0 once it is below 1/DROP_CELLS of it (or ``s`` is NaN)."""
     return box_keep(s) if s < DROP_CELLS else 0.0
+
+
+@inline
+def octave_point(x, y, z, w, big, noise, index, noise2, hash4, basis, interp, count, lacunarity, gain, sign, mean):
+    """One point's octave sum, octave by octave, each through the tables or (wrapped far
+    out, or another basis) the plain ones: :func:`octave_kernel`'s sum for the points its
+    blocks leave out."""
+    tables = basis == 0 and interp < 2
+    acc = 0.0
+    amp = 1.0
+    freq = 1.0
+    for _ in range(count):
+        f = 1.0 if w <= 0.0 else fade_factor(w * freq)
+        if f == 0.0:
+            acc += amp * mean
+        else:
+            if tables and big * freq < 4.0e18:  # no wrap needed
+                v = lattice_value(x * freq, y * freq, z * freq, noise2, hash4, interp)
+            else:
+                v = basis_value(noise, index, x * freq, y * freq, z * freq, basis, interp)
+            v = sign * v - (sign - 1.0)
+            acc += amp * (v if f >= 1.0 else f * v + (1.0 - f) * mean)  # kept: v exactly
+        amp *= gain
+        freq *= lacunarity
+    return acc
+
+
+# Points a block of octave_block; its buffers (NBUF rows of BLOCK float64) stay in the L1 cache.
+BLOCK = 128
+NBUF = 14
+_X, _Y, _Z, _W, _ACC, _TX, _TY, _TZ, _F, _X0, _X1, _X2, _X3, _P = range(NBUF)  # _P: marble_kernel's coordinate
+
+
+@inline
+def octave_block(buf, cells, noise2, hash4, interp, count, lacunarity, gain, sign, mean):
+    """``buf[_ACC]``: the octave sums of a block's points ``buf[_X], buf[_Y], buf[_Z]``
+    (footprints ``buf[_W]``) through the tables, an octave at a time in stages: the
+    arithmetic of all the block's points in loops that LLVM vectorises (floor, fractions,
+    s-curves, lerps, the footprint's share: skipped in a block without footprints, where
+    it is 1), the table loads in one scalar loop between them (measured: two thirds of
+    the time, some 37 instructions a point and octave; an octave that no point of the
+    block keeps skips it). Per point, the same operations in the same order as
+    :func:`octave_point`."""
+    bx, by, bz, bw, acc = buf[_X], buf[_Y], buf[_Z], buf[_W], buf[_ACC]
+    tx, ty, tz, fk = buf[_TX], buf[_TY], buf[_TZ], buf[_F]
+    x0, x1, x2, x3 = buf[_X0], buf[_X1], buf[_X2], buf[_X3]
+    filtered = False
+    for i in range(BLOCK):
+        acc[i] = 0.0
+        fk[i] = 1.0
+        filtered |= not bw[i] <= 0.0
+    amp = 1.0
+    freq = 1.0
+    for _ in range(count):
+        kept = BLOCK  # points that keep some of this octave
+        if filtered:  # (else every point keeps every octave whole: fk is 1)
+            kept = 0
+            for i in range(BLOCK):
+                w = bw[i]
+                f = 1.0 if w <= 0.0 else fade_factor(w * freq)
+                fk[i] = f
+                kept += f != 0.0
+        if kept > 0:
+            for i in range(BLOCK):  # lattice cells and fractions
+                x, y, z = bx[i] * freq, by[i] * freq, bz[i] * freq
+                fx, fy, fz = np.floor(x), np.floor(y), np.floor(z)
+                ix, iy, iz = np.int64(fx) & 255, np.int64(fy) & 255, np.int64(fz) & 255
+                cells[i] = np.uint64((iy * 256 + iz) * 256 + ix)
+                sx, sy, sz = x - fx, y - fy, z - fz
+                if interp == 1:
+                    sx = sx * sx * (3.0 - 2.0 * sx)
+                    sy = sy * sy * (3.0 - 2.0 * sy)
+                    sz = sz * sz * (3.0 - 2.0 * sz)
+                tx[i], ty[i], tz[i] = sx, sy, sz
+            for i in range(BLOCK):  # the table loads, and the lerps along x
+                c = cells[i]
+                rows = np.int64(hash4[c >> np.uint64(8)])  # the four rows' PERM(j + PERM(k)), a byte each
+                ix = np.int64(c & np.uint64(255))
+                p00 = (rows & 255) + ix
+                p10 = ((rows >> 8) & 255) + ix
+                p01 = ((rows >> 16) & 255) + ix
+                p11 = (rows >> 24) + ix
+                t = tx[i]
+                x0[i] = noise2[p00] + t * (noise2[p00 + 1] - noise2[p00])
+                x1[i] = noise2[p10] + t * (noise2[p10 + 1] - noise2[p10])
+                x2[i] = noise2[p01] + t * (noise2[p01 + 1] - noise2[p01])
+                x3[i] = noise2[p11] + t * (noise2[p11 + 1] - noise2[p11])
+        for i in range(BLOCK):  # the lerps along y and z, and the sum (an octave no point keeps: its mean)
+            y0 = x0[i] + ty[i] * (x1[i] - x0[i])
+            y1 = x2[i] + ty[i] * (x3[i] - x2[i])
+            v = sign * (y0 + tz[i] * (y1 - y0)) - (sign - 1.0)
+            f = fk[i]
+            acc[i] += amp * (mean if f == 0.0 else (v if f >= 1.0 else f * v + (1.0 - f) * mean))
+        amp *= gain
+        freq *= lacunarity
+
+
+@inline
+def load_block(points, width, start, scale, offset, wscale, top, buf):
+    """The block of ``points`` from ``start`` into ``buf`` (scaled and offset; footprints
+    scaled), padded with the origin; the count of points it holds and of those it leaves
+    out (0 in their place): points whose top octave is past 4e18, wrapped far out by
+    :func:`octave_point`."""
+    m = min(BLOCK, points.shape[0] - start)
+    out = 0
+    for i in range(m):
+        x = points[start + i, 0] * scale + offset
+        y = points[start + i, 1] * scale + offset
+        z = points[start + i, 2] * scale + offset
+        big = max(abs(x), abs(y), abs(z))
+        if not big * top < 4.0e18:
+            x = y = z = 0.0
+            out += 1
+        buf[_X, i], buf[_Y, i], buf[_Z, i] = x, y, z
+        buf[_W, i] = width[start + i] * wscale
+    for i in range(m, BLOCK):
+        buf[_X, i] = buf[_Y, i] = buf[_Z, i] = buf[_W, i] = 0.0
+    return m, out
+
+
+@fast
+def block_sums(points, width, start, scale, offset, noise, index, noise2, hash4, basis, interp, count, lacunarity, gain, sign,
+               mean, top, buf, cells):
+    """``buf[_ACC, :m]``: the octave sums of the ``m`` points from ``start`` (a block's, or
+    fewer at the end); returns ``m``. Value noise (linear or cubic) goes through
+    :func:`octave_block`, but a point whose octaves reach past 4e18 (and every point of
+    another basis or interpolation) through :func:`point_sums`. Compiled once for both
+    kernels, and called once a block (numba inlines by copying a function's IR for each
+    call: the kernels' compile would take twice as long)."""
+    tables = basis == 0 and interp < 2
+    if tables:
+        m, left = load_block(points, width, start, scale, offset, abs(scale), top, buf)
+        octave_block(buf, cells, noise2, hash4, interp, count, lacunarity, gain, sign, mean)
+    else:  # another basis or interpolation: every point by itself
+        m, left = min(BLOCK, points.shape[0] - start), 1
+    if left:
+        point_sums(points, width, start, m, scale, offset, noise, index, noise2, hash4, basis, interp, count, lacunarity, gain,
+                   sign, mean, top, tables, buf[_ACC])
+    return m
+
+
+@fast
+def point_sums(points, width, start, m, scale, offset, noise, index, noise2, hash4, basis, interp, count, lacunarity, gain,
+               sign, mean, top, far_only, acc):
+    """``acc[i]``: :func:`octave_point` of point ``start + i`` for ``i < m`` (``far_only``:
+    only of those whose top octave is past 4e18, which :func:`load_block` left out)."""
+    wscale = abs(scale)
+    for i in range(m):
+        x, y, z = (points[start + i, 0] * scale + offset, points[start + i, 1] * scale + offset,
+                   points[start + i, 2] * scale + offset)
+        big = max(abs(x), abs(y), abs(z))
+        if far_only and big * top < 4.0e18:
+            continue
+        acc[i] = octave_point(x, y, z, width[start + i] * wscale, big, noise, index, noise2, hash4, basis, interp, count,
+                              lacunarity, gain, sign, mean)
+
 
 @fast
 def octave_kernel(points, width, scale, offset, noise, index, noise2, hash4, basis, interp, count, lacunarity, gain, signed,
@@ -308,44 +475,29 @@ def octave_kernel(points, width, scale, offset, noise, index, noise2, hash4, bas
     footprint in its lattice cells): what a box filter over the footprint keeps of it, and
     nothing (it is not evaluated: its mean is added) once ``s >= DROP_CELLS``; the sum
     neither aliases nor shifts in brightness. A point's value depends on nothing but the
-    point: the path (tables, or the plain ones wrapped) is chosen per point and octave.
-    One point at a time through all its octaves, written out in this one function (numba
-    does not inline across functions, and calls with arrays cost their reference counts).
+    point: it goes through :func:`block_sums` in blocks of BLOCK points, and its path there
+    is chosen by the point alone.
     """
     mean = 2.0 * basis_mean - 1.0 if signed else basis_mean
     sign = 2.0 if signed else 1.0
-    wscale = abs(scale)
-    top = 1.0  # lacunarity^(count - 1): the highest octave's frequency, as the loops compute it
+    top = block_top(count, lacunarity)
+    buf = np.empty((NBUF, BLOCK))
+    cells = np.empty(BLOCK, np.uint64)
+    for start in range(0, points.shape[0], BLOCK):
+        m = block_sums(points, width, start, scale, offset, noise, index, noise2, hash4, basis, interp, count, lacunarity, gain,
+                       sign, mean, top, buf, cells)
+        for i in range(m):
+            out[start + i] = buf[_ACC, i]
+
+
+@jit
+def block_top(count, lacunarity):
+    """The highest of the octaves' frequencies (``lacunarity^k``, as the loops compute them)."""
+    top = freq = 1.0
     for _ in range(count - 1):
-        top *= lacunarity
-    tables = basis == 0 and interp < 2  # value noise through hash_tables' tables
-    for i in range(points.shape[0]):
-        x, y, z = points[i, 0] * scale + offset, points[i, 1] * scale + offset, points[i, 2] * scale + offset
-        w = width[i] * wscale
-        big = max(abs(x), abs(y), abs(z))
-        acc = 0.0
-        amp = 1.0
-        freq = 1.0
-        if w <= 0.0 and tables and big * top < 4.0e18:  # point-sampled, every octave through the tables, none wrapped
-            for _ in range(count):
-                acc += amp * (sign * lattice_value(x * freq, y * freq, z * freq, noise2, hash4, interp) - (sign - 1.0))
-                amp *= gain
-                freq *= lacunarity
-        else:  # the same, octave by octave: filtered (a NaN w drops all), wrapped far out, or another basis
-            for _ in range(count):
-                f = 1.0 if w <= 0.0 else fade_factor(w * freq)
-                if f == 0.0:
-                    acc += amp * mean
-                else:
-                    if tables and big * freq < 4.0e18:  # no wrap needed
-                        v = lattice_value(x * freq, y * freq, z * freq, noise2, hash4, interp)
-                    else:
-                        v = basis_value(noise, index, x * freq, y * freq, z * freq, basis, interp)
-                    v = sign * v - (sign - 1.0)
-                    acc += amp * (v if f >= 1.0 else f * v + (1.0 - f) * mean)  # kept: v exactly
-                amp *= gain
-                freq *= lacunarity
-        out[i] = acc
+        freq *= lacunarity
+        top = max(top, freq)
+    return top
 
 
 # -- colour maps -------------------------------------------------------------------------
@@ -412,6 +564,32 @@ def wave_kernel(phase, spread, table, max_spread, out):
         wave_colour(phase[i], spread[i], table, max_spread, out, i)
 
 
+@inline
+def sine_block(buf, cells, points, start, m, spread_per_width, width, axis, frequency, amplitude, capped, norm, table, out):
+    """:func:`sine_colour` of those of a block's ``m`` points from ``start`` whose phase has
+    no spread, their turbulence in ``buf[_ACC]``: the phases and the table's rows in a loop that LLVM vectorises, the
+    table's loads in a scalar one (a NaN phase: a NaN fraction, NaN colours)."""
+    coordinate, turbulence, fraction = buf[_P], buf[_ACC], buf[_TX]
+    for i in range(m):
+        coordinate[i] = points[start + i, axis]
+    for i in range(m, BLOCK):
+        coordinate[i] = 0.0
+    rows = table.shape[0] - 1
+    for i in range(BLOCK):
+        phase = frequency * coordinate[i] + amplitude * ((turbulence[i] + capped) / norm)
+        x = phase / (2.0 * np.pi)
+        x = (x - np.floor(x)) * rows  # in [0, rows] (rows: a tiny negative phase rounds up to the period)
+        j = min(np.int64(x if x <= rows else 0.0), rows - 1)
+        cells[i] = np.uint64(j)
+        fraction[i] = x - j
+    for i in range(m):
+        if not spread_per_width * width[start + i] > 0.0:  # (the others have their wave_colour)
+            j = cells[i]
+            f = fraction[i]
+            for c in range(3):
+                out[start + i, c] = table[j, c] * (1.0 - f) + table[j + np.uint64(1), c] * f
+
+
 @fast
 def marble_kernel(points, width, axis, frequency, amplitude, scale, offset, noise, index, noise2, hash4, basis, interp, count,
                   lacunarity, gain, basis_mean, capped, norm, sines, table, max_spread, out):
@@ -420,20 +598,23 @@ def marble_kernel(points, width, axis, frequency, amplitude, scale, offset, nois
     ``phase = frequency * p[axis] + amplitude * turbulence(p * scale + offset)`` (the
     :func:`octave_kernel` sum plus ``capped``, the mean of the octaves left out, over
     ``norm``), or with a footprint the mean colour over the phase's spread
-    ``frequency * width / sqrt(12)`` (:func:`wave_colour`). The turbulence goes through a
-    small buffer a block of points at a time (it stays in the L1 cache)."""
-    block = 256
-    turb = np.empty(block)
+    ``frequency * width / sqrt(12)`` (:func:`wave_colour`). The turbulence a block of
+    points at a time (:func:`block_sums`), in buffers that stay in the L1 cache."""
     spread_per_width = frequency / np.sqrt(12.0)
-    n = points.shape[0]
-    for start in range(0, n, block):
-        stop = min(n, start + block)
-        octave_kernel(points[start:stop], width[start:stop], scale, offset, noise, index, noise2, hash4, basis, interp, count,
-                      lacunarity, gain, False, basis_mean, turb)
-        for i in range(start, stop):
-            phase = frequency * points[i, axis] + amplitude * ((turb[i - start] + capped) / norm)
+    top = block_top(count, lacunarity)
+    buf = np.empty((NBUF, BLOCK))
+    cells = np.empty(BLOCK, np.uint64)
+    for start in range(0, points.shape[0], BLOCK):
+        m = block_sums(points, width, start, scale, offset, noise, index, noise2, hash4, basis, interp, count, lacunarity, gain,
+                       1.0, basis_mean, top, buf, cells)
+        sampled = 0  # points without a spread: the colour of their phase
+        for i in range(start, start + m):
             spread = spread_per_width * width[i]
             if spread > 0.0:  # the mean colour over the texel, not the colour of the mean
+                phase = frequency * points[i, axis] + amplitude * ((buf[_ACC, i - start] + capped) / norm)
                 wave_colour(phase, spread, table, max_spread, out, i)
             else:
-                sine_colour(phase, sines, out, i)
+                sampled += 1
+        if sampled:
+            sine_block(buf, cells, points, start, m, spread_per_width, width, axis, frequency, amplitude, capped, norm, sines,
+                       out)
