@@ -230,8 +230,8 @@ def _bake_tiles(sampler: Sampler, maps: Maps, quality, seed: int, timer: Timer, 
     Returns ``[samples looked up, lookup rays cast, transfer rays that missed]`` summed
     over the tiles, and whether the lookups came from ``lookups`` (a cache and the key
     of this bake's lookups; kept there otherwise; then no ray is cast). Tiles run in threads:
-    Embree holds the GIL, numpy mostly does not, so the stages of two tiles overlap;
-    each tile writes its own rows.
+    the ray casts (bake.rays) and the numba kernels release the GIL, numpy mostly does,
+    so the stages of two tiles overlap; each tile writes its own rows.
     """
     width, height = maps.width, maps.height
     offsets = sample_offsets(quality.samples, seed)
