@@ -6,6 +6,8 @@ to a largest side of 1 in float64 before the cast to float32, the ray origins go
 the same map, and distances come back in the caller's units, as float64. A scene whose
 coordinates are already of order one (the UV triangles laid flat) can skip the map
 (``recentre=False``): its vertices and origins are then only cast.
+
+embreex releases the GIL for the cast (from 4.4.0): the bake's tile threads cast at once.
 """
 
 from __future__ import annotations
