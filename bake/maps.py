@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from contextlib import nullcontext
 
+import numba as nb
 import numpy as np
 
 from .bump import LUMINANCE, normal_map
@@ -73,23 +74,52 @@ class Maps:
 
     def accumulate(self, tile: Tile, texel: np.ndarray, values: dict[str, np.ndarray]) -> None:
         """Write the rows of ``tile``: ``texel`` ``(n,)`` is each sample's texel index
-        within the tile (row-major); each texel gets the mean of its samples."""
+        within the tile (row-major, non-decreasing: a texel's samples are contiguous);
+        each texel gets the mean of its samples."""
         rows, width = tile.stop - tile.start, self.width
-        if self.samples == 1:  # one sample a texel: a hit is a count of one
-            count = np.zeros(rows * width, dtype=self.hits.dtype)
-            count[texel] = 1
-        else:
-            count = np.bincount(texel, minlength=rows * width)
+        texel = np.asarray(texel, dtype=np.int64)
+        where, count = (texel, 1) if self.samples == 1 else _runs(texel)  # one sample a texel: a hit is a count of one
         for name, v in values.items():
-            block: np.ndarray
-            if self.samples == 1:
-                block = np.zeros((rows * width, 3), dtype=np.float32)
-                block[texel] = v
-            else:  # mean of the samples that hit each texel
-                block = np.zeros((rows * width, 3))
-                for c in range(3):
-                    block[:, c] = np.bincount(texel, weights=v[:, c], minlength=rows * width)
-                nz = count > 0
-                block[nz] /= count[nz, None]
-            self.images[name][tile.start : tile.stop] = block.reshape(rows, width, 3)
-        self.hits[tile.start : tile.stop] = count.reshape(rows, width)
+            block = self.images[name][tile.start : tile.stop].reshape(rows * width, 3)
+            block[:] = 0
+            block[where] = v if self.samples == 1 else _run_means(texel, np.asarray(v, dtype=np.float64), count)
+        hits = self.hits[tile.start : tile.stop].reshape(rows * width)
+        hits[:] = 0
+        hits[where] = count
+
+
+@nb.njit(cache=True, nogil=True)
+def _runs(texel):  # pragma: no cover - compiled
+    """``(texels (k,) int64, counts (k,) int64)``: the texel and the length of each of the
+    ``k`` runs of equal values of a non-decreasing ``texel`` ``(n,)``. No GIL."""
+    n = texel.shape[0]
+    k = 0
+    for i in range(n):
+        if i == 0 or texel[i] != texel[i - 1]:
+            k += 1
+    where = np.empty(k, dtype=np.int64)
+    count = np.zeros(k, dtype=np.int64)
+    r = -1
+    for i in range(n):
+        if i == 0 or texel[i] != texel[i - 1]:
+            r += 1
+            where[r] = texel[i]
+        count[r] += 1
+    return where, count
+
+
+@nb.njit(cache=True, nogil=True)
+def _run_means(texel, v, count):  # pragma: no cover - compiled
+    """``(k, 3)`` float64: the mean of ``v`` ``(n, 3)`` float64 over each run of equal
+    ``texel`` (:func:`_runs`' ``count`` samples each), summed in order (as ``np.bincount``
+    sums). No GIL."""
+    out = np.zeros((count.shape[0], 3))
+    i = 0
+    for r in range(count.shape[0]):
+        for _ in range(count[r]):
+            for c in range(3):
+                out[r, c] += v[i, c]
+            i += 1
+        for c in range(3):
+            out[r, c] /= count[r]
+    return out

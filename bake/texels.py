@@ -66,14 +66,25 @@ def sample_uv(tile: Tile, texels: np.ndarray, width: int, height: int, offsets: 
     """UV positions of the samples of some texels of ``tile``.
 
     ``texels``: ``(t,)`` int indices of texels within the tile (row-major, ``width``
-    per row). Returns ``(t * s, 2)`` float64, texel-major: the ``s`` samples of a texel
-    are contiguous.
+    per row); ``offsets``: ``(s, 2)`` float (:func:`sample_offsets`). Returns
+    ``(t * s, 2)`` float64, texel-major: the ``s`` samples of a texel are contiguous.
     """
-    row = (texels // width + tile.start).astype(np.float64)
-    col = (texels % width).astype(np.float64)
-    x = (col[:, None] + offsets[None, :, 0]).ravel()
-    y = (row[:, None] + offsets[None, :, 1]).ravel()
-    return np.stack([x / width, 1.0 - y / height], axis=1)
+    out = np.empty((len(texels) * len(offsets), 2))
+    _sample_uv(np.asarray(texels, dtype=np.int64), tile.start, width, height, np.asarray(offsets, dtype=np.float64), out)
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
+def _sample_uv(texels, start, width, height, offsets, out):  # pragma: no cover - compiled
+    """``out[t * s + k]``: ``((col + dx_k) / width, 1 - (row + dy_k) / height)`` for texel
+    ``t`` at ``(row, col)`` of the image (its tile's ``start`` row added). No GIL."""
+    s = offsets.shape[0]
+    for t in range(texels.shape[0]):
+        row = float(texels[t] // width + start)
+        col = float(texels[t] % width)
+        for k in range(s):
+            out[t * s + k, 0] = (col + offsets[k, 0]) / width
+            out[t * s + k, 1] = 1.0 - (row + offsets[k, 1]) / height
 
 
 class UVLookup:
@@ -149,6 +160,8 @@ class UVLookup:
             face = self.faces_at(uv)
             _barycentric(uv, face, self._origin, self._inv, bary, inside)
             return face, bary, len(uv)
+        if len(uv) % samples:
+            raise ValueError(f"locate: {len(uv)} points are not whole texels of {samples} samples")
         first = self.faces_at(uv[::samples])
         face = np.repeat(first, samples)
         _walk(uv, face, self._origin, self._inv, self._across, WALK_STEPS, bary, inside)
