@@ -40,6 +40,7 @@ import functools
 import struct
 import tempfile
 import zlib
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -207,12 +208,17 @@ def write_image(path, pixels, *, fmt: str | None = None, bits: int | None = None
         error = out.geterror()
         digests = []  # of each band as written, to check the file against
         band = _band_rows(w)
-        for r in range(0, h, band) if ok else ():  # a band at a time: memory stays bounded
-            data = _encode(pixels[r : r + band], fmt, bits, given)
-            digests.append(zlib.crc32(data.data))
-            if not out.write_scanlines(r, r + len(data), 0, data):
-                ok, error = False, out.geterror()
-                break
+        with ThreadPoolExecutor(1, thread_name_prefix="texbake-encode") as encoder:
+            # a band at a time (memory stays bounded), the next encoded while this one is compressed
+            encode = lambda r: encoder.submit(_encode, pixels[r : r + band], fmt, bits, given)
+            pending = encode(0) if ok else None
+            for r in range(0, h, band) if ok else ():
+                data = pending.result()
+                pending = encode(r + band) if r + band < h else None
+                digests.append(zlib.crc32(data.data))
+                if not out.write_scanlines(r, r + len(data), 0, data):
+                    ok, error = False, out.geterror()
+                    break
         ok = bool(out.close()) and ok
         error = error or out.geterror() or oiio.geterror()
         if not ok or error:
