@@ -500,6 +500,16 @@ def block_top(count, lacunarity):
     return top
 
 
+# -- placement -------------------------------------------------------------------------
+
+@jit
+def affine_kernel(points, origin, scale, out):
+    """``out[i] = (points[i] - origin) * scale`` (``mapping.to_space``)."""
+    for i in range(points.shape[0]):
+        for c in range(3):
+            out[i, c] = (points[i, c] - origin[c]) * scale
+
+
 # -- colour maps -------------------------------------------------------------------------
 
 @inline

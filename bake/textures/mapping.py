@@ -39,7 +39,7 @@ class TextureMapping:
     def to_space(self, points: np.ndarray, dpdx: np.ndarray | None = None, dpdy: np.ndarray | None = None):
         """``(q, dqdx, dqdy)``: ``(n, 3)`` points (and differentials) in the bake's texture space."""
         scaled = (None, None) if dpdx is None or dpdy is None else (dpdx * self.scale, dpdy * self.scale)
-        return ((points - self.origin) * self.scale, *scaled)
+        return (_affine(points, self.origin, self.scale), *scaled)
 
     def evaluate(self, spec, points: np.ndarray, dpdx: np.ndarray | None, dpdy: np.ndarray | None, *,
                  max_octaves: int | None = None, exact: bool = False) -> np.ndarray:
@@ -55,3 +55,15 @@ class TextureMapping:
                 dqdx, dqdy = dqdx.astype(np.float32).astype(np.float64), dqdy.astype(np.float32).astype(np.float64)
         q, dqdx, dqdy = spec.placement()(q, dqdx, dqdy)
         return spec(q, EvalContext(dqdx, dqdy, self.bounds, max_octaves))
+
+
+def _affine(points: np.ndarray, origin: np.ndarray, scale: float) -> np.ndarray:
+    """``(points - origin) * scale`` for ``(n, 3)`` points, the same bits, in one pass
+    (numpy's broadcast over rows of three is several times slower)."""
+    from . import kernels
+
+    p = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    o = np.asarray(origin, dtype=np.float64).reshape(3)
+    out = np.empty_like(p)
+    kernels.in_pieces(len(p), lambda a, b: kernels.affine_kernel(p[a:b], o, float(scale), out[a:b]))
+    return out
