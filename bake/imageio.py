@@ -211,10 +211,11 @@ def write_image(path, pixels, *, fmt: str | None = None, bits: int | None = None
         with ThreadPoolExecutor(1, thread_name_prefix="texbake-encode") as encoder:
             # a band at a time (memory stays bounded), the next encoded while this one is compressed
             encode = lambda r: encoder.submit(_encode, pixels[r : r + band], fmt, bits, given)
-            pending = encode(0) if ok else None
+            pending = encode(0)
             for r in range(0, h, band) if ok else ():
                 data = pending.result()
-                pending = encode(r + band) if r + band < h else None
+                if r + band < h:
+                    pending = encode(r + band)
                 digests.append(zlib.crc32(data.data))
                 if not out.write_scanlines(r, r + len(data), 0, data):
                     ok, error = False, out.geterror()

@@ -173,7 +173,8 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
         sampler = Sampler(mesh.vertices, mesh.faces, atlas.uv, atlas.faces, width, height,
                           normals=corner_normals if maps.needs_normals else False,
                           source=None if src is None else (src.vertices, src.faces), reach=reach,
-                          frame=None if tangents is None else (corner_normals, tangents[faces]))
+                          frame=None if tangents is None else (corner_normals, tangents[faces]),
+                          footprints=quality.filtering or settings.bump is not None)
     report_progress(0.3)
     lookups = None if store is None else (store, (key, width, height, quality.samples, settings.seed, tile_samples))
     (cast, rays, transfer_missed), reused = _bake_tiles(sampler, maps, quality, settings.seed, timer, workers, tile_samples,

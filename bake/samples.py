@@ -25,7 +25,8 @@ class Samples:
 
     ``index``: ``(n,)`` int64 position of each sample in the batch (a UV point that hit no
     face, or whose transfer ray missed, has no sample); ``points``, ``dpdx``, ``dpdy``:
-    ``(n, 3)`` float64 object-space point and footprint (one texel right, one down);
+    ``(n, 3)`` float64 object-space point and footprint (one texel right, one down; None
+    when the sampler was made without footprints);
     ``normals``: ``(n, 3)`` float64 unit normals of the target surface, or None when the
     sampler was made without them; ``rays``: lookup rays cast for the batch;
     ``transfer_missed``: UV points whose transfer rays found no source; ``frame``: ``(n, 3, 3)`` float64 tangent frames (rows T, B, N) of the
@@ -35,8 +36,8 @@ class Samples:
     index: np.ndarray
     points: np.ndarray
     normals: np.ndarray | None
-    dpdx: np.ndarray
-    dpdy: np.ndarray
+    dpdx: np.ndarray | None
+    dpdy: np.ndarray | None
     rays: int = 0
     transfer_missed: int = 0
     frame: np.ndarray | None = None
@@ -69,13 +70,15 @@ class Sampler:
     (``surface.SurfaceMap``; a transfer always interpolates smooth ones: its rays must
     not part at hard edges); ``source``: a
     ``(vertices, faces)`` pair to transfer from, with rays of at most ``reach``; ``frame``:
-    corner normals and tangents of the output mesh (``surface.SurfaceMap``).
+    corner normals and tangents of the output mesh (``surface.SurfaceMap``);
+    ``footprints``: the samples' ``dpdx``, ``dpdy`` (False: None, for a bake that
+    point-samples and needs no bump).
     """
 
     def __init__(self, vertices, faces, uv, uv_faces, width: int, height: int, *, normals: bool | np.ndarray = False,
                  source: tuple[np.ndarray, np.ndarray] | None = None, reach: float = 0.0,
-                 frame: tuple[np.ndarray, np.ndarray] | None = None):
-        self.width, self.height = width, height
+                 frame: tuple[np.ndarray, np.ndarray] | None = None, footprints: bool = True):
+        self.width, self.height, self.footprints = width, height, footprints
         self.lookup = UVLookup(uv, uv_faces)
         self.surface = SurfaceMap(vertices, faces, uv, uv_faces, width, height, normals=True if source is not None else normals,
                                   frame=frame)
@@ -109,12 +112,13 @@ class Sampler:
         stage = timer.stage if timer is not None else (lambda name: nullcontext())
         index, rays = located.index, located.rays
         with stage("surface"):
-            s = self.surface.samples(located.face, located.bary)
+            s = self.surface.samples(located.face, located.bary, self.footprints)
         found = Samples(index, s.points, s.normals, s.dpdx, s.dpdy, rays=rays, frame=s.frame)
         if self.caster is None:
             return found
         with stage("transfer"):
             assert s.normals is not None  # a transfer's surface map has normals
             points, hit = self.caster.project(s.points, s.normals, self.reach)
-            return Samples(index[hit], points[hit], s.normals[hit], s.dpdx[hit], s.dpdy[hit], rays=rays,
+            return Samples(index[hit], points[hit], s.normals[hit], None if s.dpdx is None else s.dpdx[hit],
+                           None if s.dpdy is None else s.dpdy[hit], rays=rays,
                            transfer_missed=int((~hit).sum()), frame=None if s.frame is None else s.frame[hit])

@@ -29,8 +29,8 @@ class SurfaceSamples:
 
     points: np.ndarray  # (n, 3) float64, object space
     normals: np.ndarray | None  # (n, 3) float64, unit length (zero for a degenerate face)
-    dpdx: np.ndarray  # (n, 3) float64, one texel to the right
-    dpdy: np.ndarray  # (n, 3) float64, one texel down
+    dpdx: np.ndarray | None  # (n, 3) float64, one texel to the right (None: not asked for)
+    dpdy: np.ndarray | None  # (n, 3) float64, one texel down
     frame: np.ndarray | None = None  # (n, 3, 3) float64 rows T, B, N of the output mesh's tangent frame
 
 
@@ -81,18 +81,20 @@ class SurfaceMap:
             self._vn = vertex_normals(vertices, faces)[faces]
         self._frame = frame
 
-    def samples(self, face: np.ndarray, bary: np.ndarray) -> SurfaceSamples:
+    def samples(self, face: np.ndarray, bary: np.ndarray, footprints: bool = True) -> SurfaceSamples:
         """Surface samples for ``(n,)`` faces and ``(n, 3)`` barycentric coordinates.
 
         ``normals`` are interpolated unit normals, or None if the map was made
-        without them; ``frame`` likewise.
+        without them; ``frame`` likewise; ``dpdx``, ``dpdy`` None unless ``footprints``.
         """
         n = len(face)
-        points, dpdx, dpdy = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
+        points = np.empty((n, 3))
+        dpdx, dpdy = (np.empty((n, 3)), np.empty((n, 3))) if footprints else (None, None)
         normals = None if self._vn is None else np.empty((n, 3))
         _interpolate(np.ascontiguousarray(face, dtype=np.int64), np.ascontiguousarray(bary, dtype=np.float64), self._p0,
                      self._e1, self._e2, self._dpdx, self._dpdy, self._vn if self._vn is not None else _NO_NORMALS,
-                     points, dpdx, dpdy, normals if normals is not None else _NO_SAMPLES)
+                     points, _NO_SAMPLES if dpdx is None else dpdx, _NO_SAMPLES if dpdy is None else dpdy,
+                     normals if normals is not None else _NO_SAMPLES)
         frame = None if self._frame is None else sample_frames(self._frame[0][face], self._frame[1][face], bary)
         return SurfaceSamples(points, normals, dpdx, dpdy, frame)
 
@@ -103,17 +105,21 @@ _NO_SAMPLES = np.zeros((0, 3))
 
 @nb.njit(cache=True, nogil=True)
 def _interpolate(face, bary, p0, e1, e2, face_dpdx, face_dpdy, corner_normals, points, dpdx, dpdy, normals):  # pragma: no cover - compiled
-    """Fill ``points``, ``dpdx``, ``dpdy`` (n, 3) and, when ``corner_normals`` (m, 3, 3)
-    has rows, ``normals`` (n, 3: unit, zero where they cancel) of the samples at ``face``
-    (n,), ``bary`` (n, 3): one pass, no temporaries, no GIL (tiles overlap)."""
+    """Fill ``points`` (n, 3), ``dpdx``, ``dpdy`` (n, 3, or no rows: none) and, when
+    ``corner_normals`` (m, 3, 3) has rows, ``normals`` (n, 3: unit, zero where they
+    cancel) of the samples at ``face`` (n,), ``bary`` (n, 3): one pass, no temporaries,
+    no GIL (tiles overlap)."""
     with_normals = corner_normals.shape[0] > 0
+    with_footprints = dpdx.shape[0] > 0
     for i in range(face.shape[0]):
         f = face[i]
         b0, b1, b2 = bary[i, 0], bary[i, 1], bary[i, 2]
         for k in range(3):
             points[i, k] = p0[f, k] + b1 * e1[f, k] + b2 * e2[f, k]
-            dpdx[i, k] = face_dpdx[f, k]
-            dpdy[i, k] = face_dpdy[f, k]
+        if with_footprints:
+            for k in range(3):
+                dpdx[i, k] = face_dpdx[f, k]
+                dpdy[i, k] = face_dpdy[f, k]
         if with_normals:
             x = b0 * corner_normals[f, 0, 0] + b1 * corner_normals[f, 1, 0] + b2 * corner_normals[f, 2, 0]
             y = b0 * corner_normals[f, 0, 1] + b1 * corner_normals[f, 1, 1] + b2 * corner_normals[f, 2, 1]

@@ -16,6 +16,10 @@ def test_points_normals_and_footprint_on_a_plane():
     # one texel right: 2 / 64 in x; one texel down: -3 / 32 in y
     assert np.allclose(s.dpdx, [[2 / 64, 0, 0]] * 2)
     assert np.allclose(s.dpdy, [[0, -3 / 32, 0]] * 2)
+    bare = sm.samples(np.array([0, 1]), b, footprints=False)  # a point-sampled bake needs none
+    assert bare.dpdx is None and bare.dpdy is None
+    np.testing.assert_array_equal(bare.points, s.points)
+    np.testing.assert_array_equal(bare.normals, s.normals)
 
 
 def test_degenerate_uv_face_gives_finite_zero_footprint():

@@ -569,6 +569,7 @@ def _() -> Figure:
     uv = np.array([[0, 0], [1, 0], [0.5, 1e-12], [0.5, 0.0]])
     sm = SurfaceMap(strip[[0, 10, 11]], np.array([[0, 1, 2], [0, 1, 2]]), uv, np.array([[0, 1, 2], [0, 1, 3]]), 64, 64)
     s = sm.samples(np.array([0, 1]), np.full((2, 3), 1 / 3))
+    assert s.dpdx is not None and s.dpdy is not None
     fp = np.stack([s.dpdx, s.dpdy], axis=1)
     bad += int((~np.isfinite(fp)).sum())
     for name in ALL:
