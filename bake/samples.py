@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .surface import SurfaceMap
-from .texels import Tile, UVLookup
+from .texels import Tile, UVLookup, hits
 
 
 @dataclass
@@ -97,8 +97,7 @@ class Sampler:
         """The faces under ``(m, 2)`` UV points, ``samples`` a texel in ``sample_uv``'s order
         (``texels.UVLookup.locate``)."""
         face, bary, rays = self.lookup.locate(uvs, samples)
-        index = np.flatnonzero(face >= 0)
-        return Located(index, face[index], bary[index], rays, len(uvs))
+        return Located(*hits(face, bary), rays, len(uvs))
 
     def at(self, uvs: np.ndarray, timer=None, samples: int = 1) -> Samples:
         """Surface samples at ``(m, 2)`` UV points (:meth:`locate`, :meth:`at_located`);

@@ -75,7 +75,7 @@ def test_the_samples_of_a_texel_inside_its_face_take_it_without_rays():
     back = np.einsum("ni,nij->nj", bary[hit], g[faces[face[hit]]])
     assert np.abs(back - uv[hit]).max() < 1e-6  # the point lies in the face taken
     assert np.allclose(bary[hit], look.barycentric(uv[hit], face[hit]))
-    assert rays < 0.15 * len(uv)  # measured: 0.11 (0.18 before the walk across edges)
+    assert rays < 0.2 * len(uv)  # measured: 0.15 of the samples of the texels the faces touch (the holes' edges miss)
     assert look.locate(uv, 1)[2] == len(uv)
 
 
@@ -130,6 +130,19 @@ def test_candidates_cover_every_texel_a_face_can_hit():
         hit = look.faces_at(q) >= 0
         assert set(np.unique(texels.repeat(16)[hit]).tolist()) <= cand
         assert len(cand) < len(texels)  # and leaves some out
+
+
+def test_candidates_are_the_texels_a_triangle_touches():
+    # a right triangle on texel corners, (0, 0), (4, 0), (0, 4) in texels from the top left:
+    # it touches texel (r, c) where c + r <= 3, and at a corner only where c + r == 4
+    width, height = 16, 8
+    corners = np.array([[0.0, 0.0], [4.0, 0.0], [0.0, 4.0]])
+    uv = np.stack([corners[:, 0] / width, 1.0 - corners[:, 1] / height], axis=1)
+    look = UVLookup(uv, np.array([[0, 1, 2]]))
+    r, c = np.divmod(look.candidates(Tile(0, height), width, height), width)
+    assert sorted(zip(r.tolist(), c.tolist(), strict=True)) == sorted((r, c) for r in range(5) for c in range(5) if r + c <= 4)
+    r, c = np.divmod(look.candidates(Tile(2, 3), width, height), width)  # one row of it, from its tile's top
+    assert (r == 0).all() and c.tolist() == [0, 1, 2]
 
 
 # -- no speckles: every texel of a checker bake holds the value of a face under its centre --
