@@ -7,6 +7,7 @@ half-written is left under a final name.
 from __future__ import annotations
 
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from .errors import OutputError, ParameterError
@@ -42,11 +43,12 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
         raise OutputError(f"{folder}: cannot create output folder: {exc.strerror}") from None
 
     start = time.perf_counter()
-    written = {}
-    for name, pixels in result.images.items():
-        kind = "data" if name == "normal" else "linear"  # a normal map is not a colour
-        written[name] = write_image(folder / f"{name}.{fmt}", pixels, bits=bits, colorspace=kind)
-    written["coverage"] = write_image(folder / "coverage.png", result.coverage[:, :, None], colorspace="data")
+    jobs = {name: (folder / f"{name}.{fmt}", pixels, bits, "data" if name == "normal" else "linear")  # a normal map is no colour
+            for name, pixels in result.images.items()}
+    jobs["coverage"] = (folder / "coverage.png", result.coverage[:, :, None], None, "data")
+    with ThreadPoolExecutor(2, thread_name_prefix="texbake-write") as pool:  # two at once: OpenImageIO's compression releases the GIL
+        futures = {name: pool.submit(write_image, path, pixels, bits=b, colorspace=kind) for name, (path, pixels, b, kind) in jobs.items()}
+        written = {name: future.result() for name, future in futures.items()}
 
     # the GLB's textures (glTF embeds PNG or JPEG only: PNG copies of other formats)
     colour = "albedo" if "albedo" in result.images else min(n for n in result.images if n.startswith("albedo_"))
