@@ -56,6 +56,22 @@ def test_lookup_finds_faces_and_exact_barycentrics():
     assert np.abs(back - q).max() < 2e-15  # float64 round-off, not Embree's float32: measured 2.2e-16
 
 
+def located_as_by_rays(look, uv, faces, size, seed, tolerance):
+    """``(sample UVs, rays, face of each by its own ray)`` of 16 samples a texel of a
+    ``size``² image, after checking that ``look.locate`` finds a face where a ray per
+    sample does, one that holds the sample (within ``tolerance``), with its barycentrics."""
+    tile = Tile(0, size)
+    points = sample_uv(tile, look.candidates(tile, size, size), size, size, sample_offsets(16, seed=seed))
+    face, bary, rays = look.locate(points, 16)
+    each = look.faces_at(points)
+    assert np.array_equal(face >= 0, each >= 0)
+    hit = face >= 0
+    back = np.einsum("ni,nij->nj", bary[hit], uv[faces[face[hit]]])
+    assert np.abs(back - points[hit]).max() < tolerance  # the point lies in the face taken
+    assert np.allclose(bary[hit], look.barycentric(points[hit], face[hit]))
+    return points, rays, each
+
+
 def test_the_samples_of_a_texel_inside_its_face_take_it_without_rays():
     # an 8x8 grid of UV triangles, some cells missing: 16 samples a texel of a 64² image;
     # each sample gets the face a ray per sample finds (or, on a shared edge, the other
@@ -66,15 +82,7 @@ def test_the_samples_of_a_texel_inside_its_face_take_it_without_rays():
     i = i[(i * 7919) % 5 != 0]  # holes
     faces = np.concatenate([np.stack([i, i + n + 1, i + n + 2], 1), np.stack([i, i + n + 2, i + 1], 1)])
     look = UVLookup(g, faces)
-    offsets = sample_offsets(16, seed=1)
-    uv = sample_uv(Tile(0, 64), look.candidates(Tile(0, 64), 64, 64), 64, 64, offsets)
-    face, bary, rays = look.locate(uv, 16)
-    each = look.faces_at(uv)
-    assert np.array_equal(face >= 0, each >= 0)
-    hit = face >= 0
-    back = np.einsum("ni,nij->nj", bary[hit], g[faces[face[hit]]])
-    assert np.abs(back - uv[hit]).max() < 1e-6  # the point lies in the face taken
-    assert np.allclose(bary[hit], look.barycentric(uv[hit], face[hit]))
+    uv, rays, _ = located_as_by_rays(look, g, faces, 64, seed=1, tolerance=1e-6)
     assert rays < 0.2 * len(uv)  # measured: 0.15 of the samples of the texels the faces touch (the holes' edges miss)
     assert look.locate(uv, 1)[2] == len(uv)
 
@@ -97,14 +105,7 @@ def test_the_walk_reaches_the_face_a_ray_finds():
     uv = np.concatenate([[[0.01, 0.01]], 0.01 + 0.95 * np.stack([np.cos(angle), np.sin(angle)], 1)])
     faces = np.stack([np.zeros(k, dtype=int), np.arange(1, k + 1), np.arange(2, k + 2)], 1)
     look = UVLookup(uv, faces)
-    offsets = sample_offsets(16, seed=2)
-    uvs = sample_uv(Tile(0, 32), look.candidates(Tile(0, 32), 32, 32), 32, 32, offsets)
-    face, bary, rays = look.locate(uvs, 16)
-    each = look.faces_at(uvs)
-    assert np.array_equal(face >= 0, each >= 0)
-    hit = face >= 0
-    back = np.einsum("ni,nij->nj", bary[hit], uv[faces[face[hit]]])
-    assert np.abs(back - uvs[hit]).max() < 1e-12
+    uvs, rays, each = located_as_by_rays(look, uv, faces, 32, seed=2, tolerance=1e-12)
     centre_missed = np.repeat(each[::16] < 0, 16)
     needed = len(uvs) // 16 + (centre_missed | (each < 0)).sum() - centre_missed[::16].sum()  # centres; all else near a miss
     assert rays <= needed + 0.02 * len(uvs)  # measured: needed + 0.3%
