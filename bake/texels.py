@@ -107,7 +107,8 @@ class UVLookup:
         self._any_degenerate = bool(self.degenerate.any())
         self._across = uv_neighbours(uv, faces, ok)  # (m, 3): the face across each edge
         self._tri = uv[faces][ok]  # (k, 3, 2): the UV triangles a point can lie in
-        self._rows = np.stack([1.0 - self._tri[:, :, 1].max(axis=1), 1.0 - self._tri[:, :, 1].min(axis=1)], axis=1)
+        v = self._tri[:, :, 1]
+        self._rows = np.stack([1.0 - v.max(axis=1), 1.0 - v.min(axis=1)], axis=1)  # (k, 2): top and bottom, in image heights
 
     def candidates(self, tile: Tile, width: int, height: int) -> np.ndarray:
         """Indices of the texels of ``tile`` whose square some face's UV triangle touches
