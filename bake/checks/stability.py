@@ -660,12 +660,13 @@ def _() -> Figure:
 
 
 BIG = 16384
-# Peak RSS limit of the 16384^2 bake and save, in its own process. The maps are held in
-# memory: a float32 RGB albedo is 12 bytes a texel (3.2 GB), hit counts and masks 5 more,
-# and writing an 8-bit PNG adds a 3-byte copy and some: about 24 bytes a texel (6.4 GB)
-# measured. 30 bytes a texel (8 GB) bounds that with room; a stage that held whole-image
-# per-sample arrays (positions, footprints: 100+ bytes a texel) would break it.
-BIG_LIMIT_GB = 30 * BIG * BIG / 1e9
+# Peak RSS limit of the 16384^2 bake and save, in its own process. The maps are held as
+# float16 at this size (6 bytes a texel), the hit counts and masks take a few more, and
+# the tiles, the margin and the PNG writer work in bands: 2.99 GB measured (11.2 bytes a
+# texel, 2026-12-01). 13 bytes a texel (3.5 GB) bounds that with some room; a float32
+# map (12 bytes a texel more) or a stage that held whole-image per-sample arrays would
+# break it.
+BIG_LIMIT_GB = 13 * BIG * BIG / 1e9
 
 
 def _big_bake_child(size: int) -> None:  # pragma: no cover  (runs in a child process)
