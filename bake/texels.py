@@ -220,10 +220,11 @@ def _touched(tri, near, width, height, start, rows, margin, touched):  # pragma:
             ys[k] = (1.0 - tri[f, k, 1]) * height - start
         area = (xs[1] - xs[0]) * (ys[2] - ys[0]) - (ys[1] - ys[0]) * (xs[2] - xs[0])
         sign = 1.0 if area > 0 else -1.0
-        c0 = max(0, int(np.floor(min(xs[0], xs[1], xs[2]) - margin)))
-        c1 = min(width - 1, int(np.floor(max(xs[0], xs[1], xs[2]) + margin)))
-        r0 = max(0, int(np.floor(min(ys[0], ys[1], ys[2]) - margin)))
-        r1 = min(rows - 1, int(np.floor(max(ys[0], ys[1], ys[2]) + margin)))
+        # the box in texels, clamped to the tile as floats (a UV far outside [0, 1] is no integer)
+        c0 = int(np.floor(min(max(min(xs[0], xs[1], xs[2]) - margin, 0.0), width - 1.0)))
+        c1 = int(np.floor(min(max(max(xs[0], xs[1], xs[2]) + margin, -1.0), width - 1.0)))
+        r0 = int(np.floor(min(max(min(ys[0], ys[1], ys[2]) - margin, 0.0), rows - 1.0)))
+        r1 = int(np.floor(min(max(max(ys[0], ys[1], ys[2]) + margin, -1.0), rows - 1.0)))
         for r in range(r0, r1 + 1):
             for c in range(c0, c1 + 1):
                 x, y = c + 0.5, r + 0.5

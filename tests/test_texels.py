@@ -144,6 +144,9 @@ def test_candidates_are_the_texels_a_triangle_touches():
     assert sorted(zip(r.tolist(), c.tolist(), strict=True)) == sorted((r, c) for r in range(5) for c in range(5) if r + c <= 4)
     r, c = np.divmod(look.candidates(Tile(2, 3), width, height), width)  # one row of it, from its tile's top
     assert (r == 0).all() and c.tolist() == [0, 1, 2]
+    # a triangle reaching 1e30 texels out still covers the image where it lies
+    huge = UVLookup(np.array([[-1e30, -1e30], [1e30, 0.0], [0.0, 1e30]]), np.array([[0, 1, 2]]))
+    assert len(huge.candidates(Tile(0, height), width, height)) == width * height
 
 
 # -- no speckles: every texel of a checker bake holds the value of a face under its centre --
