@@ -281,24 +281,35 @@ def _walk(uv, face, origin, inv, across, steps, bary, inside):  # pragma: no cov
         if f < 0:
             continue
         for step in range(steps + 1):
-            dx, dy = uv[i, 0] - origin[f, 0], uv[i, 1] - origin[f, 1]
-            b1 = inv[f, 0, 0] * dx + inv[f, 0, 1] * dy
-            b2 = inv[f, 1, 0] * dx + inv[f, 1, 1] * dy
-            b0 = 1.0 - b1 - b2
+            b0, b1, b2 = _coordinates(uv, i, f, origin, inv)
             if b0 >= 0.0 and b1 >= 0.0 and b2 >= 0.0:
                 face[i] = f
                 inside[i] = True
-                total = b0 + b1 + b2
-                bary[i, 0], bary[i, 1], bary[i, 2] = b0 / total, b1 / total, b2 / total
+                bary[i, 0], bary[i, 1], bary[i, 2] = _clamped(b0, b1, b2)
                 break
             if step == 0:  # the texel's face, clamped: what the point keeps if no face is found
-                c0, c1, c2 = min(max(b0, 0.0), 1.0), min(max(b1, 0.0), 1.0), min(max(b2, 0.0), 1.0)
-                total = c0 + c1 + c2
-                bary[i, 0], bary[i, 1], bary[i, 2] = c0 / total, c1 / total, c2 / total
+                bary[i, 0], bary[i, 1], bary[i, 2] = _clamped(b0, b1, b2)
             c = 0 if b0 <= b1 and b0 <= b2 else (1 if b1 <= b2 else 2)
             f = across[f, c]
             if f < 0:
                 break
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def _coordinates(uv, i, f, origin, inv):  # pragma: no cover - compiled
+    """``(b0, b1, b2)``: point ``i`` of ``uv`` in face ``f`` (:func:`uv_inverse`'s ``origin``, ``inv``), unclamped."""
+    dx, dy = uv[i, 0] - origin[f, 0], uv[i, 1] - origin[f, 1]
+    b1 = inv[f, 0, 0] * dx + inv[f, 0, 1] * dy
+    b2 = inv[f, 1, 0] * dx + inv[f, 1, 1] * dy
+    return 1.0 - b1 - b2, b1, b2
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def _clamped(b0, b1, b2):  # pragma: no cover - compiled
+    """Barycentrics clamped into the triangle and renormalised."""
+    b0, b1, b2 = min(max(b0, 0.0), 1.0), min(max(b1, 0.0), 1.0), min(max(b2, 0.0), 1.0)
+    total = b0 + b1 + b2
+    return b0 / total, b1 / total, b2 / total
 
 
 @nb.njit(cache=True, nogil=True)
@@ -310,11 +321,6 @@ def _barycentric(uv, face, origin, inv, bary, inside):  # pragma: no cover - com
         f = face[i]
         if f < 0:
             continue
-        dx, dy = uv[i, 0] - origin[f, 0], uv[i, 1] - origin[f, 1]
-        b1 = inv[f, 0, 0] * dx + inv[f, 0, 1] * dy
-        b2 = inv[f, 1, 0] * dx + inv[f, 1, 1] * dy
-        b0 = 1.0 - b1 - b2
+        b0, b1, b2 = _coordinates(uv, i, f, origin, inv)
         inside[i] = b0 >= 0.0 and b1 >= 0.0 and b2 >= 0.0
-        b0, b1, b2 = min(max(b0, 0.0), 1.0), min(max(b1, 0.0), 1.0), min(max(b2, 0.0), 1.0)
-        total = b0 + b1 + b2
-        bary[i, 0], bary[i, 1], bary[i, 2] = b0 / total, b1 / total, b2 / total
+        bary[i, 0], bary[i, 1], bary[i, 2] = _clamped(b0, b1, b2)
