@@ -56,9 +56,14 @@ class Tile:
     stop: int
 
 
+MIN_TILES = 16  # the tile threads share the work evenly: a chart-dense band is one of many
+
+
 def tiles(height: int, width: int, samples: int, budget: int = 1 << 20) -> list[Tile]:
-    """Split an image into row blocks of about ``budget`` samples each (bounded memory)."""
-    rows = max(1, budget // max(1, width * samples))
+    """Split an image into row blocks of at most about ``budget`` samples each (bounded
+    memory), and at least ``MIN_TILES`` of them where the image has the rows (4 tiles of a
+    2048² 1-sample bake left one thread idle for a quarter of the tiles' time)."""
+    rows = max(1, min(budget // max(1, width * samples), -(-height // MIN_TILES)))
     return [Tile(r, min(height, r + rows)) for r in range(0, height, rows)]
 
 

@@ -3,7 +3,7 @@ import pytest
 
 import bake
 from bake.errors import ParameterError
-from bake.texels import Tile, UVLookup, sample_offsets, sample_uv, tiles, uv_neighbours
+from bake.texels import MIN_TILES, Tile, UVLookup, sample_offsets, sample_uv, tiles, uv_neighbours
 
 
 def test_one_sample_is_the_texel_centre():
@@ -33,6 +33,13 @@ def test_tiles_cover_the_image_once():
     t = tiles(100, 37, 4, budget=1000)
     rows = np.concatenate([np.arange(x.start, x.stop) for x in t])
     assert np.array_equal(rows, np.arange(100))
+
+
+def test_tiles_are_bounded_by_the_budget_and_enough_for_the_threads():
+    assert max(x.stop - x.start for x in tiles(2048, 2048, 16)) == 32  # 1 << 20 samples
+    one = tiles(2048, 2048, 1)  # the budget alone would give 4 tiles: one thread idle
+    assert len(one) == MIN_TILES and {x.stop - x.start for x in one} == {2048 // MIN_TILES}
+    assert len(tiles(3, 2048, 1)) == 3  # no empty tiles
 
 
 def test_sample_uv_convention():
