@@ -43,6 +43,7 @@ import zlib
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+import numba as nb
 import numpy as np
 
 from .atomic import replacing
@@ -59,6 +60,7 @@ _COLORSPACES = {"linear": "linear", "lin_rec709_scene": "linear", "srgb": "srgb"
                 "data": "data", "raw": "data"}
 _BAND_TEXELS = 1 << 20  # texels encoded (and checked) at a time: bounded memory, some 50 MB
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+_PNG_FILTER_UP = 0x20  # png.h's PNG_FILTER_UP
 _EXIF_SRGB, _EXIF_UNCALIBRATED = 1, 0xFFFF
 
 
@@ -103,11 +105,29 @@ def _srgb8_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return table, above, below
 
 
-def _srgb8(x: np.ndarray) -> np.ndarray:
-    """``round(255 * srgb_encode(x))`` for float32 ``x`` in [0, 1], exactly, as uint8."""
-    table, above, below = _srgb8_tables()
-    code = table[(x * np.float32(_LUT_LEVELS - 1) + np.float32(0.5)).astype(np.int32)]
-    return (code + (x >= above[code]) - (x < below[code])).astype(np.uint8)
+@nb.njit(cache=True, nogil=True)
+def _encode8(pixels, colour, table, above, below, out):  # pragma: no cover - compiled
+    """``out`` (h, w, c) uint8 = the 8-bit codes of ``pixels`` (h, w, c) float: its first
+    ``colour`` channels sRGB-encoded exactly (``round(255 * srgb_encode(x))``: the table's
+    code, moved by one where ``x`` lies beyond the thresholds ``above``/``below``), the
+    others ``round(255 * x)``; each value first rounded to float32, NaN taken as 0 and
+    the rest clipped to [0, 1]. One pass: numpy's version made five temporaries and took
+    as long as the compression."""
+    scale, half, top = np.float32(table.shape[0] - 1), np.float32(0.5), np.float32(255.0)
+    h, w, c = pixels.shape
+    for i in range(h):
+        for j in range(w):
+            for k in range(c):
+                x = np.float32(pixels[i, j, k])
+                if not x > 0:  # NaN too
+                    x = np.float32(0.0)
+                elif x > 1:
+                    x = np.float32(1.0)
+                if k < colour:
+                    code = np.int64(table[np.int32(x * scale + half)])
+                    out[i, j, k] = code + (x >= above[code]) - (x < below[code])
+                else:
+                    out[i, j, k] = np.uint8(np.rint(x * top))
 
 
 def _band_rows(width: int) -> int:
@@ -134,10 +154,12 @@ def _encode(pixels: np.ndarray, fmt: str, bits: int, given: str) -> np.ndarray:
     top = 255 if bits == 8 else 65535
     out: np.ndarray = np.empty(pixels.shape, dtype=dtype)
     # NaN is written as 0 and infinities clipped: integer files have no room for them
+    if bits == 8:
+        _encode8(pixels.view(np.uint8) if pixels.dtype == np.bool_ else pixels, colour if given == "linear" else 0,
+                 *_srgb8_tables(), out)
+        return out
     band = np.clip(np.nan_to_num(pixels.astype(np.float32), nan=0.0), 0.0, 1.0)
-    if given == "linear" and bits == 8:
-        out[..., :colour] = _srgb8(band[..., :colour])
-    elif given == "linear":
+    if given == "linear":
         out[..., :colour] = np.rint(srgb_encode(band[..., :colour].astype(np.float64)) * top)
     else:
         out[..., :colour] = np.rint(band[..., :colour] * np.float32(top))
@@ -197,6 +219,9 @@ def write_image(path, pixels, *, fmt: str | None = None, bits: int | None = None
             spec.attribute("oiio:UnassociatedAlpha", 1)  # alpha is coverage, not premultiplied
         spec.attribute("compression", "zip")
         spec.attribute("png:compressionLevel", 3)  # most of the size for half the time
+        # one row filter, "up" (libpng's PNG_FILTER_UP), not libpng's trial of all five on
+        # every row: 2-3x faster, and within 3% of the size on baked maps (smooth fields)
+        spec.attribute("png:filter", _PNG_FILTER_UP)
         if fmt == "tif":
             # libtiff fails ("TIFFWriteCustomDirectory() of the Exif data") on the Exif
             # directory OIIO writes unless it holds a tag: the colour space is one.
