@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .charts import planar_charts, prefer_planar
+from .components import connected_components
 from .errors import AtlasError, ParameterError
 from .uvcoverage import coverage, covering_faces, overlap_of
 from .uvgeometry import areas, uv_areas, uv_jacobian
@@ -95,15 +96,11 @@ def uv_problem(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray | None) -
 
 
 def chart_labels(uv_faces: np.ndarray, k: int) -> np.ndarray:
-    """``(m,)`` the chart of each face: connected pieces of the UV mesh (faces sharing one
-    of the ``k`` UV vertices)."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
+    """``(m,)`` int64 the chart of each face: connected pieces of the UV mesh (faces sharing
+    one of the ``k`` UV vertices), numbered in the order of their first face."""
     m = len(uv_faces)
     rows = np.repeat(np.arange(m), 3)
-    graph = coo_matrix((np.ones(3 * m), (rows, uv_faces.ravel() + m)), shape=(m + k, m + k))
-    return connected_components(graph, directed=False)[1][:m]
+    return connected_components(m + k, rows, np.asarray(uv_faces).ravel() + m)[:m]
 
 
 def atlas_stats(vertices, faces, uv_faces, uv) -> dict:

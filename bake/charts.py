@@ -7,7 +7,7 @@ whose texel density falls off with the cosine of the angle to its projection dir
 at most ``ANGLE_LIMIT``. The charts are laid out side by side, apart, one UV mesh for
 xatlas' packer (``bake._unwrap_worker.pack``), which places them all at one density.
 
-numpy and scipy only.
+numpy, numba (:mod:`bake.components`, :mod:`bake.uvcoverage`) and SciPy's ``DisjointSet``.
 """
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .components import connected_components
 from .uvgeometry import areas
 
 ANGLE_LIMIT = 66.0  # degrees between a face's normal and its chart's direction, at most (Blender's default)
@@ -111,11 +112,7 @@ def _islands(faces: np.ndarray, labels: np.ndarray) -> np.ndarray:
 
 def _components(m: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``(m,)`` int64 component of each of ``m`` faces joined by the pairs ``(a, b)``."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    graph = coo_matrix((np.ones(len(a)), (a, b)), shape=(m, m))
-    return connected_components(graph, directed=False)[1].astype(np.int64)
+    return connected_components(m, a, b)
 
 
 def _basis(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .components import connected_components
 from .uvgeometry import edges
 
 HARD_EDGE_DEGREES = 60.0
@@ -25,9 +26,6 @@ def split_normals(vertices: np.ndarray, faces: np.ndarray, angle: float = HARD_E
     faces index the new vertices, and the normals are unit length (+z for a fan of
     zero-area faces only).
     """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
     m = len(faces)
@@ -57,8 +55,7 @@ def split_normals(vertices: np.ndarray, faces: np.ndarray, angle: float = HARD_E
     g_at_pb = np.where(position.ravel()[ga] == pa, gb, ga)
     left = np.concatenate([corner_a[same][soft], corner_b[same][soft]])
     right = np.concatenate([g_at_pa[soft], g_at_pb[soft]])
-    graph = coo_matrix((np.ones(len(left)), (left, right)), shape=(3 * m, 3 * m))
-    _, fan = connected_components(graph, directed=False)  # (3m,) fan of each corner
+    fan = connected_components(3 * m, left, right)  # (3m,) fan of each corner
 
     corner_weight = np.repeat(weighted, 3, axis=0)
     normal = np.stack([np.bincount(fan, weights=corner_weight[:, c], minlength=fan.max() + 1) for c in range(3)], axis=1)
