@@ -43,7 +43,6 @@ import zlib
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-import numba as nb
 import numpy as np
 
 from .atomic import replacing
@@ -105,7 +104,14 @@ def _srgb8_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return table, above, below
 
 
-@nb.njit(cache=True, nogil=True)
+@functools.cache
+def _encode8_kernel():
+    """:func:`_encode8`, compiled (numba is imported here: the settings import this module)."""
+    import numba
+
+    return numba.njit(cache=True, nogil=True)(_encode8)
+
+
 def _encode8(pixels, colour, table, above, below, out):  # pragma: no cover - compiled
     """``out`` (h, w, c) uint8 = the 8-bit codes of ``pixels`` (h, w, c) float: its first
     ``colour`` channels sRGB-encoded exactly (``round(255 * srgb_encode(x))``: the table's
@@ -155,7 +161,7 @@ def _encode(pixels: np.ndarray, fmt: str, bits: int, given: str) -> np.ndarray:
     out: np.ndarray = np.empty(pixels.shape, dtype=dtype)
     # NaN is written as 0 and infinities clipped: integer files have no room for them
     if bits == 8:
-        _encode8(pixels.view(np.uint8) if pixels.dtype == np.bool_ else pixels, colour if given == "linear" else 0,
+        _encode8_kernel()(pixels.view(np.uint8) if pixels.dtype == np.bool_ else pixels, colour if given == "linear" else 0,
                  *_srgb8_tables(), out)
         return out
     band = np.clip(np.nan_to_num(pixels.astype(np.float32), nan=0.0), 0.0, 1.0)
