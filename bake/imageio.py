@@ -224,9 +224,10 @@ def write_image(path, pixels, *, fmt: str | None = None, bits: int | None = None
         if c in (2, 4):
             spec.attribute("oiio:UnassociatedAlpha", 1)  # alpha is coverage, not premultiplied
         spec.attribute("compression", "zip")
-        spec.attribute("png:compressionLevel", 3)  # most of the size for half the time
-        # one row filter, "up" (libpng's PNG_FILTER_UP), not libpng's trial of all five on
-        # every row: 2-3x faster, and within 3% of the size on baked maps (smooth fields)
+        # one row filter, "up", not libpng's trial of all five on every row, and zlib's
+        # level 4 (its first with lazy matching): on baked maps (smooth fields) 2-3x
+        # faster than level 3 with the trial, and files 2-20 % smaller
+        spec.attribute("png:compressionLevel", 4)
         spec.attribute("png:filter", _PNG_FILTER_UP)
         if fmt == "tif":
             # libtiff fails ("TIFFWriteCustomDirectory() of the Exif data") on the Exif
