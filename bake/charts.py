@@ -107,12 +107,7 @@ def _islands(faces: np.ndarray, labels: np.ndarray) -> np.ndarray:
     """``(m,)`` island id of each face: faces of one label joined across shared edges."""
     a, b = _edge_pairs(faces)
     keep = labels[a] == labels[b]
-    return _components(len(faces), a[keep], b[keep])
-
-
-def _components(m: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``(m,)`` int64 component of each of ``m`` faces joined by the pairs ``(a, b)``."""
-    return connected_components(m, a, b)
+    return connected_components(len(faces), a[keep], b[keep])
 
 
 def _basis(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -346,7 +341,7 @@ def prefer_planar(vertices: np.ndarray, faces: np.ndarray) -> tuple[bool, str]:
     sliver = float(twice[longest > 20 * np.maximum(twice, 1e-300)].sum() / total)
     a, b = _edge_pairs(faces)
     same = np.einsum("ij,ij->i", normals[a], normals[b]) > COPLANAR_COS
-    region = _components(len(faces), a[same], b[same])
+    region = connected_components(len(faces), a[same], b[same])
     flat = float(twice[np.bincount(region)[region] >= 4].sum() / total)  # a triangulated quad is not a flat
     if flat >= 0.2 or sliver >= 0.2:
         return True, f"CAD-like: {flat:.0%} of the area on flat regions, {sliver:.0%} on slivers"
