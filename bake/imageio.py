@@ -161,8 +161,11 @@ def _encode(pixels: np.ndarray, fmt: str, bits: int, given: str) -> np.ndarray:
     out: np.ndarray = np.empty(pixels.shape, dtype=dtype)
     # NaN is written as 0 and infinities clipped: integer files have no room for them
     if bits == 8:
-        _encode8_kernel()(pixels.view(np.uint8) if pixels.dtype == np.bool_ else pixels, colour if given == "linear" else 0,
-                 *_srgb8_tables(), out)
+        if pixels.dtype == np.bool_:
+            pixels = pixels.view(np.uint8)
+        elif pixels.dtype not in (np.float32, np.float64):  # float16 (maps of 8192² and more): numba has no such type
+            pixels = pixels.astype(np.float32)  # a band: bounded
+        _encode8_kernel()(pixels, colour if given == "linear" else 0, *_srgb8_tables(), out)
         return out
     band = np.clip(np.nan_to_num(pixels.astype(np.float32), nan=0.0), 0.0, 1.0)
     if given == "linear":

@@ -158,6 +158,19 @@ def test_a_data_png_says_linear_and_a_colour_png_srgb(tmp_path, bits):
     assert b"sRGB" in colour and colour[b"gAMA"] == struct.pack(">I", 45455)  # 1 / 2.2
 
 
+@pytest.mark.parametrize("dtype", [np.float16, np.float32, np.float64, np.bool_])
+@pytest.mark.parametrize("bits", [8, 16])
+def test_every_map_dtype_is_written(tmp_path, dtype, bits):
+    # maps of 8192² and more are held as float16; the coverage is bool
+    img = (ramp(c=4) > 0.5) if dtype == np.bool_ else ramp(c=4).astype(dtype)
+    write_image(tmp_path / "a.png", img, bits=bits)
+    stored, _ = raw_pixels(tmp_path / "a.png")
+    top = 2**bits - 1
+    linear = img.astype(np.float32).astype(np.float64)
+    assert np.array_equal(stored[..., :3], np.rint(srgb_encode(linear[..., :3]) * top))
+    assert np.array_equal(stored[..., 3], np.rint(img[..., 3].astype(np.float32) * np.float32(top)))  # alpha: in float32
+
+
 def test_png_rows_take_the_up_filter(tmp_path):
     # one filter for every row (libpng's trial of all five per row took 2-3x as long)
     img = ramp(40, 33, 3)
