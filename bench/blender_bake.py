@@ -1,18 +1,21 @@
 """Blender 4.5's Cycles bake of a turbulence marble into a mesh's own UVs; run by
 bench/bench_blender.py as a whole process, as a user would run it.
 
-    BLENDER_PYTHON bench/blender_bake.py MESH.obj OUT.png --size 2048 --samples 1
+    BLENDER_PYTHON bench/blender_bake.py MESH.obj OUT.png --size 2048 --samples 1 [--repeat N]
 
 Imports the OBJ (its UVs), gives it an emission material whose colour is a marble: a
 Wave texture (bands along x) distorted by 8-octave noise (``Detail`` 8, Blender's fBm
 turbulence), through a colour ramp, and bakes the ``EMIT`` pass into a ``--size``
 square image with ``--samples`` Cycles samples a texel (CPU, 2 threads), then saves it
 as PNG. Runs in its own interpreter (``bpy`` pins numpy 1.26; ``scripts/blender``).
+``--repeat N`` does all of it N times in the one process (a warm Blender: bpy imported,
+Cycles started) and prints each time's seconds, one a line.
 """
 
 from __future__ import annotations
 
 import argparse
+import time
 
 import bpy
 
@@ -23,8 +26,16 @@ def main() -> None:
     ap.add_argument("out")
     ap.add_argument("--size", type=int, default=2048)
     ap.add_argument("--samples", type=int, default=1)
+    ap.add_argument("--repeat", type=int, default=1)
     args = ap.parse_args()
+    for _ in range(args.repeat):
+        start = time.perf_counter()
+        bake(args)
+        print(f"{time.perf_counter() - start:.4f}", flush=True)
 
+
+def bake(args) -> None:
+    """Import, set up, bake and save, from Blender's factory settings."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.wm.obj_import(filepath=args.mesh)
     obj = bpy.context.selected_objects[0]
