@@ -168,9 +168,7 @@ class UVLookup:
         if len(redo):
             again = self.faces_at(uv[redo])
             face[redo] = again
-            b = np.zeros((len(redo), 3))
-            _barycentric(uv[redo], again, self._origin, self._inv, b, np.zeros(len(redo), dtype=np.bool_))
-            bary[redo] = b
+            bary[redo] = self.barycentric(uv[redo], again)
         return face, bary, len(first) + len(redo)
 
     def barycentric(self, uv: np.ndarray, face: np.ndarray) -> np.ndarray:
