@@ -5,6 +5,7 @@ under a final name."""
 from __future__ import annotations
 
 import os
+import re
 import uuid
 from contextlib import contextmanager
 from pathlib import Path
@@ -17,6 +18,37 @@ def _remove(path: Path) -> None:
         path.unlink(missing_ok=True)
     except OSError:
         pass
+
+
+_TEMPORARY = re.compile(r"\..+\.tmp-(\d+)-[0-9a-f]{8}")  # replacing()'s names: .NAME.tmp-PID-HEX[SUFFIX]
+
+
+def remove_stale(folder) -> list[str]:
+    """Remove from ``folder`` the temporary files of :func:`replacing` whose process is
+    gone (killed mid-write: ``kill -9`` leaves them); returns their names. Those of a
+    live process, another bake writing there, are kept."""
+    removed: list[str] = []
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    for entry in entries:
+        match = _TEMPORARY.match(entry.name)
+        if match is None or not entry.is_file(follow_symlinks=False) or _alive(int(match.group(1))):
+            continue
+        _remove(Path(entry.path))
+        removed.append(entry.name)
+    return removed
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError):
+        return True  # someone else's, or not a pid we can judge: keep it
+    return True
 
 
 @contextmanager

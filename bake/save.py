@@ -1,7 +1,8 @@
 """Writing a bake: maps with OpenImageIO, the textured mesh, and the report.
 
 Every file is written to a temporary name, checked and renamed into place, so nothing
-half-written is left under a final name.
+half-written is left under a final name; the temporary files a killed bake left in the
+folder are removed by the next bake into it.
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+from .atomic import remove_stale
 from .errors import OutputError, ParameterError
 from .export import write_glb, write_obj
 from .imageio import write_image
@@ -41,6 +43,7 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise OutputError(f"{folder}: cannot create output folder: {exc.strerror}") from None
+    remove_stale(folder)  # what a killed earlier bake into this folder left half-written
 
     start = time.perf_counter()
     jobs = {name: (folder / f"{name}.{fmt}", pixels, bits, "data" if name == "normal" else "linear")  # a normal map is no colour
