@@ -34,7 +34,7 @@ def whole_process(runs: int) -> float:
         for _ in range(runs):
             start = time.perf_counter()
             subprocess.run(
-                [sys.executable, "-m", "bake.cli", "bake", str(MESH), "--texture", "checker", "--size", "2048", "--out", out],
+                [sys.executable, "-m", "texbake.cli", "bake", str(MESH), "--texture", "checker", "--size", "2048", "--out", out],
                 check=True, capture_output=True,
             )
             times.append(time.perf_counter() - start)
@@ -42,8 +42,8 @@ def whole_process(runs: int) -> float:
 
 
 def lookup_rate(runs: int) -> float:
-    from bake.load import load_mesh
-    from bake.texels import Tile, UVLookup, sample_offsets, sample_uv
+    from texbake.mesh.load import load_mesh
+    from texbake.sampling.lookup import Tile, UVLookup, sample_offsets, sample_uv
 
     mesh = load_mesh(MESH)
     lookup = UVLookup(mesh.uv, mesh.faces)

@@ -53,7 +53,7 @@ def timed(cmd: list[str]) -> tuple[float, float]:
 # library call makes it (each time's seconds, one a line)
 WARM = """
 import sys, time
-from bake import bake_mesh
+from texbake import bake_mesh
 mesh, size, quality, out, repeat = sys.argv[1], int(sys.argv[2]), sys.argv[3], sys.argv[4], int(sys.argv[5])
 for _ in range(repeat):
     start = time.perf_counter()
@@ -82,7 +82,7 @@ def main() -> None:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for samples, quality in ((1, "default"), (16, "final")):
-            ours = [sys.executable, "-m", "bake.cli", "bake", str(args.mesh), "--texture", "marble", "--size", str(args.size),
+            ours = [sys.executable, "-m", "texbake.cli", "bake", str(args.mesh), "--texture", "marble", "--size", str(args.size),
                     "--quality", quality, "--out", f"{tmp}/texbake"]
             theirs = None if blender is None else [str(blender), str(ROOT / "bench" / "blender_bake.py"), str(args.mesh),
                                                     f"{tmp}/blender.png", "--size", str(args.size), "--samples", str(samples)]

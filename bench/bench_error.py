@@ -5,7 +5,7 @@
 
 Per mesh (in ``../shared/meshes``, their own UVs where usable) x texture x size: the RMSE
 in linear colour of 1 filtered sample and of 1, 4 and 16 stratified point samples a texel
-against a converged point-sampled reference (``bake.checks.sweep``: 256 samples a texel
+against a converged point-sampled reference (``texbake.checks.sweep``: 256 samples a texel
 at the largest size, 1024 at half of it), all scored on the same texels (those the
 reference and all four bakes cover); their times (median whole bakes with a pre-made
 atlas, runs taking turns); and the ratio of each bake's own error estimate
@@ -24,7 +24,7 @@ from _rows import emit
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bake.checks.sweep import Setting, run_sweep  # noqa: E402
+from texbake.checks.sweep import Setting, run_sweep  # noqa: E402
 
 MESHES = ROOT.parent / "shared" / "meshes"
 

@@ -41,7 +41,7 @@ from _rows import emit
 
 ROOT = Path(__file__).resolve().parents[1]
 MESH = ROOT.parent / "shared" / "meshes" / "bunny.ply"
-TEXBAKE = [sys.executable, "-m", "bake.cli"]
+TEXBAKE = [sys.executable, "-m", "texbake.cli"]
 
 
 def settings(i: int, size: int) -> dict:

@@ -52,7 +52,7 @@ def main() -> None:
     work = Path(tempfile.mkdtemp(prefix="texbake-bench-swatch-"))
     port = free_port()
     log = open(work / "serve.log", "wb")
-    proc = subprocess.Popen([sys.executable, "-m", "bake.cli", "serve", "--port", str(port), "--workers", "0"], cwd=ROOT,
+    proc = subprocess.Popen([sys.executable, "-m", "texbake.cli", "serve", "--port", str(port), "--workers", "0"], cwd=ROOT,
                             env={**os.environ, "BAKE_DATA_DIR": str(work / "data")}, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
     per_texture: dict[str, list[float]] = {}
     cached: list[float] = []

@@ -43,11 +43,11 @@ def first_call_seconds(clear_cache: bool, floor: bool = False) -> float:
     if clear_cache:
         for cache in (ROOT / "bake" / "textures" / "__pycache__").glob("*.nb*"):
             cache.unlink()
-    call = ("from bake.textures.kernels import box_keep; box_keep(0.5)" if floor  # numba imported in both
+    call = ("from texbake.textures.kernels import box_keep; box_keep(0.5)" if floor  # numba imported in both
             else "evaluate('turbulence', np.zeros((10, 3)))")
     code = (
         "import time, numpy as np\n"
-        "from bake.textures import evaluate\n"
+        "from texbake.textures import evaluate\n"
         f"t = time.perf_counter(); {call}; print(time.perf_counter() - t)\n"
     )
     out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True, cwd=ROOT)
@@ -62,8 +62,8 @@ def main():
     args = parser.parse_args()
     from pyfastnoiselite.pyfastnoiselite import FastNoiseLite, FractalType, NoiseType
 
-    from bake.textures import evaluate
-    from bake.textures.noise import octave_sum
+    from texbake.textures import evaluate
+    from texbake.textures.noise import octave_sum
 
     n = args.points
     points = np.random.default_rng(0).random((n, 3)) * 64

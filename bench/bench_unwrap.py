@@ -3,7 +3,7 @@
     .venv/bin/python bench/bench_unwrap.py [--blender PYTHON] [--runs N] [--size S] [--only NAME]
 
 Every mesh of ``../shared/meshes`` that loads (its UVs dropped) and the CAD-like meshes
-of :mod:`bake.checks.cad` (sliver fans, thousands of sections, mm units, 1e3-1e6 from
+of :mod:`texbake.checks.cad` (sliver fans, thousands of sections, mm units, 1e3-1e6 from
 the origin), unwrapped by ``make_atlas(mode="unwrap", charting=--charting)`` (default "auto") at ``--size``
 with 2 workers, median of ``--runs`` wall times. Both atlases are scored by the same
 code: utilisation (UV area in the unit square), density spread (area-weighted mean of
@@ -33,12 +33,12 @@ sys.path.insert(0, str(ROOT))
 
 from _rows import emit  # noqa: E402
 
-from bake.atlas import atlas_stats, make_atlas  # noqa: E402
-from bake.charts import density_spread  # noqa: E402
-from bake.checks.cad import meshes as cad_meshes  # noqa: E402
-from bake.errors import BakeError  # noqa: E402
-from bake.load import load_mesh  # noqa: E402
-from bake.uvcoverage import overlap  # noqa: E402
+from texbake.atlas.charts import density_spread  # noqa: E402
+from texbake.atlas.decide import atlas_stats, make_atlas  # noqa: E402
+from texbake.atlas.uvcheck import overlap  # noqa: E402
+from texbake.checks.cad import meshes as cad_meshes  # noqa: E402
+from texbake.errors import BakeError  # noqa: E402
+from texbake.mesh.load import load_mesh  # noqa: E402
 
 SHARED = ROOT.parent / "shared" / "meshes"
 BLENDER = ROOT / ".venv-blender" / "bin" / "python"

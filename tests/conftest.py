@@ -33,11 +33,11 @@ def meshes() -> Path:
     return MESHES
 
 
-def texbake(*args, cwd=None, timeout=300):
+def run_cli(*args, cwd=None, timeout=300):
     """Run the ``texbake`` command line as a real process; the CompletedProcess (text)."""
     env = {k: v for k, v in os.environ.items() if k != "COLUMNS"} | {"COLUMNS": "200"}
     return subprocess.run(
-        [sys.executable, "-m", "bake.cli", *map(str, args)],
+        [sys.executable, "-m", "texbake.cli", *map(str, args)],
         capture_output=True, text=True, timeout=timeout, cwd=cwd, env=env,
     )
 
@@ -119,7 +119,7 @@ def postgres_url():
     yield url
     from sqlalchemy.orm import close_all_sessions
 
-    from service import db
+    from texbake.service.core import db
 
     close_all_sessions()  # the test's sessions give their connections back, which go with the engine
     db.sessions(url).kw["bind"].dispose()
@@ -212,7 +212,7 @@ def own_postgres():
     try:
         server = OwnPostgres(folder).start()
         yield server
-        from service import db
+        from texbake.service.core import db
 
         db.sessions.cache_clear()
         with contextlib.suppress(subprocess.CalledProcessError):
@@ -233,7 +233,7 @@ def start(args, data, extra_env=None, port=None):
     env = {**os.environ, "BAKE_DATA_DIR": str(data), "BAKE_HEARTBEAT_SECONDS": "0.5", "BAKE_STALE_SECONDS": "5",
            "BAKE_STOP_SECONDS": "2", **(extra_env or {})}
     log = open(data / f"{args[0]}-{time.monotonic_ns()}.log", "wb")
-    proc = subprocess.Popen([sys.executable, "-m", "bake.cli", *args], cwd=ROOT, env=env, start_new_session=True, stdout=log, stderr=subprocess.STDOUT)
+    proc = subprocess.Popen([sys.executable, "-m", "texbake.cli", *args], cwd=ROOT, env=env, start_new_session=True, stdout=log, stderr=subprocess.STDOUT)
     proc.log = log
     if port:
         end = time.monotonic() + 60

@@ -2,14 +2,14 @@
 
 Each is a 64 x 64 8-bit sRGB PNG of one texture (defaults) baked onto
 ../shared/meshes/suzanne.ply with its own UVs, texture_space="unit", margin 2. Made by
-texbake itself when the texture was checked by eye; tests/test_golden.py compares new
+texbake itself when the texture was checked by eye; tests/integration/test_golden.py compares new
 bakes with them. Regenerate only on purpose, after looking at the new images.
 """
 
 from pathlib import Path
 
-from bake import bake_mesh
-from bake.imageio import write_image
+from texbake import bake_mesh
+from texbake.output.images import write_image
 
 HERE = Path(__file__).resolve().parent
 MESH = HERE.parents[3] / "shared" / "meshes" / "suzanne.ply"

@@ -1,0 +1,288 @@
+"""The API in-process through FastAPI's TestClient (SQLite queue and jobs table in a
+temporary data folder; no worker runs, so jobs stay queued).
+
+Each test gets its own app on its own empty data folder, so no test sees another's jobs
+and every test passes alone and in any order."""
+
+import json
+
+import pytest
+from fastapi.testclient import TestClient
+
+
+@pytest.fixture
+def client(tmp_path_factory, monkeypatch):
+    from texbake.service.core import config as settings
+    from texbake.service.main import create_app
+    from texbake.service.worker import tasks
+
+    monkeypatch.setenv("BAKE_DATA_DIR", str(tmp_path_factory.mktemp("data")))
+    monkeypatch.setenv("BAKE_MAX_SIZE", "2048")
+    settings.get_settings.cache_clear()
+    tasks.queue.cache_clear()  # its huey queue lives in this data folder
+    try:
+        with TestClient(create_app()) as c:
+            yield c
+    finally:
+        settings.get_settings.cache_clear()
+        tasks.queue.cache_clear()
+
+
+def post(client, path, settings, name=None):
+    with open(path, "rb") as f:
+        return client.post("/v1/jobs", files={"mesh": (name or path.name, f)}, data={"settings": json.dumps(settings)})
+
+
+def test_upload_is_queued_once(client, meshes):
+    r = post(client, meshes / "suzanne.ply", {"texture": "wood", "size": 256})
+    assert r.status_code == 202 and r.headers["Location"] == r.json()["url"]
+    job = r.json()
+    assert job["state"] == "queued" and job["mesh"] == "suzanne.ply" and job["settings"]["texture"]["name"] == "wood"
+    assert post(client, meshes / "suzanne.ply", {"texture": "wood", "size": 256}).json()["id"] == job["id"]
+    assert post(client, meshes / "suzanne.ply", {"texture": "wood", "size": 128}).json()["id"] != job["id"]
+    final = post(client, meshes / "suzanne.ply", {"texture": "wood", "size": 128, "quality": "final"}).json()
+    assert final["settings"]["quality"] == "final" and "samples" not in final["settings"]
+    page = client.get("/v1/jobs", params={"limit": 1}).json()
+    assert page["total"] == 3 and len(page["jobs"]) == 1
+    assert client.get(f"/v1/jobs/{job['id']}/files/albedo.png").status_code == 409  # not baked yet
+    assert client.delete(f"/v1/jobs/{job['id']}").json()["state"] == "cancelled"
+    assert client.delete(f"/v1/jobs/{job['id']}").status_code == 409
+
+
+@pytest.mark.parametrize("settings, field", [
+    ({"texture": {"name": "wood", "rings": "many"}}, "rings"),
+    ({"texture": "plaid"}, "plaid"),
+    ({"size": 4096}, "size: 4096 is over this server's limit of 2048"),
+    ({"size": 0}, "size"),
+    ({"uv": "sideways"}, "uv"),
+    ({"sampels": 4}, "sampels"),
+    ({"quality": "best"}, "quality"),
+    ({"bits": 7}, "settings.bits"),
+    ({"format": "exr", "bits": 8}, "exr takes 16 or 32 bits"),
+    ({"margin": -1}, "settings.margin"),
+])
+def test_bad_settings_name_the_field(client, meshes, settings, field):
+    r = post(client, meshes / "suzanne.ply", settings)
+    assert r.status_code == 422 and field in r.json()["detail"], r.text
+
+
+def test_not_json_settings_and_unknown_routes(client, meshes):
+    with open(meshes / "suzanne.ply", "rb") as f:
+        r = client.post("/v1/jobs", files={"mesh": ("suzanne.ply", f)}, data={"settings": "{size: 3"})
+    assert r.status_code == 422 and r.json()["detail"].startswith("settings")
+    assert client.get("/v1/jobs/0123/result.zip").json()["detail"] == "no job '0123'"
+    assert client.get("/v2/anything").status_code == 404
+
+
+def test_readiness_checks_queue_database_workers_and_disk(client, meshes):
+    from texbake.service.core import db
+    from texbake.service.core.config import get_settings
+
+    r = client.get("/readyz")  # a new data folder, no worker
+    assert r.status_code == 503 and r.json()["detail"] == "not ready: no worker is alive", r.json()
+    assert r.json()["database"] == r.json()["queue"] == "ok" and r.json()["queued"] == 0
+    with db.sessions(get_settings().database)() as session:
+        db.worker_seen(session, "host:1", 2)
+    assert post(client, meshes / "suzanne.ply", {"texture": "wood"}).status_code == 202
+    answer = client.get("/readyz").json()
+    assert answer["ok"] and answer["queued"] == 1 and (answer["workers"], answer["slots"]) == (1, 2), answer
+    assert answer["disk_free_mb"] > 0
+
+
+def test_a_texture_naming_a_server_path_is_an_unknown_name(client, meshes, tmp_path):
+    """The service never opens a path a client names: an existing spec file on the server,
+    a missing one and a made-up name get the same 422, before anything is queued."""
+    spec = tmp_path / "secret.yaml"
+    spec.write_text("name: wood\n")
+    queued = post(client, meshes / "suzanne.ply", {"texture": "wood"}).json()["id"]  # one job, queued
+    details = set()
+    for text in (str(spec), str(tmp_path / "missing.yaml"), "/etc/hostname", "plaid"):
+        r = post(client, meshes / "suzanne.ply", {"texture": text})
+        assert r.status_code == 422, r.text
+        details.add(r.json()["detail"].replace(repr(text), "TEXT"))
+    assert len(details) == 1 and next(iter(details)).startswith("settings.texture: unknown texture TEXT"), details
+    assert [j["id"] for j in client.get("/v1/jobs").json()["jobs"]] == [queued]  # nothing more queued
+
+
+def test_openapi_documents_the_settings_and_the_bearer_scheme(client):
+    """The form field is BakeSettings: its schema in the OpenAPI document is the model's own
+    JSON Schema (FastAPI leaves out ``"default": null``, nothing else)."""
+    from texbake.settings import BakeSettings
+
+    spec = client.get("/openapi.json").json()
+    body = spec["paths"]["/v1/jobs"]["post"]["requestBody"]["content"]["multipart/form-data"]["schema"]["$ref"].split("/")[-1]
+    field = spec["components"]["schemas"][body]["properties"]["settings"]["anyOf"][0]
+    assert field["contentMediaType"] == "application/json" and field["contentSchema"]["$ref"].endswith("/BakeSettings")
+    model = BakeSettings.model_json_schema(ref_template="#/components/schemas/{model}")
+    for schema in [model, *model["$defs"].values()]:
+        for prop in schema.get("properties", {}).values():
+            if prop.get("default", 0) is None:
+                del prop["default"]
+    for name, definition in model.pop("$defs").items():
+        assert spec["components"]["schemas"][name] == definition, name
+    assert spec["components"]["schemas"]["BakeSettings"] == model
+    assert spec["components"]["securitySchemes"]["HTTPBearer"]["scheme"] == "bearer"
+    assert {"HTTPBearer": []} in spec["paths"]["/v1/jobs"]["post"]["security"]
+    assert spec["paths"]["/v1/jobs"]["post"]["responses"]["4XX"]["content"]["application/json"]["schema"]["$ref"].endswith("/Problem")
+
+
+def test_every_library_feature_can_be_asked_for(client, meshes):
+    """A normal map, lit shading with a light, a flame sequence and a quality preset are
+    settings like any other: queued as given."""
+    settings = {"texture": {"name": "flame", "half_width": 0.4}, "frames": [0, 0.25, 0.5], "bump": "noise", "bump_strength": 2,
+                "shading": "full", "light": [0, 1, 0], "quality": "final", "size": [256, 128], "format": "exr", "bits": 32}
+    r = post(client, meshes / "suzanne.ply", settings)
+    assert r.status_code == 202, r.text
+    job = r.json()["settings"]
+    assert job["frames"] == [0, 0.25, 0.5] and job["bump"]["name"] == "noise" and job["light"] == [0, 1, 0]
+    assert job["texture"]["half_width"] == 0.4 and job["size"] == [256, 128] and "samples" not in job
+    r = post(client, meshes / "suzanne.ply", {"texture": "marble", "frames": [0, 1]})
+    assert r.status_code == 422 and "has no time to animate" in r.json()["detail"]
+    r = post(client, meshes / "suzanne.ply", {"frames": list(range(100)), "texture": "flame"})
+    assert r.status_code == 422 and "settings.frames: 100 is over this server's limit" in r.json()["detail"]
+
+
+def test_what_a_client_sends_gets_a_4xx_never_a_500(client, meshes):
+    """Nesting bounded before parsing, lengths and NULs checked before the database sees them."""
+    deep = '{"name": "marble", "x": ' + '{"a":' * 100_000 + "1" + "}" * 100_000 + "}"  # json.loads: RecursionError
+    for settings in ({"texture": deep}, "[" * 100_000 + "]" * 100_000):
+        with open(meshes / "suzanne.ply", "rb") as f:
+            r = client.post("/v1/jobs", files={"mesh": ("suzanne.ply", f)}, data={"settings": settings if isinstance(settings, str) else json.dumps(settings)})
+        assert r.status_code == 422 and r.json()["detail"].startswith("settings"), r.text[:300]
+    mesh = (meshes / "suzanne.ply").read_bytes()
+    for name in (b"a" * 300 + b".ply", b"nul\x00.ply"):  # a raw NUL: httpx would percent-encode it
+        body = b'--b\r\nContent-Disposition: form-data; name="mesh"; filename="' + name + b'"\r\n\r\n' + mesh + b"\r\n--b--\r\n"
+        r = client.post("/v1/jobs", content=body, headers={"Content-Type": "multipart/form-data; boundary=b"})
+        assert r.status_code == 422 and "at most 255 characters, without NUL" in r.json()["detail"], r.text[:300]
+    for job_id in ("%00", "x" * 5000, "0123"):
+        r = client.get(f"/v1/jobs/{job_id}")
+        assert r.status_code == 404 and r.json()["detail"].startswith("no job"), r.text[:300]
+
+
+def test_database_down_is_a_503_with_retry_after(tmp_path, monkeypatch, meshes):
+    """PostgreSQL that refuses connections (nothing listens on the port): every route that
+    needs the jobs table answers 503 in JSON with Retry-After; /healthz still answers."""
+    from conftest import free_port
+
+    from texbake.service.core import config as settings
+    from texbake.service.main import create_app
+    from texbake.service.worker import tasks
+
+    monkeypatch.setenv("BAKE_DATA_DIR", str(tmp_path))
+    monkeypatch.setenv("BAKE_DATABASE_URL", f"postgresql+psycopg://postgres@127.0.0.1:{free_port()}/none?connect_timeout=2")
+    settings.get_settings.cache_clear()
+    tasks.queue.cache_clear()
+    try:
+        with TestClient(create_app()) as c:
+            for r in (c.get("/v1/jobs"), c.get(f"/v1/jobs/{'0' * 32}"), post(c, meshes / "suzanne.ply", {})):
+                assert r.status_code == 503 and r.headers["Retry-After"] == "10", r.text
+                assert r.json()["detail"] == "the jobs database is unavailable: try again in 10 s"
+            assert c.get("/healthz").status_code == 200
+    finally:
+        settings.get_settings.cache_clear()
+        tasks.queue.cache_clear()
+
+
+def test_job_urls_use_the_configured_base_url_not_the_host_header(client, meshes, monkeypatch):
+    from texbake.service.core import config as settings
+
+    monkeypatch.setenv("BAKE_BASE_URL", "https://bake.example.org/")
+    settings.get_settings.cache_clear()
+    with open(meshes / "suzanne.ply", "rb") as f:
+        r = client.post("/v1/jobs", files={"mesh": ("suzanne.ply", f)}, headers={"Host": "evil.example.com"})
+    job = r.json()
+    assert r.status_code == 202 and job["url"] == f"https://bake.example.org/v1/jobs/{job['id']}" == r.headers["Location"]
+
+
+# --- the web page's endpoints -------------------------------------------------------------
+
+def test_the_swatch_is_a_png_cached_by_its_spec(client):
+    from texbake.output.images import read_image
+
+    r = client.get("/v1/swatch", params={"texture": "marble"})
+    assert r.status_code == 200 and r.headers["content-type"] == "image/png" and r.content[:8] == b"\x89PNG\r\n\x1a\n"
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as folder:
+        (Path(folder) / "s.png").write_bytes(r.content)
+        image = read_image(Path(folder) / "s.png")
+    assert image.shape == (256, 256, 4) and image[0, 0, 3] == 0 and image[128, 128, 3] == 1
+    etag = r.headers["ETag"]
+    assert client.get("/v1/swatch", params={"texture": "marble"}, headers={"If-None-Match": etag}).status_code == 304
+    # the same spec written otherwise is the same swatch; POST answers the same
+    same = client.get("/v1/swatch", params={"texture": json.dumps({"name": "marble", "frequency": 12.0})})
+    posted = client.post("/v1/swatch", json={"texture": {"name": "marble"}})
+    assert same.headers["ETag"] == posted.headers["ETag"] == etag and posted.content == r.content
+    other = client.get("/v1/swatch", params={"texture": json.dumps({"name": "marble", "frequency": 30}), "size": 64, "view": "slice"})
+    assert other.status_code == 200 and other.headers["ETag"] != etag
+
+
+@pytest.mark.parametrize("method, request_args, words", [
+    ("get", {"params": {"texture": json.dumps({"name": "marble", "frequency": -1})}}, "texture 'marble': frequency: Input should be greater than 0"),
+    ("get", {"params": {"texture": "plaid"}}, "unknown texture 'plaid'"),
+    ("get", {"params": {"texture": "/etc/passwd"}}, "unknown texture '/etc/passwd'"),
+    ("get", {"params": {"texture": "marble", "size": 4096}}, "size: Input should be less than or equal to 512"),
+    ("get", {"params": {"texture": "marble", "view": "cube"}}, "view: Input should be 'sphere' or 'slice'"),
+    ("get", {"params": {"texture": "x" * 9000}}, "texture: String should have at most 8192 characters"),
+    ("get", {"params": {"texture": '{"name": "marble", "x": ' + '{"a":' * 800 + "1" + "}" * 800 + "}"}}, "unknown texture"),  # nesting refused unparsed
+    ("get", {}, "texture: Field required"),
+    ("post", {"json": {"texture": {"name": "wood", "rings": 3}}}, "texture: texture 'wood': rings: Extra inputs are not permitted"),
+    ("post", {"json": {"texture": "marble", "colour": "red"}}, "colour: Extra inputs are not permitted"),
+    ("post", {"json": {"texture": {"name": {}}}}, "unknown texture {}"),  # was a 500: a dict as the name
+])
+def test_a_bad_swatch_is_a_422_naming_the_parameter(client, method, request_args, words):
+    r = getattr(client, method)("/v1/swatch", **request_args)
+    assert r.status_code == 422 and words in r.json()["detail"], r.text[:300]
+
+
+def test_with_api_keys_a_swatch_needs_a_key(client, monkeypatch):
+    from texbake.service.core import config as settings
+
+    monkeypatch.setenv("BAKE_API_KEYS", '["sesame"]')
+    settings.get_settings.cache_clear()
+    assert client.get("/v1/swatch", params={"texture": "wood"}).status_code == 401
+    assert client.get("/v1/swatch", params={"texture": "wood"}, headers={"Authorization": "Bearer sesame"}).status_code == 200
+    assert client.get("/v1/config").json()["auth"] is True  # the page asks for the key
+
+
+def test_the_config_gives_the_limits_the_formats_and_the_settings_schema(client):
+    config = client.get("/v1/config").json()
+    assert config["auth"] is False
+    assert config["limits"]["max_size"] == 2048 and config["limits"]["max_upload_bytes"] == 256 * 1024 * 1024
+    assert config["formats"] == [".obj", ".ply", ".stl", ".off", ".glb"]
+    assert config["settings_schema"]["properties"]["size"]["default"] == 1024
+
+
+def test_the_page_and_everything_it_loads_are_served_here(client):
+    import re
+
+    r = client.get("/")
+    assert r.status_code == 200 and r.headers["content-type"].startswith("text/html")
+    csp = r.headers["Content-Security-Policy"]
+    assert "default-src 'self'" in csp and "script-src 'self' 'sha256-" in csp  # nothing from elsewhere, the import map by its hash
+    local = re.findall(r'(?:src|href)="([^"]+)"', r.text)
+    importmap = json.loads(re.search(r'<script type="importmap">(.*?)</script>', r.text, re.S).group(1))["imports"]
+    assert all(u.startswith("/") or u == "data:," for u in [*local, *importmap.values()]), local
+    for path in [u for u in local if u.startswith("/static/")] + [importmap["three"]]:
+        assert client.get(path).status_code == 200, path
+    app = client.get("/static/app.js").text
+    for module in re.findall(r'from "three/addons/([^"]+)"', app):  # each addon the page imports, and what it imports
+        assert client.get(importmap["three/addons/"] + module).status_code == 200, module
+    assert client.get("/static/../service/main.py").status_code == 404
+    assert "/" not in client.get("/openapi.json").json()["paths"]  # the page is no API
+
+
+def test_retry_bakes_a_failed_or_cancelled_job_again(client, meshes):
+    job = post(client, meshes / "suzanne.ply", {"texture": "wood", "size": 64}).json()
+    r = client.post(f"/v1/jobs/{job['id']}/retry")
+    assert r.status_code == 409 and "queued: only a failed or cancelled job is retried" in r.json()["detail"]
+    client.delete(f"/v1/jobs/{job['id']}")
+    again = client.post(f"/v1/jobs/{job['id']}/retry")
+    assert again.status_code == 202 and again.json()["id"] != job["id"] and again.json()["state"] == "queued"
+    assert again.json()["settings"] == job["settings"] and again.json()["mesh"] == "suzanne.ply"
+    assert again.headers["Location"] == again.json()["url"]
+    # the same upload and settings are live again: a second retry gives that job
+    same = client.post(f"/v1/jobs/{job['id']}/retry")
+    assert same.status_code == 200 and same.json()["id"] == again.json()["id"]
+    assert client.post(f"/v1/jobs/{'0' * 32}/retry").status_code == 404

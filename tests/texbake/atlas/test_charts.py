@@ -1,0 +1,139 @@
+"""Planar charts (bake/charts.py) and the atlases made of them on CAD-like meshes."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+from conftest import MESHES
+
+from texbake.atlas.charts import ANGLE_LIMIT, density_spread, directions, planar_charts, prefer_planar
+from texbake.atlas.decide import atlas_stats, make_atlas
+from texbake.atlas.uvcheck import overlap
+from texbake.checks.cad import fan_cylinder, holed_plate
+from texbake.mesh.load import load_mesh
+from texbake.mesh.uvgeometry import uv_areas
+
+
+def unit_normals(rng, n):
+    v = rng.normal(size=(n, 3))
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def test_directions_cover_every_normal_within_the_limit():
+    rng = np.random.default_rng(3)
+    normals = unit_normals(rng, 5000)
+    d = directions(normals, rng.random(5000))
+    assert np.allclose(np.linalg.norm(d, axis=1), 1)
+    assert (np.max(normals @ d.T, axis=1) > np.cos(np.radians(ANGLE_LIMIT))).all()
+    assert len(d) < 40  # a covering, not a direction a face
+    # a cube's six faces: six directions, the axes
+    box = trimesh.creation.box()
+    cube = planar_charts(box.vertices, box.faces)
+    assert len(cube.directions) == 6 and np.allclose(np.abs(cube.directions).max(axis=1), 1)
+    assert cube.labels.max() + 1 == 6 and cube.flat == 1.0
+
+
+def test_a_flat_region_is_one_chart_without_stretch_however_it_is_cut():
+    # a plate's faces are fans of slivers (up to 64 a fan): each side is one chart, isometric
+    v, f = holed_plate(cells=(2, 2), segments=256, offset=0.0)
+    c = planar_charts(v, f)
+    assert np.array_equal(c.vmapping[c.faces], f)
+    assert c.labels.max() + 1 == 2 + 4 + 4 * 4  # top, bottom, 4 outer walls, 4 hole walls in 4 pieces each
+    top = np.abs(v[f][:, :, 2] - 6).max(axis=1) < 1e-9
+    s = atlas_stats(v, f[top], c.faces[top], c.uv)
+    assert s["charts"] == 1 and abs(s["stretch"] - 1) < 1e-12
+    assert abs(uv_areas(c.uv, c.faces[top]).sum() - trimesh.Trimesh(v, f[top], process=False).area) < 1e-9
+
+
+def test_a_ramp_that_winds_over_itself_is_cut_until_it_does_not_overlap():
+    # a helicoid of 1.5 turns, gently climbing: every normal within 10 degrees of +z, so one
+    # direction; projected along z its second half lies on its first
+    r, t = np.meshgrid(np.linspace(1, 2, 5), np.linspace(0, 3 * np.pi, 200), indexing="ij")
+    v = np.stack([r * np.cos(t), r * np.sin(t), 0.1 * t], axis=-1).reshape(-1, 3)
+    idx = np.arange(v.shape[0]).reshape(r.shape)
+    a, b, c_, d = idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]
+    f = np.concatenate([np.stack([a, b, c_], -1).reshape(-1, 3), np.stack([a, c_, d], -1).reshape(-1, 3)])
+    c = planar_charts(v, f)
+    # cut, and the pieces that need not be apart joined again: 1.5 turns are two charts
+    # (bisection alone leaves three)
+    assert len(c.directions) >= 2 and c.labels.max() + 1 == 2
+    lo, hi = c.uv.min(axis=0), c.uv.max(axis=0)
+    assert overlap((c.uv - lo) / (hi - lo).max(), c.faces, 1024) == (0.0, 1)
+
+
+def test_a_part_cut_for_overlap_keeps_no_more_charts_than_it_needs():
+    # featuretype.STL: bisection cut it into 146 charts, its pieces joined again make 103
+    # (Smart UV: 124); each chart still lies flat without overlapping itself
+    m = load_mesh(MESHES / "featuretype.STL")
+    c = planar_charts(m.vertices, m.faces)
+    assert c.labels.max() + 1 <= 110
+    lo, hi = c.uv.min(axis=0), c.uv.max(axis=0)
+    assert overlap((c.uv - lo) / (hi - lo).max(), c.faces, 1024)[0] == 0.0
+
+
+def test_auto_charting_picks_planar_for_cad_and_xatlas_for_small_organic_meshes():
+    plate = holed_plate(cells=(2, 1), segments=256)
+    assert prefer_planar(*plate) == (True, "CAD-like: 76% of the area on flat regions, 42% on slivers")
+    sphere = trimesh.creation.icosphere(3)
+    assert prefer_planar(sphere.vertices, sphere.faces) == (False, "organic: 0% of the area on flat regions, 0% on slivers")
+    big = trimesh.creation.icosphere(5)
+    assert prefer_planar(big.vertices, big.faces) == (True, "more than 6000 faces")
+
+
+# Smart UV Project (Blender 4.5, angle limit 66, margin 0.002) on the same meshes at 1024,
+# from bench/bench_unwrap.py: utilisation and density spread. The targets: utilisation
+# at least 0.9x, spread no worse.
+SMART_UV = {"gear": (0.57, 1.038), "plate": (0.57, 1.024), "cylinder": (0.01, 1.149)}
+
+
+@pytest.mark.parametrize("name", list(SMART_UV))
+def test_cad_meshes_get_a_sound_planar_atlas(name):
+    if name == "gear":  # 240 teeth, two holes, far from the origin, fans of slivers
+        m = load_mesh(MESHES / "gear_cad.stl")
+        v, f = m.vertices, m.faces
+    else:
+        v, f = holed_plate() if name == "plate" else fan_cylinder()
+    a = make_atlas(v, f, mode="unwrap", size=1024)
+    assert a.method == "planar", a.reason
+    assert a.warnings == []
+    assert np.array_equal(v[a.vmapping][a.faces], v[f]) and (uv_areas(a.uv, a.faces) > 0).all()
+    util, spread = SMART_UV[name]
+    assert a.stats["utilisation"] >= 0.9 * util
+    assert density_spread(v, f, a.uv, a.faces) <= spread
+    assert a.stats["stretch"] < 1.02 and a.stats["overlap"] < 1e-4  # measured: 0 to 2e-6 (a texel), slivers
+
+
+def test_the_outline_of_a_sliver_fan_is_a_few_well_shaped_triangles():
+    from texbake.atlas.charts import outline_triangles
+
+    v, f = fan_cylinder(sections=4000, offset=0.0)
+    cap = f[np.abs(v[f][:, :, 2] - 120).max(axis=1) == 0]  # 3998 slivers from one rim vertex
+    uv = v[:, :2]
+    exact = outline_triangles(uv, cap)
+    assert exact is not None and len(exact) == len(cap)  # the same disc, ear-cut
+    assert abs(uv_areas(uv, exact).sum() - uv_areas(uv, cap).sum()) < 1e-9 * uv_areas(uv, cap).sum()
+    coarse = outline_triangles(uv, cap, tolerance=0.01)  # a hundredth of a mm off the rim at most
+    assert coarse is not None and len(coarse) < 300  # measured 254
+    assert abs(uv_areas(uv, coarse).sum() / uv_areas(uv, cap).sum() - 1) < 1e-3
+    # two squares touching at a corner: the border passes that vertex twice, not simple loops
+    bow = np.array([[0, 0], [1, 0], [1, 1], [0, 1], [2, 1], [2, 2], [1, 2]], float)
+    assert outline_triangles(bow, np.array([[0, 1, 2], [0, 2, 3], [2, 4, 5], [2, 5, 6]])) is None
+
+
+@pytest.mark.parametrize("mirror", [False, True])
+def test_charts_packed_by_their_outline_follow_the_packer(mirror):
+    from texbake.atlas.decide import _place
+
+    rng = np.random.default_rng(1)
+    uv = rng.random((40, 2))
+    chart = np.repeat([0, 1], 20)
+    turn = np.exp(1j * np.array([0.3, 2.0])) * np.array([0.5, 2.0])  # each chart rotated and scaled
+    z = uv[:, 0] + 1j * uv[:, 1]
+    z_out = turn[chart] * (np.conj(z) if mirror else z) + np.array([1 + 1j, 5 - 2j])[chart]
+    source = np.r_[0:5, 20:26]  # only outline vertices were packed
+    placed = np.column_stack([z_out.real, z_out.imag])[source]
+    out = _place(uv, chart, source, placed)
+    assert np.abs(out - np.column_stack([z_out.real, z_out.imag])).max() < 1e-12
+    with pytest.raises(Exception, match="distorted a chart"):
+        _place(uv, chart, source, placed + rng.normal(scale=0.01, size=placed.shape))

@@ -1,0 +1,153 @@
+"""The error-against-time sweep (bake/sweep.py) and the error estimate (bake/estimate.py)."""
+
+import csv
+
+import numpy as np
+import pytest
+
+from texbake.checks.sweep import COLUMNS, Row, Setting, compare, pareto_front, prepare_mesh, run_sweep, write_all
+from texbake.errors import ParameterError
+from texbake.maps import estimate
+from texbake.output.images import read_image
+
+SETTINGS = [Setting(1, True, size=96), Setting(1, False, size=96), Setting(4, False, size=96), Setting(16, False, size=96)]
+
+
+@pytest.fixture(scope="module")
+def swept(meshes):
+    mesh = prepare_mesh(meshes / "suzanne.ply", size=96)
+    return run_sweep(mesh, "marble", settings=SETTINGS, repeats=1, reference_samples=256)
+
+
+def test_sweep_writes_one_row_per_setting(swept, tmp_path):
+    rows, info = swept
+    paths = write_all(rows, tmp_path / "rep", info)
+    with open(paths["csv"]) as f:
+        records = list(csv.DictReader(f))
+    assert tuple(records[0]) == COLUMNS and len(records) == len(SETTINGS)
+    assert [r["setting"] for r in records] == [s.name for s in SETTINGS]
+    assert all(float(r["seconds"]) > 0 and float(r["rmse"]) > 0 for r in records)
+    assert paths["png"].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    image = read_image(paths["png"])
+    assert image.ndim == 3 and image.shape[0] > 100 and image.shape[1] > 100
+    table = paths["md"].read_text()
+    assert all(s.name in table for s in SETTINGS) and "Reference 96" in table
+    assert [r["pareto"] for r in records] == [str(r.pareto) for r in rows]
+
+
+def test_the_sweeps_pareto_front_is_the_rows_nothing_beats(swept):
+    # One size, so every row competes with every other; RMSEs within 1 % count as equal.
+    rows, _ = swept
+    front = [r for r in rows if r.pareto]
+    assert front
+    fastest = min(rows, key=lambda r: (r.seconds, r.rmse))
+    assert fastest.pareto  # nothing is faster
+    best = min(rows, key=lambda r: (r.rmse, r.seconds))
+    assert best.pareto or any(o.seconds < best.seconds and o.rmse <= 1.01 * best.rmse for o in rows)
+    for r in front:  # no row is both faster and more accurate than a front row
+        assert not any(o.seconds < r.seconds and o.rmse < r.rmse for o in rows), r
+    for r in rows:  # every row off the front has one as fast and as accurate (within 1 %)
+        if not r.pareto:
+            assert any(o is not r and o.seconds <= r.seconds and o.rmse <= 1.01 * r.rmse for o in rows), r
+
+
+def test_error_decreases_with_samples(swept):
+    rows, info = swept
+    point = {r.setting.samples: r.rmse for r in rows if not r.setting.filtering}
+    assert point[1] > point[4] > point[16]
+    assert info[96]["check_rmse"] < point[16]  # the reference is further converged than any row
+
+
+def test_estimate_is_within_a_factor_2_of_the_measured_error(swept):
+    rows, _ = swept
+    # one filtered sample and 1, 4, 16 point samples; tolerance: a factor 2 (issue 12)
+    for r in rows:
+        assert r.method == "probe" and 0.5 <= r.ratio <= 2.0, (r.setting.name, r.estimate, r.rmse)
+
+
+def test_every_setting_is_scored_on_the_same_texels(swept):
+    _, info = swept
+    # the 1-sample bakes cover fewer edge texels than 16 samples: the shared set is theirs at most
+    assert 0 < info[96]["texels"] < 96 * 96
+
+
+def test_compare_scores_only_the_given_texels():
+    image, reference = np.zeros((2, 2, 3)), np.zeros((2, 2, 3))
+    image[0, 0] = 1.0  # an error on one texel only
+    covered = np.ones((2, 2), dtype=bool)
+    texels = np.array([[False, True], [True, True]])
+    assert compare(image, covered, reference, covered) == pytest.approx((0.5, 1.0))
+    assert compare(image, covered, reference, covered, texels) == (0.0, 0.0)
+
+
+def test_pareto_front_keeps_rows_nothing_beats():
+    rows = [Row(Setting(n), seconds=t, tiles_seconds=t, rmse=e, max_abs=e, estimate=e, method="probe")
+            for n, t, e in ((1, 1.0, 0.5), (4, 2.0, 0.1), (8, 2.5, 0.0995), (16, 3.0, 0.2), (64, 4.0, 0.01))]
+    pareto_front(rows)
+    # 8 is slower than 4 and only 0.5 % more accurate (within the 1 % tolerance): beaten
+    assert [r.pareto for r in rows] == [True, True, False, False, True]
+
+
+def _probe_of(truth, image, grid=4, seed=0):
+    """The probe estimate of ``image`` (h, w, 3) against a texture whose value at UV (u, v) is ``truth(u, v)``."""
+    covered = np.ones(image.shape[:2], dtype=bool)
+
+    def reference_at(uv):
+        return np.ones(len(uv), dtype=bool), truth(uv[:, 0], uv[:, 1])
+
+    return estimate.probe_estimate(reference_at, image, covered, seed=seed, grid=grid)
+
+
+def test_probe_sees_a_known_error_and_its_own_uncertainty():
+    # a constant texture baked with a known error on every texel: 0.01 on one channel
+    size = 48
+    truth = lambda u, v: np.full((len(u), 3), 0.5)
+    image = np.full((size, size, 3), 0.5)
+    image[..., 0] += 0.01
+    got = _probe_of(truth, image)
+    assert got["rmse"] == pytest.approx(0.01 / np.sqrt(3), rel=1e-9)  # every texel probed, no noise
+    low, high = got["rmse_interval"]
+    assert low <= got["rmse"] <= high and got["texels"] == size * size
+
+
+def test_probe_subtracts_its_own_noise_and_is_never_zero_when_there_is_error():
+    # a linear ramp across texels: the probe's halves see its slope as noise only where
+    # it is not linear; a bake exact at texel centres has zero error on a linear texture
+    size = 64
+    truth = lambda u, v: np.stack([u, v, u + v], axis=1)
+    rows, cols = np.mgrid[0:size, 0:size]
+    centres = np.stack([(cols + 0.5) / size, 1 - (rows + 0.5) / size, (cols + 0.5) / size + 1 - (rows + 0.5) / size], axis=2)
+    exact = _probe_of(truth, centres)
+    assert exact["rmse"] < 1e-3 * (1 / size)  # the jittered probe's mean is the centre's value, up to its noise
+    off = centres + 1e-4  # a tiny bias everywhere: never read as 0
+    assert _probe_of(truth, off)["rmse"] > 0
+
+
+def test_probe_grid_follows_the_samples():
+    assert [estimate.probe_grid(n) for n in (1, 4, 16, 64, 256)] == [4, 4, 8, 16, 16]
+
+
+def test_chart_edges_are_the_covered_texels_next_to_uncovered_ones():
+    covered = np.zeros((6, 6), dtype=bool)
+    covered[1:5, 1:5] = True
+    edges = estimate.chart_edges(covered)
+    assert edges.sum() == 12 and not edges[2:4, 2:4].any() and edges[1, 1:5].all()
+
+
+def test_bad_sweep_parameters_are_named(meshes):
+    with pytest.raises(ParameterError, match="repeats"):
+        run_sweep(meshes / "suzanne.ply", "marble", settings=SETTINGS, repeats=0)
+    with pytest.raises(ParameterError, match="settings"):
+        run_sweep(meshes / "suzanne.ply", "marble", settings=[])
+
+
+def test_without_matplotlib_the_plot_is_left_out(swept, tmp_path, monkeypatch):
+    """The plot is the report extra's: without matplotlib the table files are still written."""
+    import importlib.util
+
+    rows, info = swept
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "matplotlib" else real(name, *a))
+    paths = write_all(rows, tmp_path, info)
+    assert set(paths) == {"csv", "md"} and all(p.exists() for p in paths.values())
+    assert not (tmp_path / "error_vs_time.png").exists()

@@ -1,0 +1,154 @@
+"""The OBJ reader: corner formats, polygons, relative indices, seams."""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from texbake.errors import MeshError
+from texbake.mesh.objfile import _ODD_SPACE, _read_fast, _read_lines, read_obj
+
+QUAD = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 0 1\n"
+
+
+def read(text):
+    return read_obj(text.encode(), Path("t.obj"), lambda name, what: None)
+
+
+@pytest.mark.parametrize(
+    "face, has_uv",
+    [("f 1 2 3 4", False), ("f 1/1 2/2 3/3 4/4", True), ("f 1//1 2//1 3//1 4//1", False),
+     ("f 1/1/1 2/2/1 3/3/1 4/4/1", True), ("f 1/1/1 2//1 3/3 4", False), ("f -4/-4 -3/-3 -2/-2 -1/-1", True)],
+)
+def test_corner_formats_and_quad_fan(face, has_uv):
+    v, f, uv = read(QUAD + face + "\n")
+    assert f.shape == (2, 3)
+    assert np.array_equal(v[f], np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0]] + [[0, 0, 0], [1, 1, 0], [0, 1, 0]], float).reshape(2, 3, 3))
+    assert (uv is not None) == has_uv
+    if has_uv:
+        assert np.array_equal(uv, v[:, :2])
+
+
+def test_seams_split_vertices_by_texcoord():
+    text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nvt 0.5 0.5\nf 1/1 2/2 3/3\nf 2/4 4/2 3/3\n"
+    v, f, uv = read(text)
+    assert len(v) == 5  # vertex 2 carries two texture coordinates
+    assert np.array_equal(v[f[1, 0]], [1, 0, 0]) and np.array_equal(uv[f[1, 0]], [0.5, 0.5])
+
+
+@pytest.mark.parametrize(
+    "text, words",
+    [("v 0 0 0\nf 1 2 3\n", "out of range"), ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", "out of range"),
+     ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 -2 -1\n", "out of range"), ("v 0 0 0\nf 1 x 3\n", "bad face index"),
+     ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf /3 1 2\n", "bad face index"),
+     ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 99999999999999999999 1 2\n", "bad face index"),
+     ("v 0 0\nf 1 1 1\n", "x, y and z"), ("v 0 0 zero\n", "bad coordinate"), ("v 0 0 0\nf 1 1\n", "at least 3")],
+)
+def test_bad_files(text, words):
+    with pytest.raises(MeshError, match=words):
+        read(text)
+
+
+def test_indented_lines_tabs_long_rows_and_short_texcoords():
+    # what other writers produce: indentation, tabs, vertex colours after x y z, a "vt u"
+    text = "  v 0 0 0 1 0 0\nv\t1 0 0\n\tv 0 1 0 0.5 0.5 0.5\nvt 0.25\nvt 1 1 0\nvt 0 1\nf 1/1 2/2 3/3\n"
+    v, f, uv = read(text)
+    assert np.array_equal(v[f[0]], [[0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    assert np.array_equal(uv[f[0]], [[0.25, 0], [1, 1], [0, 1]])
+
+
+# The bulk reader (_read_fast) against the line reader (_read_lines, today's reader): the
+# same arrays bit for bit, or the bulk reader gives up (None) and the line reader decides.
+
+def both(text):
+    data = text.encode() if isinstance(text, str) else text
+    names = []
+    slow = _read_lines(data, "t.obj", lambda name, what: names.append(name))
+    fast = _read_fast(data)
+    if fast is not None:
+        assert fast[0] == names
+        for a, b in zip(fast[1], slow, strict=True):
+            assert (a is None) == (b is None)
+            if a is not None:
+                assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+    return fast is not None, slow
+
+
+TRIANGLE = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n"
+
+
+@pytest.mark.parametrize(
+    "text",
+    [QUAD + "f 1 2 3 4\n", QUAD + "f 1/1 2/2 3/3 4/4", QUAD + "f 1//1 2//1 3//1 4//1\n", QUAD + "f 1/1/1 2/2/1 3/3/1 4/4/1\n",
+     QUAD + "f -4/-4 -3/-3 -2/-2 -1/-1\n", QUAD + "f 1 2 3\nf 1 3 4\nf 1 2 3 4\nf 4 3 2 1\n",
+     "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\nv 5 5 5\nf -4 -3 -1\nv 6 6 6\nf 1 -1 -2\n",  # interleaved, relative
+     "v 0 0 0\nvt 0 0\nv 1 0 0\nvt 1 0\nv 0 1 0\nvt 0 1\nf -3/-3 -2/-2 -1/-1\nvt 0.5 0.5\nf 1/-1 2/1 3/2\n",
+     "o a\ng b\ns 1\nusemtl m\nvn 0 0 1\nvp 1 2\nvtx 5 5\n" + TRIANGLE + "f 1/1/1 2/2/1 3/3/1\n",
+     "mtllib a.mtl  b.mtl\n" + TRIANGLE + "mtllib c.mtl\nmtllibs d.mtl\nf 1/1 2/2 3/3\n",
+     "v 0 0 0\nv 1 0 0\nv 0 1 0\n", "", "\n\n", "# nothing\n",
+     "v 0 0 0 1 0 0\nv 1 0 0\nv 0 1 0 0.5 0.5 0.5 1\nvt 0.25\nvt 1 1 0\nvt\nf 1/1 2/2 3/3\n",  # rows of other lengths
+     "  v 0 0 0\n\tv 1 0 0\n \t v 0 1 0\n    \nf  1   2\t3  \n",  # indentation, runs of spaces and tabs
+     "v 0 0 0 # comment\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",  # a comment after the numbers (the line reader skips fields past x, y, z when rows differ)
+     "# caf\u00e9 \u2014 \u4e2d \U0001F600\nmtllib caf\u00e9.mtl\n" + TRIANGLE + "f 1 2 3\n"],
+)
+def test_bulk_reader_agrees_with_line_reader(text):
+    both(text)
+
+
+@pytest.mark.parametrize("end", ["\n", "\r\n", "\r"])
+def test_line_ends_blank_lines_and_comments(end):
+    text = "# a comment\n\n" + TRIANGLE + "\n# f 9 9 9\nf 1/1 2/2 3/3   \n\nf 3/3 2/2 1/1"
+    taken, (v, f, uv) = both(text.replace("\n", end).encode())
+    assert taken
+    ref = read(TRIANGLE + "f 1/1 2/2 3/3\nf 3/3 2/2 1/1\n")
+    assert all(np.array_equal(a, b) for a, b in zip((v, f, uv), ref, strict=True))
+
+
+@pytest.mark.parametrize("exponents", [False, True])
+def test_numbers_exactly_as_float(exponents):
+    # without exponents the bulk reader's own path (digits / 10**places), with them numpy's parser
+    rng = np.random.default_rng(7)
+    x = rng.uniform(-1e4, 1e4, 500) * 10.0 ** rng.integers(-12, 8, 500)
+    words = [f"{a:.6f}" for a in x[:100]] + [f"{a:.20f}" for a in x[100:200]] + [f"{a:.0f}." for a in x[200:300]]
+    words += ["-0.000", "-0", "+1.5", ".5", "-.5", "5.", "007", "9007199254740992", "9007199254740993",
+              "0.9007199254740993", "0." + "0" * 21 + "1", "0." + "0" * 22 + "1", "123456789012345678901234567890"]
+    if exponents:
+        words += [repr(float(a)) for a in x[300:400]] + [f"{a:.17e}" for a in x[400:]]
+        words += ["1e-320", "4.9e-324", "2.4703282292062328e-324", "1e400", "-1E+2", "-0e0"]
+    words += ["0"] * (-len(words) % 3)
+    text = "".join(f"v {' '.join(words[i : i + 3])}\n" for i in range(0, len(words), 3))
+    taken, (v, _, _) = both(text)
+    assert taken
+    assert v.ravel().tobytes() == np.array([float(w) for w in words]).tobytes()
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "v 0 0 1_0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",  # float() takes these
+     "v 0 0 0 x\nv 1 0 0\nv 0 1 0 0\nf 1 2 3\n",  # an unused fifth field, not a number
+     QUAD + "f 1/1/1 2//1 3/3 4\n", QUAD + "f 1/ 2/ 3/ 4/\n",  # corners not all alike
+     "# form feed\f" + TRIANGLE + "f 1 2 3\n", TRIANGLE + "# \u2028f 1 2 3\n",  # line breaks to str.splitlines()
+     TRIANGLE + "f 1\u00a02 3 1\n", TRIANGLE + "f 1 2 3\v\n"],
+)
+def test_what_the_bulk_reader_leaves_to_the_line_reader(text):
+    taken, _ = both(text)
+    assert not taken
+
+
+def test_backslash_does_not_continue_a_line():
+    # as today: a trailing backslash is part of the last field
+    with pytest.raises(MeshError, match="bad face index"):
+        read(TRIANGLE + "f 1 2 \\\n3\n")
+    with pytest.raises(MeshError, match="bad coordinate"):
+        read("v 0 0 \\\n0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+
+
+def test_errors_name_the_line_with_crlf_and_indentation():
+    with pytest.raises(MeshError, match="line 4: vertex index 4 out of range"):
+        read("v 0 0 0\r\n  v 1 0 0\r\n\tv 0 1 0\r\nf 1 2 4\r\n")
+
+
+def test_odd_space_is_what_str_isspace_adds():
+    spaces = {chr(c) for c in range(sys.maxunicode + 1) if chr(c).isspace()}
+    assert set(_ODD_SPACE) == spaces - set(" \t\r\n")

@@ -1,0 +1,39 @@
+import numpy as np
+
+from texbake.sampling.surface import SurfaceMap, vertex_normals
+
+
+def test_points_normals_and_footprint_on_a_plane():
+    # A 2 x 3 rectangle in the plane z = 5 mapped onto the whole UV square.
+    v = np.array([[0, 0, 5], [2, 0, 5], [2, 3, 5], [0, 3, 5]], float)
+    uv = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
+    f = np.array([[0, 1, 2], [0, 2, 3]])
+    sm = SurfaceMap(v, f, uv, f, width=64, height=32, normals=True)
+    b = np.array([[0.2, 0.3, 0.5], [1 / 3, 1 / 3, 1 / 3]])
+    s = sm.samples(np.array([0, 1]), b)
+    assert np.allclose(s.points, np.einsum("ni,nij->nj", b, v[f[[0, 1]]]), atol=1e-15)
+    assert np.allclose(s.normals, [[0, 0, 1]] * 2)
+    # one texel right: 2 / 64 in x; one texel down: -3 / 32 in y
+    assert np.allclose(s.dpdx, [[2 / 64, 0, 0]] * 2)
+    assert np.allclose(s.dpdy, [[0, -3 / 32, 0]] * 2)
+    bare = sm.samples(np.array([0, 1]), b, footprints=False)  # a point-sampled bake needs none
+    assert bare.dpdx is None and bare.dpdy is None
+    np.testing.assert_array_equal(bare.points, s.points)
+    np.testing.assert_array_equal(bare.normals, s.normals)
+
+
+def test_degenerate_uv_face_gives_finite_zero_footprint():
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
+    uv = np.array([[0.5, 0.5], [0.5, 0.5], [0.5, 0.5]])
+    f = np.array([[0, 1, 2]])
+    s = SurfaceMap(v, f, uv, f, 16, 16).samples(np.array([0]), np.array([[1.0, 0, 0]]))
+    assert np.isfinite(s.dpdx).all() and np.isfinite(s.dpdy).all()
+    assert not s.dpdx.any() and not s.dpdy.any()
+
+
+def test_vertex_normals_are_shared_across_seams():
+    # the same corner twice (split at a UV seam) gets one normal
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 0, 0]], float)
+    f = np.array([[0, 1, 2], [4, 3, 1]])
+    n = vertex_normals(v, f)
+    assert np.allclose(n[0], n[4]) and np.allclose(np.linalg.norm(n, axis=1), 1)

@@ -1,0 +1,94 @@
+"""The worker-process supervisor (texbake.workers), with a small real worker script."""
+
+import os
+import signal
+import sys
+import time
+
+import pytest
+
+from texbake.workers import Pool, Worker
+
+SCRIPT = """
+import os, signal, sys, time
+time.sleep(float(sys.argv[1]))  # a slow start, like the imports of a real worker
+from texbake.workers import serve
+
+
+def crash():
+    os.kill(os.getpid(), signal.SIGSEGV)
+
+
+serve({"add": lambda a, b: a + b, "fail": lambda: 1 / 0, "crash": crash, "sleep": time.sleep,
+       "print": lambda: print("not a reply") or "ok"})
+"""
+
+
+@pytest.fixture
+def command(tmp_path):
+    script = tmp_path / "worker.py"
+    script.write_text(SCRIPT)
+    return lambda start=0.0: [sys.executable, str(script), str(start)]
+
+
+def test_a_worker_answers_fails_and_dies_with_the_reason(command, tmp_path):
+    w = Worker(command(), str(tmp_path))
+    try:
+        assert w.send("add", (2, 3)) and w.result(30) == (True, 5)
+        assert w.send("print", ()) and w.result(30) == (True, "ok")  # what a job prints is not a reply
+        assert w.send("fail", ()) and w.result(30) == (False, "ZeroDivisionError: division by zero")
+        assert w.send("add", ([1], [2])) and w.result(30) == (True, [1, 2])  # still serving
+        assert w.send("crash", ()) and w.result(30) == (False, f"exit code {-signal.SIGSEGV}")
+    finally:
+        w.end()
+
+
+def test_a_worker_leaves_group_signals_to_its_parent(command, tmp_path):
+    """SIGTERM or SIGINT sent while it starts (blocked) or serves (ignored) does not kill it."""
+    w = Worker(command(start=1.0), str(tmp_path))
+    try:
+        os.kill(w.pid, signal.SIGTERM)  # during its start
+        os.kill(w.pid, signal.SIGINT)
+        assert w.send("add", (1, 1)) and w.result(30) == (True, 2)
+        os.kill(w.pid, signal.SIGTERM)  # while it serves
+        assert w.send("add", (2, 2)) and w.result(30) == (True, 4)
+        assert signal.pthread_sigmask(signal.SIG_BLOCK, set()) == set()  # the parent's mask is as it was
+    finally:
+        assert w.end(polite=True) == 0
+
+
+def test_a_pool_runs_jobs_and_stops_at_its_deadline(command):
+    start = time.monotonic()
+    with Pool(command(), 2, start + 20) as pool:
+        assert pool.run([("add", (i, i)) for i in range(5)]) == [(True, 2 * i) for i in range(5)]
+        assert pool.run([("crash", ()), ("add", (1, 2))]) == [(False, f"exit code {-signal.SIGSEGV}"), (True, 3)]
+    with Pool(command(), 2, time.monotonic() + 2) as pool:
+        began = time.monotonic()
+        # two workers: the first sleeps, the second adds, then sleeps too; the last job never starts
+        assert pool.run([("sleep", (60,)), ("add", (1, 1)), ("sleep", (60,)), ("add", (2, 2))]) == [
+            (False, "timeout"), (True, 2), (False, "timeout"), (False, "timeout")]
+        assert time.monotonic() - began < 6
+
+
+def test_a_worker_dies_with_its_parent_even_while_it_starts(command, tmp_path):
+    """kill -9 of the parent while its worker is still importing (before the worker could
+    ask Linux for a signal on the parent's death): the worker ends by itself."""
+    import subprocess
+
+    import psutil
+
+    parent = subprocess.Popen([sys.executable, "-c", f"""
+import sys, time
+from texbake.workers import Worker
+w = Worker({command(start=2.0)!r}, {str(tmp_path)!r})
+print(w.pid, flush=True)
+time.sleep(60)
+"""], stdout=subprocess.PIPE, text=True)
+    pid = int(parent.stdout.readline())
+    parent.kill()
+    parent.wait()
+    parent.stdout.close()
+    child = psutil.Process(pid)
+    assert child.ppid() != parent.pid  # re-parented
+    child.wait(10)  # raises TimeoutExpired if it outlives its parent by 10 s (2 s start + 0.5 s poll)
+    assert not psutil.pid_exists(pid) or child.status() == psutil.STATUS_ZOMBIE

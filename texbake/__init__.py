@@ -1,0 +1,29 @@
+"""texbake: bake 3D procedural (solid) textures into 2D maps and textured meshes.
+
+    import texbake
+    result = texbake.bake_mesh("bunny.ply", "checker", size=1024)
+    result.save("out/bunny")
+"""
+
+from importlib import metadata as _metadata
+
+from .errors import AtlasError, BakeError, MeshError, OutputError, ParameterError, TextureError
+
+try:
+    __version__ = _metadata.version("texbake")
+except _metadata.PackageNotFoundError:  # run from a source tree that was never installed
+    __version__ = "0+unknown"
+
+__all__ = ["__version__", "BakeSettings", "bake_mesh", "BakeResult", "BakeError", "MeshError", "ParameterError", "AtlasError", "TextureError", "OutputError"]
+
+
+def __getattr__(name):  # the pipeline pulls in the heavy libraries: import it on first use
+    if name in ("bake_mesh", "BakeResult"):
+        from . import pipeline
+
+        return getattr(pipeline, name)
+    if name == "BakeSettings":
+        from .settings import BakeSettings
+
+        return BakeSettings
+    raise AttributeError(f"module 'bake' has no attribute {name!r}")

@@ -1,0 +1,1 @@
+"""texbake.atlas."""

@@ -1,0 +1,335 @@
+"""Error against run time: one mesh and texture baked under a sweep of quality settings.
+
+Each setting (samples per texel, footprint filtering, precision, octave cap, size) is
+baked once for its error, then ``repeats`` times in turn with the others; its time is
+the median wall time of the whole ``bake_mesh``
+call with an atlas made beforehand (the mesh is loaded and unwrapped once for the whole
+sweep; each timed bake still builds its Embree scene and surface map, evaluates, and
+makes its error estimate; no margin, nothing written). ``tiles_seconds`` is the median
+wall time of the tile loop alone (texel lookup, surface, texture, accumulate).
+
+Its error is measured against a converged reference at the same size: a bake with
+``reference_samples`` (default 256; at a size half the largest of the sweep, four times
+as many, at most 1024) stratified samples a texel, point-sampled (no
+footprint filtering: a footprint-filtered sample is blurred by a whole texel, so many
+of them do not converge to the texel mean), float64, every octave. RMSE and maximum
+absolute error are taken over the three channels, in linear colour, and over the same
+texels for every setting of one size: those covered by the reference and by every
+setting's bake at that size (``info[size]["texels"]``). A bake with more samples covers
+more of the partly covered texels on chart edges, the hardest ones; scoring each setting
+on its own coverage would flatter the settings that cover fewer. The reference's own error is checked by baking it a second time with
+a quarter of the samples (``reference_check``: the RMSE between the two).
+
+``estimate`` is the error estimate from the bake's own report (``texbake.maps.estimate``);
+``ratio`` is estimate / measured RMSE.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import importlib.util
+import io
+import math
+import statistics
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TypedDict
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..mesh.load import LoadedMesh
+from ..output.atomic import write_bytes
+from ..quality import Quality
+from ..textures import parse_spec
+
+COLUMNS = ("setting", "seconds", "rmse", "max_abs", "estimate", "ratio", "method", "samples", "filtering", "precision",
+           "max_octaves", "size", "tiles_seconds", "pareto")
+
+
+@dataclass(frozen=True)
+class Setting(Quality):
+    """One point of the sweep: the ``bake_mesh`` arguments it varies (a quality and a size)."""
+
+    size: int = 512
+
+    @property
+    def name(self) -> str:
+        """Short label, e.g. ``16spp point f64 512`` or ``1spp filter f32 oct5 256``."""
+        parts = [f"{self.samples}spp", "filter" if self.filtering else "point", "f32" if self.precision == "float32" else "f64"]
+        if self.max_octaves is not None:
+            parts.append(f"oct{self.max_octaves}")
+        return " ".join(parts + [str(self.size)])
+
+    def kwargs(self) -> dict:
+        """The quality settings, as ``bake_mesh`` keywords."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(Quality)}
+
+
+class _Common(TypedDict):
+    """The ``bake_mesh`` keywords every bake of a sweep shares."""
+
+    uv: str
+    margin: int
+    workers: int
+
+
+@dataclass
+class Row:
+    """What a setting measured. Errors are linear-colour, over the texels every bake of its size covers."""
+
+    setting: Setting
+    seconds: float  # median whole-bake wall time, pre-made atlas
+    tiles_seconds: float  # median wall time of the tile loop
+    rmse: float
+    max_abs: float
+    estimate: float  # the bake's own error estimate (report.json "error_estimate")
+    method: str  # how it was estimated ("probe")
+    pareto: bool = False  # no other setting is both faster and more accurate
+
+    @property
+    def ratio(self) -> float:
+        return self.estimate / self.rmse if self.rmse > 0 else math.inf
+
+    def record(self) -> dict:
+        s = self.setting
+        return {
+            "setting": s.name, "seconds": self.seconds, "rmse": self.rmse, "max_abs": self.max_abs, "estimate": self.estimate,
+            "ratio": self.ratio, "method": self.method, "samples": s.samples, "filtering": s.filtering,
+            "precision": s.precision, "max_octaves": "" if s.max_octaves is None else s.max_octaves, "size": s.size,
+            "tiles_seconds": self.tiles_seconds, "pareto": self.pareto,
+        }
+
+
+def default_settings(size: int = 512) -> list[Setting]:
+    """Samples 1, 4, 16, 64 with filtering on and off; float32; octave caps; half the size."""
+    grid = [Setting(n, f, size=size) for n in (1, 4, 16, 64) for f in (True, False)]
+    return grid + [
+        Setting(1, True, "float32", size=size),
+        Setting(16, False, "float32", size=size),
+        Setting(1, True, max_octaves=4, size=size),
+        Setting(1, True, max_octaves=5, size=size),
+        Setting(4, False, max_octaves=5, size=size),
+        Setting(1, True, size=max(1, size // 2)),
+        Setting(16, False, size=max(1, size // 2)),
+    ]
+
+
+def prepare_mesh(mesh_or_path, *, size: int = 1024, uv: str = "auto", workers: int = 2) -> LoadedMesh:
+    """The mesh with its atlas as its own UVs (loaded and unwrapped once), for ``uv="keep"`` bakes."""
+    from ..atlas.decide import make_atlas
+    from ..pipeline import as_mesh
+
+    mesh = as_mesh(mesh_or_path, 5_000_000, "mesh")
+    atlas = make_atlas(mesh.vertices, mesh.faces, mesh.uv, mode=uv, size=size, workers=workers)
+    if atlas.method == "kept":
+        return mesh
+    return dataclasses.replace(mesh, vertices=mesh.vertices[atlas.vmapping], faces=atlas.faces, uv=atlas.uv)
+
+
+def compare(image: np.ndarray, covered: np.ndarray, reference: np.ndarray, ref_covered: np.ndarray,
+            texels: np.ndarray | None = None) -> tuple[float, float]:
+    """``(rmse, max_abs)`` of ``(h, w, c)`` images over texels covered in both (and in
+    ``texels``, ``(h, w)`` bool, when given: the texels a sweep scores every setting on)."""
+    both = covered & ref_covered if texels is None else covered & ref_covered & texels
+    if not both.any():
+        return 0.0, 0.0
+    d = image[both].astype(np.float64) - reference[both].astype(np.float64)
+    return float(np.sqrt(np.mean(d**2))), float(np.abs(d).max())
+
+
+def pareto_front(rows: list[Row], tolerance: float = 0.01) -> None:
+    """Mark the rows that no other row of the same size beats in both time and RMSE
+    (errors at different sizes are against different references). RMSEs within
+    ``tolerance`` (relative) count as equal: float32 changes the error by far less."""
+    def beats(o: Row, r: Row) -> bool:
+        as_good = o.seconds <= r.seconds and o.rmse <= r.rmse * (1 + tolerance)
+        return as_good and (o.seconds < r.seconds or o.rmse * (1 + tolerance) < r.rmse)
+
+    for r in rows:
+        r.pareto = not any(o is not r and o.setting.size == r.setting.size and beats(o, r) for o in rows)
+
+
+def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = None, repeats: int = 3,
+              reference_samples: int = 256, uv: str = "auto", workers: int = 2, progress=None) -> tuple[list[Row], dict]:
+    """Bake ``spec`` on ``mesh`` under each setting; returns the rows and the references' info.
+
+    ``mesh``: a path, a trimesh mesh or a ``LoadedMesh`` (made into one with its atlas
+    once, ``uv`` as in ``bake_mesh``); ``settings``: default :func:`default_settings`
+    (``size``); ``progress``: optional callable taking a line.
+    The second value maps each size to ``{"samples", "check_samples", "check_rmse",
+    "seconds", "texels"}``: ``check_rmse`` is the RMSE between the reference and the same
+    bake with a quarter of the samples; ``texels`` how many texels every setting of that
+    size is scored on (covered by the reference and by every setting's bake).
+
+    Long because the timed runs take turns over all settings (so that a slow moment of a
+    shared machine spreads over every setting rather than one), which keeps the loop whole.
+    """
+    from ..pipeline import bake_mesh
+
+    if not isinstance(repeats, int) or not 1 <= repeats <= 100:
+        raise ParameterError("repeats", f"expected a whole number from 1 to 100, got {repeats!r}")
+    if not isinstance(reference_samples, int) or not 16 <= reference_samples <= 1024:
+        raise ParameterError("reference_samples", f"expected a whole number from 16 to 1024, got {reference_samples!r}")
+    spec = parse_spec(spec)
+    settings = default_settings(size) if settings is None else list(dict.fromkeys(settings))
+    if not settings:
+        raise ParameterError("settings", "expected at least one setting")
+    say = progress or (lambda line: None)
+    base = prepare_mesh(mesh, size=max(s.size for s in settings), uv=uv, workers=workers)
+    common: _Common = {"uv": "keep", "margin": 0, "workers": workers}
+
+    references: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    checks: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    info: dict[int, dict] = {}
+    largest = max(s.size for s in settings)
+    for sz in sorted({s.size for s in settings}):
+        # smaller sizes get more samples a texel (same total, at most 1024): their texels
+        # on chart edges cover more of the surface and converge more slowly
+        n = min(1024, reference_samples * max(1, (largest // sz) ** 2))
+        start = time.perf_counter()
+        ref = bake_mesh(base, spec, size=sz, samples=n, filtering=False, **common)
+        seconds = time.perf_counter() - start
+        check = bake_mesh(base, spec, size=sz, samples=n // 4, filtering=False, **common)
+        references[sz] = (ref.images[next(iter(ref.images))], ref.coverage)
+        checks[sz] = (check.images[next(iter(check.images))], check.coverage)
+        check_rmse, _ = compare(*checks[sz], *references[sz])
+        info[sz] = {"samples": n, "check_samples": n // 4, "check_rmse": check_rmse, "seconds": seconds}
+        say(f"reference {sz}: {n} samples, {seconds:.1f} s; {n // 4} samples differ by RMSE {check_rmse:.2e}")
+
+    # The first bake of each setting (untimed: it also warms numba's kernels) gives the
+    # errors; then the timed runs go round the settings, so that a change in the load of
+    # a shared machine spreads over all settings instead of falling on one.
+    baked = {}
+    for setting in settings:
+        result = bake_mesh(base, spec, **common, **setting.kwargs(), size=setting.size)
+        baked[setting] = (result.images[next(iter(result.images))], result.coverage, result.report["error_estimate"])
+    # every setting of a size is scored on the same texels: those all its bakes cover
+    scored = {sz: np.logical_and.reduce([ref_cov, *(baked[s][1] for s in settings if s.size == sz)])
+              for sz, (_, ref_cov) in references.items()}
+    results = {}
+    for setting in settings:
+        image, coverage, est = baked.pop(setting)
+        rmse, max_abs = compare(image, coverage, *references[setting.size], scored[setting.size])
+        results[setting] = (rmse, max_abs, est)
+    for sz, mask in scored.items():
+        info[sz]["texels"] = int(mask.sum())
+        info[sz]["check_rmse"] = compare(*checks[sz], *references[sz], mask)[0]
+    times: dict[Setting, list[float]] = {s: [] for s in settings}
+    tile_times: dict[Setting, list[float]] = {s: [] for s in settings}
+    for _ in range(repeats):
+        for setting in settings:
+            start = time.perf_counter()
+            result = bake_mesh(base, spec, **common, **setting.kwargs(), size=setting.size)
+            times[setting].append(time.perf_counter() - start)
+            tile_times[setting].append(result.report["seconds"]["tiles (wall)"])
+    rows = []
+    for setting in settings:
+        rmse, max_abs, est = results[setting]
+        rows.append(Row(setting, statistics.median(times[setting]), statistics.median(tile_times[setting]), rmse, max_abs,
+                        est["rmse"], est["method"]))
+        say(f"{setting.name}: {rows[-1].seconds:.3f} s, RMSE {rmse:.2e}, estimate {est['rmse']:.2e} ({est['method']})")
+    pareto_front(rows)
+    return rows, info
+
+
+def write_csv(rows: list[Row], path) -> Path:
+    """``path``: one row per setting, columns :data:`COLUMNS`."""
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=COLUMNS, lineterminator="\n")
+    writer.writeheader()
+    for r in rows:
+        rec = r.record()
+        writer.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in rec.items()})
+    write_bytes(Path(path), buf.getvalue().encode())
+    return Path(path)
+
+
+def markdown(rows: list[Row], info: dict | None = None) -> str:
+    """The rows as a markdown table, fastest first, with the references as a note."""
+    lines = [
+        "| setting | seconds | tiles s | RMSE | max abs | estimate | est/RMSE | method | Pareto |",
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | --- | :---: |",
+    ]
+    for r in sorted(rows, key=lambda r: (r.setting.size, r.seconds)):
+        lines.append(
+            f"| {r.setting.name} | {r.seconds:.3f} | {r.tiles_seconds:.3f} | {r.rmse:.2e} | {r.max_abs:.2e} | "
+            f"{r.estimate:.2e} | {r.ratio:.2f} | {r.method} | {'*' if r.pareto else ''} |"
+        )
+    lines += [
+        "",
+        "Seconds: median wall time of the whole `bake_mesh` call with an atlas made beforehand (no margin, nothing "
+        "written; the runs go round the settings); tiles s: the tile loop alone (lookup, surface, texture, accumulate). "
+        "RMSE and max abs: linear colour, three channels, the same texels for every setting of a size: those "
+        "covered by the reference and by every setting's bake at that size. "
+        "Estimate: the bake's own `report.json` `error_estimate` (a point-sampled probe of up to 4096 covered "
+        "texels, stratified into chart edges and inside, less its own noise; see `bake/estimate.py`).",
+    ]
+    for sz, ref in sorted((info or {}).items()):
+        lines.append("")
+        lines.append(
+            f"Reference {sz}: {ref['samples']} stratified point samples a texel, float64, every octave "
+            f"({ref['seconds']:.1f} s); with {ref['check_samples']} samples it differs by RMSE {ref['check_rmse']:.2e}; "
+            f"every setting at {sz} scored on the {ref.get('texels', 0)} texels they all cover."
+        )
+    return "\n".join(lines) + "\n"
+
+
+def write_markdown(rows: list[Row], path, info: dict | None = None) -> Path:
+    write_bytes(Path(path), markdown(rows, info).encode())
+    return Path(path)
+
+
+def plot(rows: list[Row], path) -> Path:
+    """Log-log RMSE against seconds, one point per setting, the Pareto front as a line.
+
+    Needs matplotlib (``pip install matplotlib``).
+    """
+    import matplotlib  # pip install matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(8, 5.5), dpi=110)
+    ax = fig.add_subplot()
+    for r in rows:
+        s = r.setting
+        marker = "o" if s.filtering else "s"
+        colour = "tab:blue" if s.precision == "float64" else "tab:orange"
+        if s.max_octaves is not None:
+            colour = "tab:green"
+        ax.scatter(r.seconds, max(r.rmse, 1e-12), marker=marker, color=colour, edgecolors="black" if r.pareto else "none",
+                   s=45, zorder=3)
+        ax.annotate(s.name, (r.seconds, max(r.rmse, 1e-12)), fontsize=6.5, xytext=(4, 3), textcoords="offset points")
+    sizes = sorted({r.setting.size for r in rows}, reverse=True)
+    for style, size in zip(("k--", "k:", "k-."), sizes, strict=False):
+        front = sorted((r for r in rows if r.pareto and r.setting.size == size), key=lambda r: r.seconds)
+        ax.plot([r.seconds for r in front], [max(r.rmse, 1e-12) for r in front], style, lw=1, zorder=2,
+                label=f"Pareto front, {size}x{size}")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("seconds (median whole bake, pre-made atlas)")
+    ax.set_ylabel("RMSE against the converged reference (linear colour)")
+    ax.set_title("error against run time (circles: footprint filtering, squares: point; orange float32, green octave cap)",
+                 fontsize=8)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    path = Path(path)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    write_bytes(path, buf.getvalue())
+    return path
+
+
+def write_all(rows: list[Row], folder, info: dict | None = None) -> dict[str, Path]:
+    """``error_vs_time.csv``, ``.md`` and, where matplotlib is installed (the ``report``
+    extra), ``.png`` in ``folder`` (made if missing)."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = {"csv": write_csv(rows, folder / "error_vs_time.csv"), "md": write_markdown(rows, folder / "error_vs_time.md", info)}
+    if importlib.util.find_spec("matplotlib") is not None:
+        paths["png"] = plot(rows, folder / "error_vs_time.png")
+    return paths

@@ -1,0 +1,125 @@
+"""The maps a bake makes: only those asked for, their values for a batch of samples, and
+their images (the mean of each texel's samples).
+
+``albedo`` (or ``albedo_0000``... for the frames of an animated texture), ``lit`` when
+the shading is not "decal", ``normal`` when a bump texture is given. Images are
+``(height, width, 3)`` float32, linear, row 0 at the top; ``hits`` counts the samples that
+reached each texel (uint8 up to 255 samples a texel).
+
+Images of more than ``HALF_TEXELS`` texels that are written as 8-bit integers (the
+default PNG) are held as float16: half the memory (a 16384² albedo in 1.6 GB, not 3.2),
+and the same file within one 8-bit step (float16 holds 11 bits; an 8-bit sRGB step is
+at least 0.3 % of the value).
+"""
+
+from __future__ import annotations
+
+from contextlib import nullcontext
+
+import numba as nb
+import numpy as np
+
+from ..output.images import DEFAULT_BITS
+from ..quality import Quality
+from ..sampling.lookup import Tile
+from ..sampling.sampler import Samples
+from ..settings import BakeSettings
+from ..textures import evaluate
+from ..textures.mapping import TextureMapping
+from .bump import LUMINANCE, normal_map
+from .shading import lit
+
+HALF_TEXELS = 8192 * 8192  # larger images written as 8 bits are held as float16
+
+
+class Maps:
+    """The maps of one bake of ``width x height`` texels."""
+
+    def __init__(self, settings: BakeSettings, quality: Quality, width: int, height: int, mapping: TextureMapping):
+        spec = settings.texture
+        if settings.frames is None:
+            self.colours = {"albedo": spec}
+        else:
+            self.colours = {f"albedo_{i:04d}": spec.model_copy(update={"time": t}) for i, t in enumerate(settings.frames)}
+        self.colour_name = next(iter(self.colours))  # the map the error estimate and the GLB use
+        self.settings, self.quality, self.mapping = settings, quality, mapping
+        self.width, self.height, self.samples = width, height, quality.samples
+        names = [*self.colours, *(["lit"] if settings.shading != "decal" else []), *(["normal"] if settings.bump is not None else [])]
+        eight_bit = (settings.bits or DEFAULT_BITS[settings.format]) == 8
+        dtype = np.float16 if eight_bit and width * height > HALF_TEXELS else np.float32
+        self.images = {name: np.zeros((height, width, 3), dtype=dtype) for name in names}
+        self.hits = np.zeros((height, width), dtype=np.uint8 if self.samples < 256 else np.uint16 if self.samples < 65536 else np.uint32)
+
+    @property
+    def needs_normals(self) -> bool:
+        return self.settings.shading != "decal" or self.settings.bump is not None
+
+    def values(self, s: Samples, timer=None) -> dict[str, np.ndarray]:
+        """``(n, 3)`` float64 values of every map at the samples ``s``."""
+        stage = timer.stage if timer is not None else (lambda name: nullcontext())
+        settings, quality, mapping = self.settings, self.quality, self.mapping
+        with stage("texture"):
+            dpdx, dpdy = (s.dpdx, s.dpdy) if quality.filtering else (None, None)
+            values = {name: mapping.evaluate(spec, s.points, dpdx, dpdy, max_octaves=quality.max_octaves)
+                      for name, spec in self.colours.items()}
+        if settings.shading != "decal":
+            with stage("shading"):
+                values["lit"] = lit(values[self.colour_name], s.normals, mode=settings.shading, light=settings.light)
+        if settings.bump is not None:
+            with stage("bump"):
+                q, dqdx, dqdy = mapping.to_space(s.points, s.dpdx, s.dpdy)
+                height_of = lambda x: evaluate(settings.bump, x, bounds=mapping.bounds, max_octaves=quality.max_octaves) @ LUMINANCE
+                values["normal"] = normal_map(height_of, q, dqdx, dqdy, s.normals, settings.bump_strength, frame=s.frame)
+        return values
+
+    def accumulate(self, tile: Tile, texel: np.ndarray, values: dict[str, np.ndarray]) -> None:
+        """Write the rows of ``tile``: ``texel`` ``(n,)`` is each sample's texel index
+        within the tile (row-major, non-decreasing: a texel's samples are contiguous);
+        each texel gets the mean of its samples."""
+        rows, width = tile.stop - tile.start, self.width
+        texel = np.asarray(texel, dtype=np.int64)
+        where, count = (texel, 1) if self.samples == 1 else _runs(texel)  # one sample a texel: a hit is a count of one
+        for name, v in values.items():
+            block = self.images[name][tile.start : tile.stop].reshape(rows * width, 3)
+            block[:] = 0
+            block[where] = v if self.samples == 1 else _run_means(texel, np.asarray(v, dtype=np.float64), count)
+        hits = self.hits[tile.start : tile.stop].reshape(rows * width)
+        hits[:] = 0
+        hits[where] = count
+
+
+@nb.njit(cache=True, nogil=True)
+def _runs(texel):  # pragma: no cover - compiled
+    """``(texels (k,) int64, counts (k,) int64)``: the texel and the length of each of the
+    ``k`` runs of equal values of a non-decreasing ``texel`` ``(n,)``. No GIL."""
+    n = texel.shape[0]
+    k = 0
+    for i in range(n):
+        if i == 0 or texel[i] != texel[i - 1]:
+            k += 1
+    where = np.empty(k, dtype=np.int64)
+    count = np.zeros(k, dtype=np.int64)
+    r = -1
+    for i in range(n):
+        if i == 0 or texel[i] != texel[i - 1]:
+            r += 1
+            where[r] = texel[i]
+        count[r] += 1
+    return where, count
+
+
+@nb.njit(cache=True, nogil=True)
+def _run_means(texel, v, count):  # pragma: no cover - compiled
+    """``(k, 3)`` float64: the mean of ``v`` ``(n, 3)`` float64 over each run of equal
+    ``texel`` (:func:`_runs`' ``count`` samples each), summed in order (as ``np.bincount``
+    sums). No GIL."""
+    out = np.zeros((count.shape[0], 3))
+    i = 0
+    for r in range(count.shape[0]):
+        for _ in range(count[r]):
+            for c in range(3):
+                out[r, c] += v[i, c]
+            i += 1
+        for c in range(3):
+            out[r, c] /= count[r]
+    return out

@@ -1,0 +1,401 @@
+"""Load and validate a mesh: one triangle mesh in float64, or a clear error.
+
+Formats: OBJ (+MTL, read by :mod:`texbake.mesh.objfile`), PLY, STL (ASCII and binary), OFF, glTF
+and GLB (read with trimesh).
+A scene is flattened, node transforms applied, into one mesh. The file is checked before
+and after parsing: archives, references that leave the mesh's folder, non-finite or
+out-of-range coordinates, out-of-range face indices and too many faces are rejected with
+a :class:`~texbake.errors.MeshError` naming the file; zero-area faces are removed and counted.
+
+Vertices that are equal in position *and* UV are merged (file formats and trimesh split
+every face corner), so UV seams survive and a closed surface stays connected.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import re
+import struct
+from dataclasses import dataclass
+from pathlib import Path, PurePosixPath
+
+import numpy as np
+
+from ..errors import MeshError, ParameterError
+from .objfile import read_obj
+from .uvgeometry import areas
+
+FORMATS = {".obj": "obj", ".ply": "ply", ".stl": "stl", ".off": "off", ".gltf": "gltf", ".glb": "glb"}
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+# Leading bytes of archive and compressed formats (which trimesh would open).
+_ARCHIVES = {
+    b"PK\x03\x04": "zip",
+    b"PK\x05\x06": "zip",
+    b"\x1f\x8b": "gzip",
+    b"BZh": "bzip2",
+    b"\xfd7zXZ\x00": "xz",
+    b"7z\xbc\xaf\x27\x1c": "7z",
+    b"Rar!\x1a\x07": "rar",
+    b"\x28\xb5\x2f\xfd": "zstd",
+}
+
+
+@dataclass
+class LoadedMesh:
+    """A validated triangle mesh.
+
+    Attributes
+    ----------
+    vertices : (n, 3) float64
+        Object-space positions, node transforms applied; finite, within float32 range.
+    faces : (m, 3) int64
+        Indices into ``vertices``, m >= 1; zero-area faces removed.
+    uv : (n, 2) float64 or None
+        Per-vertex texture coordinates as loaded (OpenGL convention: v up), or None when
+        some part of the mesh has none.
+    name : str
+        The file's stem, or the name given for an in-memory mesh.
+    path : str
+        The file as given, or ``"<mesh>"``.
+    removed_degenerate : int
+        How many zero-area faces were removed.
+    removed_duplicate : int
+        How many faces were removed because an earlier face has the same corners (position
+        and UV, after welding) in the same winding: a face doubled. A flipped copy is a
+        back face, and a copy with other UVs is mapped twice: both stay.
+    sha256 : str
+        Hex digest of the file's bytes, or of the arrays of an in-memory mesh.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    uv: np.ndarray | None
+    name: str
+    path: str
+    removed_degenerate: int
+    sha256: str
+    removed_duplicate: int = 0
+
+
+def load_mesh(path, *, max_faces: int = 5_000_000) -> LoadedMesh:
+    """Read and validate the mesh file at ``path`` (see the module docstring).
+
+    Raises :class:`~texbake.errors.MeshError` naming the file and the problem for any file
+    that is missing, unreadable, unsafe or holds no usable triangles.
+    """
+    _check_max_faces(max_faces)
+    path = Path(path)
+    where = str(path)
+    kind = check_file(path)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise MeshError(where, f"cannot read: {exc.strerror}") from None
+    sha256 = hashlib.sha256(data).hexdigest()
+    try:
+        with np.errstate(over="raise"):  # a float32 field overflowing to inf
+            parts = _read(data, kind, path)
+    except MeshError:
+        raise
+    except FloatingPointError:
+        raise MeshError(where, f"a number overflows when read: coordinates must lie within float32 range (|x| <= {FLOAT32_MAX:.3g})") from None
+    except Exception as exc:  # the parsers raise many kinds on corrupt input
+        raise MeshError(where, f"cannot parse {kind.upper()} file: {_short(exc)}") from None
+    return _validate(parts, path.stem, where, sha256, max_faces)
+
+
+def check_file(path) -> str:
+    """Check a mesh file as far as can be done without parsing it; return its format.
+
+    Reads only the first bytes (and a glTF's JSON): the file must be a file, not an
+    archive, of a known format and not empty; a binary STL's triangle count must match
+    its length; a glTF's URIs must stay in its folder and its accessors fit their buffer
+    views. Raises :class:`~texbake.errors.MeshError` naming the file and the problem.
+    """
+    path = Path(path)
+    where = str(path)
+    if not path.is_file():
+        raise MeshError(where, "no such file" if not path.exists() else "not a file")
+    try:
+        size = path.stat().st_size
+        with open(path, "rb") as f:
+            head = f.read(1024)
+    except OSError as exc:
+        raise MeshError(where, f"cannot read: {exc.strerror}") from None
+    for magic, archive in _ARCHIVES.items():
+        if head.startswith(magic):
+            raise MeshError(where, f"is a {archive} archive; archives are not accepted")
+    if path.name.lower().endswith(".tar") or (len(head) > 262 and head[257:262] == b"ustar"):
+        raise MeshError(where, "is a tar archive; archives are not accepted")
+    kind = FORMATS.get(path.suffix.lower())
+    if kind is None:
+        raise MeshError(where, f"unknown mesh format {path.suffix!r} (expected one of {', '.join(FORMATS)})")
+    if size <= len(head) and not head.strip():
+        raise MeshError(where, "file is empty")
+    if kind == "stl":
+        _check_stl_header(head, size, where)
+    elif kind in ("gltf", "glb"):
+        doc = _gltf_json(path, kind, where)
+        _check_gltf_uris(doc, path)
+        _check_gltf_accessors(doc, where)
+    return kind
+
+
+def _read(data: bytes, kind: str, path: Path) -> list:
+    """Parse checked file bytes into ``(vertices, faces, uv or None)`` parts."""
+    if kind == "obj":  # our own reader: trimesh 5.2 resolves relative indices wrongly
+        def check(name, what):
+            _check_reference(name, path, what)
+            _check_mtl(path.parent / name, path)
+
+        return [read_obj(data, path, check)]
+
+    import trimesh  # pip install trimesh
+
+    loaded = trimesh.load(
+        io.BytesIO(data),
+        file_type=kind,
+        resolver=trimesh.resolvers.FilePathResolver(str(path.parent)),
+        process=False,
+    )
+    return _parts(loaded)
+
+
+def mesh_from_trimesh(mesh, *, name: str = "mesh", max_faces: int = 5_000_000) -> LoadedMesh:
+    """Validate an in-memory ``trimesh.Trimesh`` or ``trimesh.Scene``.
+
+    The same checks as :func:`load_mesh`; errors name the file ``"<mesh>"``. The input is
+    not modified.
+    """
+    import trimesh
+
+    _check_max_faces(max_faces)
+    if not isinstance(mesh, (trimesh.Trimesh, trimesh.Scene)):
+        raise TypeError(f"expected trimesh.Trimesh or trimesh.Scene, got {type(mesh).__name__}")
+    h = hashlib.sha256()
+    for g in [mesh] if isinstance(mesh, trimesh.Trimesh) else mesh.geometry.values():
+        if isinstance(g, trimesh.Trimesh):
+            h.update(np.ascontiguousarray(g.vertices, dtype=np.float64).tobytes())
+            h.update(np.ascontiguousarray(g.faces, dtype=np.int64).tobytes())
+    return _validate(_parts(mesh), name, "<mesh>", h.hexdigest(), max_faces)
+
+
+def _check_max_faces(max_faces) -> None:
+    if isinstance(max_faces, bool) or not isinstance(max_faces, (int, np.integer)) or max_faces < 1:
+        raise ParameterError("max_faces", f"expected a positive integer, got {max_faces!r}")
+
+
+def _short(exc: Exception) -> str:
+    text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    return text[:200]
+
+
+# -- references -------------------------------------------------------------------
+
+
+def _check_reference(ref: str, path: Path, what: str) -> None:
+    """Reject a referenced file name that is absolute, a URL, or escapes the folder."""
+    ref = ref.strip()
+    if re.match(r"^[a-zA-Z][a-zA-Z0-9+.-]*:", ref) and not re.match(r"^[a-zA-Z]:[\\/]", ref):
+        raise MeshError(str(path), f"{what} {ref!r} is a URL; only files beside the mesh are allowed")
+    parts = PurePosixPath(ref.replace("\\", "/"))
+    if parts.is_absolute() or re.match(r"^[a-zA-Z]:[\\/]", ref) or ".." in parts.parts:
+        raise MeshError(str(path), f"{what} {ref!r} leaves the mesh's folder")
+    folder = path.parent.resolve()
+    try:
+        target = (folder / parts).resolve()
+    except (OSError, RuntimeError, ValueError):  # a symlink loop, a NUL byte
+        raise MeshError(str(path), f"{what} {ref!r} cannot be resolved") from None
+    if not target.is_relative_to(folder):  # a symbolic link out of the folder
+        raise MeshError(str(path), f"{what} {ref!r} leaves the mesh's folder (through a link)")
+
+
+_MTL_MAPS = re.compile(r"^\s*(map_\w+|bump|disp|decal|refl|norm)\s+(.*)$", re.M | re.I)
+
+
+def _check_mtl(mtl: Path, path: Path) -> None:
+    if not mtl.is_file():
+        return  # a missing MTL only loses materials
+    try:
+        text = mtl.read_text(errors="replace")
+    except OSError as exc:
+        raise MeshError(str(path), f"cannot read {mtl.name}: {exc.strerror}") from None
+    for _, args in _MTL_MAPS.findall(text):
+        words = args.split()
+        if words:  # the file name is the last word; options come before it
+            _check_reference(words[-1], path, f"texture in {mtl.name}")
+
+
+def _gltf_json(path: Path, kind: str, where: str) -> dict:
+    """The JSON of a glTF file, or of a GLB's first chunk (read alone)."""
+    try:
+        with open(path, "rb") as f:
+            if kind == "glb":
+                magic, _, length = struct.unpack("<4sII", f.read(12))
+                chunk_length, chunk_type = struct.unpack("<I4s", f.read(8))
+                if magic != b"glTF" or chunk_type != b"JSON" or chunk_length > path.stat().st_size - 20:
+                    raise ValueError("not a GLB file")
+                doc = json.loads(f.read(chunk_length))
+            else:
+                doc = json.loads(f.read())
+    except (ValueError, struct.error, RecursionError) as exc:
+        raise MeshError(where, f"cannot parse {kind.upper()} header: {_short(exc)}") from None
+    if not isinstance(doc, dict):
+        raise MeshError(where, f"cannot parse {kind.upper()} header: the JSON is a {type(doc).__name__}, not an object")
+    return doc
+
+
+def _check_gltf_uris(doc: dict, path: Path) -> None:
+    for section in ("buffers", "images"):
+        items = doc.get(section) or []
+        if not isinstance(items, list):
+            raise MeshError(str(path), f"glTF {section!r} must be a list, got {type(items).__name__}")
+        for item in items:
+            uri = item.get("uri") if isinstance(item, dict) else None
+            if isinstance(uri, str) and not uri.startswith("data:"):
+                from urllib.parse import unquote
+
+                _check_reference(unquote(uri), path, f"{section[:-1]} uri")
+
+
+_COMPONENT_BYTES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
+_TYPE_COMPONENTS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+
+
+def _check_gltf_accessors(doc: dict, where: str) -> None:
+    """Every accessor must fit in its buffer view (a lying count would allocate it all)."""
+    views = doc.get("bufferViews") or []
+    for i, acc in enumerate(doc.get("accessors") or []):
+        try:
+            count = int(acc.get("count", 0))
+            item = _COMPONENT_BYTES[acc["componentType"]] * _TYPE_COMPONENTS[acc["type"]]
+            if "bufferView" not in acc:
+                continue  # all zeros (or sparse): nothing is read
+            view = views[acc["bufferView"]]
+            stride = int(view.get("byteStride") or item)
+            need = int(acc.get("byteOffset", 0)) + (count - 1) * stride + item if count > 0 else 0
+            have = int(view["byteLength"])
+        except (KeyError, IndexError, TypeError, ValueError, AttributeError):
+            raise MeshError(where, f"glTF accessor {i} is malformed") from None
+        if count < 0 or need > have:
+            raise MeshError(where, f"glTF accessor {i} asks for {count} items ({need:,} bytes) but its buffer view holds {have:,} bytes")
+
+
+def _check_stl_header(head: bytes, size: int, where: str) -> None:
+    """A binary STL's triangle count must match the file's length (``size`` bytes)."""
+    if size < 84 or (head.lstrip()[:5].lower() == b"solid" and b"facet" in head):
+        return  # ASCII STL (or too short to be binary: the parser says why)
+    count = struct.unpack_from("<I", head, 80)[0]
+    if 84 + 50 * count != size:
+        raise MeshError(where, f"binary STL header says {count:,} triangles ({84 + 50 * count:,} bytes) but the file has {size:,} bytes")
+
+
+# -- geometry ----------------------------------------------------------------------
+
+
+def _parts(loaded):
+    """(vertices, faces, uv or None) of every triangle mesh, transforms applied."""
+    import trimesh
+
+    if isinstance(loaded, trimesh.Trimesh):
+        return [(loaded.vertices, loaded.faces, _uv(loaded))]
+    if not isinstance(loaded, trimesh.Scene):
+        return []
+    parts = []
+    for node in loaded.graph.nodes_geometry:
+        transform, name = loaded.graph[node]
+        g = loaded.geometry[name]
+        if isinstance(g, trimesh.Trimesh):
+            v = np.asarray(g.vertices, dtype=np.float64)
+            v = v @ transform[:3, :3].T + transform[:3, 3]
+            f = np.asarray(g.faces)
+            if np.linalg.det(transform[:3, :3]) < 0:  # a mirroring node: keep faces outward
+                f = f[:, ::-1]
+            parts.append((v, f, _uv(g)))
+    return parts
+
+
+def _uv(mesh):
+    uv = getattr(mesh.visual, "uv", None)
+    if uv is None or len(uv) != len(mesh.vertices):
+        return None
+    return np.asarray(uv, dtype=np.float64)
+
+
+def _weld(vertices, faces, uv):
+    """Merge vertices equal in position and UV (trimesh splits every face corner).
+
+    Exact equality only: corners that differ in UV stay separate (UV seams survive), and
+    a welded surface keeps its connectivity for the unwrap and the normals. Rows are
+    grouped by a 64-bit hash of their bits, then checked for exact equality.
+    """
+    rows = vertices if uv is None else np.hstack([vertices, uv])
+    if not np.isfinite(rows).all():
+        return vertices, faces, uv  # rejected (vertices) or judged by the atlas (UVs)
+    rows = np.ascontiguousarray(rows + 0.0)  # -0.0 and 0.0 are the same coordinate
+    bits = rows.view(np.uint64)
+    weights = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9, 0xD6E8FEB86659FD93, 0xFF51AFD7ED558CCD], dtype=np.uint64)
+    key = (bits * weights[: rows.shape[1]]).sum(axis=1, dtype=np.uint64)
+    _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+    inverse = inverse.ravel()
+    if not np.array_equal(rows[first[inverse]], rows):  # a hash collision: sort exactly
+        _, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
+        inverse = inverse.ravel()
+    order = np.argsort(first)  # keep vertices in file order
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    keep = first[order]
+    return vertices[keep], rank[inverse][faces], None if uv is None else uv[keep]
+
+
+def _validate(parts, name: str, where: str, sha256: str, max_faces: int) -> LoadedMesh:
+    """One checked mesh from ``(vertices, faces, uv or None)`` parts."""
+    parts = [p for p in parts if len(p[1])]
+    if not parts:
+        raise MeshError(where, "no faces: the file holds no triangle geometry")
+    n_faces = sum(len(p[1]) for p in parts)
+    if n_faces > max_faces:
+        raise MeshError(where, f"{n_faces} faces is more than the limit of {max_faces}")
+    vertex_parts, face_parts, uvs, offset = [], [], [], 0
+    for v, f, uv in parts:
+        v = np.asarray(v, dtype=np.float64)
+        f = np.asarray(f)
+        if f.ndim != 2 or f.shape[1] != 3:
+            raise MeshError(where, f"faces must be triangles, got shape {f.shape}")
+        if f.min() < 0 or f.max() >= len(v):
+            raise MeshError(where, f"face index {int(f.max()) if f.max() >= len(v) else int(f.min())} out of range ({len(v)} vertices)")
+        vertex_parts.append(v)
+        face_parts.append(f.astype(np.int64) + offset)
+        uvs.append(uv)
+        offset += len(v)
+    vertices = np.concatenate(vertex_parts)
+    faces = np.concatenate(face_parts)
+    uv = None if any(u is None for u in uvs) else np.concatenate(uvs)
+    vertices, faces, uv = _weld(vertices, faces, uv)
+    if not np.isfinite(vertices).all():
+        bad = int((~np.isfinite(vertices)).any(axis=1).sum())
+        raise MeshError(where, f"{bad} vertices have non-finite (NaN or infinite) coordinates")
+    if np.abs(vertices).max() > FLOAT32_MAX:
+        raise MeshError(where, f"coordinate {np.abs(vertices).max():.3g} is beyond float32 range")
+
+    area2 = 2.0 * areas(vertices, faces)  # |e1 x e2|
+    diag = float(np.linalg.norm(vertices.max(axis=0) - vertices.min(axis=0)))
+    keep = area2 > 1e-30 * diag * diag
+    if not keep.any():
+        raise MeshError(where, f"all {len(faces)} faces are degenerate (zero area at the scale of the bounding-box diagonal {diag:.3g})")
+    faces, duplicates = _without_duplicates(faces[keep])
+    return LoadedMesh(vertices, faces, uv, name, where, int((~keep).sum()), sha256, duplicates)
+
+
+def _without_duplicates(faces: np.ndarray) -> tuple[np.ndarray, int]:
+    """``faces`` (of welded vertices) without those that repeat an earlier face's corners in
+    the same winding, and how many went: a doubled face takes atlas space twice and splits charts."""
+    start = np.argmin(faces, axis=1)  # each face rotated to start at its smallest corner
+    corners = np.take_along_axis(faces, (start[:, None] + np.arange(3)) % 3, axis=1)
+    _, first = np.unique(corners, axis=0, return_index=True)
+    if len(first) == len(faces):
+        return faces, 0
+    return faces[np.sort(first)], len(faces) - len(first)

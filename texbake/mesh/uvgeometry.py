@@ -1,0 +1,88 @@
+"""Triangle geometry of a mesh and its UV atlas: edges, areas, the UV Jacobian.
+
+One place for what the atlas checks, the unwrap worker, the texel lookup and the
+surface map all need. Inputs are cast to float64 (points) and int64 (indices); every
+array returned is float64 and has one row per face. For a face with corners ``p0, p1,
+p2`` at UV corners ``t0, t1, t2`` the edges are ``e1 = p1 - p0``, ``e2 = p2 - p0`` and
+``d1 = t1 - t0``, ``d2 = t2 - t0``; ``det = d1 x d2 = d1_u d2_v - d1_v d2_u`` is twice
+the signed UV area (positive for a counter-clockwise UV triangle). A face is UV-degenerate
+where ``det`` is zero (or NaN): its inverse and its Jacobian are zero there, never
+infinite.
+
+numpy only: the unwrap worker process (``texbake.atlas.packworker``) imports it too.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def edges(points: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(p0, e1, e2)``, each ``(m, d)`` float64: a face's first corner and its two edges
+    from it, for ``(n, d)`` points (3D positions or 2D UVs) and ``(m, 3)`` int faces."""
+    tri = np.asarray(points, dtype=np.float64)[np.asarray(faces, dtype=np.int64)]  # (m, 3, d)
+    p0 = tri[:, 0]
+    return p0, tri[:, 1] - p0, tri[:, 2] - p0
+
+
+def uv_edges(uv: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(d1 (m, 2), d2 (m, 2), det (m,))`` float64: the UV edge matrix ``[d1 d2]`` of
+    each face and its determinant, for ``(k, 2)`` UVs and ``(m, 3)`` int faces into them."""
+    _, d1, d2 = edges(uv, faces)
+    return d1, d2, _cross2(d1, d2)
+
+
+def _cross2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+
+
+def inverse_det(det: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(1 / det, ok)``, ``(m,)`` float64 and bool: ``ok`` where ``|det| > 0``, and 0
+    instead of the reciprocal elsewhere."""
+    ok = np.abs(det) > 0
+    return np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0), ok
+
+
+def uv_areas(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``(m,)`` float64 unsigned UV area of each face (``|det| / 2``)."""
+    return 0.5 * np.abs(uv_edges(uv, faces)[2])
+
+
+def areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``(m,)`` float64 area of each triangle of ``(n, 3)`` vertices (``|e1 x e2| / 2``)."""
+    _, e1, e2 = edges(vertices, faces)
+    return 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1)
+
+
+def uv_inverse(uv: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(t0 (m, 2), inv (m, 2, 2), ok (m,))``: each face's first UV corner and the
+    inverse of its UV edge matrix ``[d1 d2]``, so that a UV point ``t`` of the face has
+    barycentric coordinates ``(1 - b1 - b2, b1, b2)`` with ``(b1, b2) = inv @ (t - t0)``.
+    ``inv`` is zero where ``ok`` is False (a UV-degenerate face)."""
+    t0, d1, d2 = edges(uv, faces)
+    inv_det, ok = inverse_det(_cross2(d1, d2))
+    inv = np.stack(
+        [
+            np.stack([d2[:, 1], -d2[:, 0]], axis=1) * inv_det[:, None],
+            np.stack([-d1[:, 1], d1[:, 0]], axis=1) * inv_det[:, None],
+        ],
+        axis=1,
+    )
+    return t0, inv, ok
+
+
+def uv_jacobian(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray,
+                uv_faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(dpdu (m, 3), dpdv (m, 3), det (m,))`` float64: the UV-to-surface Jacobian of
+    each face, from ``[e1 e2] = [dP/du dP/dv] [d1 d2]``, and the UV determinant.
+
+    ``vertices`` ``(n, 3)`` with ``faces`` ``(m, 3)`` and ``uv`` ``(k, 2)`` with
+    ``uv_faces`` ``(m, 3)``: the same faces, row for row. Zero where the face is
+    UV-degenerate.
+    """
+    _, e1, e2 = edges(vertices, faces)
+    d1, d2, det = uv_edges(uv, uv_faces)
+    inv_det = inverse_det(det)[0][:, None]
+    dpdu = (e1 * d2[:, 1:2] - e2 * d1[:, 1:2]) * inv_det
+    dpdv = (e2 * d1[:, 0:1] - e1 * d2[:, 0:1]) * inv_det
+    return dpdu, dpdv, det

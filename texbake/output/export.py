@@ -1,0 +1,226 @@
+"""The baked mesh: GLB with the maps bound to its material (base colour, and normal and
+emissive where baked), and OBJ + MTL.
+
+Vertices are written as they are, one per atlas vertex (seam vertices stay split).
+UVs come in with v up (OpenGL, trimesh, OBJ); glTF puts the image origin at the top left,
+so its TEXCOORD_0 is ``(u, 1 - v)``. Files are written to a temporary name beside the
+final one, flushed, and renamed into place; :class:`OutputError` on any failure.
+
+GLB layout (glTF 2.0 binary): a 12-byte header, a JSON chunk padded with spaces to a
+multiple of 4 bytes, a BIN chunk padded with zeros; inside the BIN chunk every buffer
+view starts on a 4-byte boundary. The sampler clamps to the edge: a baked atlas has
+margins around its charts, not a repeating pattern, and REPEAT would let bilinear and
+mipmap filtering at the image border blend in texels from the opposite border. glTF
+reads a base colour and an emissive image as sRGB and a normal map as linear data, whatever
+the PNG's colour chunks say; the maps' PNGs say the same (``texbake.output.images``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import struct
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import OutputError, ParameterError
+from .atomic import write_bytes
+
+# glTF constants
+_FLOAT, _UINT16, _UINT32 = 5126, 5123, 5125
+_ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
+_LINEAR, _LINEAR_MIPMAP_LINEAR, _CLAMP = 9729, 9987, 33071
+_TRIANGLES = 4
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def _pad(data: bytes, fill: bytes) -> bytes:
+    return data + fill * (-len(data) % 4)
+
+
+def _mesh_arrays(vertices, faces, uv, normals):
+    """Checked ``(k, 3)`` float64 vertices, ``(m, 3)`` int64 faces, ``(k, 2)`` uv, normals."""
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces)
+    t = np.asarray(uv, dtype=np.float64)
+    if v.ndim != 2 or v.shape[1] != 3 or len(v) == 0:
+        raise ParameterError("vertices", f"expected (k, 3) values, k > 0, got shape {v.shape}")
+    if f.ndim != 2 or f.shape[1] != 3 or len(f) == 0 or not np.issubdtype(f.dtype, np.integer):
+        raise ParameterError("faces", f"expected (m, 3) integer indices, m > 0, got shape {f.shape} {f.dtype}")
+    if t.shape != (len(v), 2):
+        raise ParameterError("uv", f"expected ({len(v)}, 2) values (one per vertex), got shape {t.shape}")
+    f = f.astype(np.int64)
+    if f.min() < 0 or f.max() >= len(v):
+        raise ParameterError("faces", f"indices must lie in [0, {len(v)}), got [{f.min()}, {f.max()}]")
+    if not (np.isfinite(v).all() and np.isfinite(t).all()):
+        raise ParameterError("vertices", "vertices and uv must be finite (no NaN or infinity)")
+    n = None
+    if normals is not None:
+        n = np.asarray(normals, dtype=np.float64)
+        if n.shape != v.shape:
+            raise ParameterError("normals", f"expected {v.shape} values, got shape {n.shape}")
+        length = np.linalg.norm(n, axis=1)
+        bad = ~(np.isfinite(length) & (length > 1e-12))
+        if bad.any():
+            raise ParameterError("normals", f"{int(bad.sum())} normals are zero or not finite")
+        n = n / length[:, None]
+    return v, f, t, n
+
+
+SLOTS = ("baseColor", "normal", "emissive")  # the material's texture slots write_glb fills
+
+
+def _png(path: Path, slot: str, texture) -> bytes:
+    if isinstance(texture, (bytes, bytearray, memoryview)):
+        png = bytes(texture)
+    else:
+        try:
+            png = Path(texture).read_bytes()
+        except OSError as exc:
+            raise OutputError(f"{path}: cannot read the {slot} texture {texture}: {exc.strerror or exc}") from None
+    if not png.startswith(_PNG_SIGNATURE):
+        raise ParameterError("texture", f"{slot}: expected a PNG image (file or bytes)")
+    return png
+
+
+def write_glb(path, vertices, faces, uv, textures, *, normals=None, tangents=None, name: str = "baked",
+              base_factor: tuple[float, float, float, float] = (1.0, 1.0, 1.0, 1.0)) -> dict:
+    """Write a GLB: one mesh, its UVs, and its material's textures.
+
+    ``vertices``: ``(k, 3)`` float (written as float32); ``faces``: ``(m, 3)`` int;
+    ``uv``: ``(k, 2)`` float, v up; ``textures``: a PNG (file path or bytes), bound as
+    base colour, or a dict of PNGs by slot: ``baseColor`` (required; sRGB colour),
+    ``normal`` (a tangent-space normal map, +Y up: linear data) and ``emissive`` (sRGB,
+    with ``emissiveFactor`` 1); slots given the same PNG share one image. ``normals``:
+    optional ``(k, 3)`` normals (normalised here); ``tangents``: optional ``(k, 4)``
+    tangents, unit xyz orthogonal to the normals and w = +-1 (``texbake.mesh.tangents``; needs
+    ``normals``); ``base_factor``: the base colour's factor (black for a texture that is
+    light, not paint: the flame, bound as emissive). Indices are uint16 below 65535 vertices, else uint32. Returns path,
+    bytes, vertices, faces.
+
+    One function, not several: it lays out one binary buffer and the JSON that indexes
+    it, offset by offset, and reads best top to bottom.
+    """
+    path = Path(path)
+    v, f, t, n = _mesh_arrays(vertices, faces, uv, normals)
+    slots = dict(textures) if isinstance(textures, dict) else {"baseColor": textures}
+    unknown = sorted(set(slots) - set(SLOTS))
+    if unknown or "baseColor" not in slots:
+        raise ParameterError("textures", f"expected a baseColor PNG and optionally {', '.join(SLOTS[1:])}, got {sorted(slots)}")
+    pngs = {slot: _png(path, slot, texture) for slot, texture in slots.items()}
+    if tangents is not None:
+        tangents = np.asarray(tangents, dtype=np.float64)
+        if n is None or tangents.shape != (len(v), 4) or not np.isfinite(tangents).all():
+            raise ParameterError("tangents", f"expected ({len(v)}, 4) finite values with normals, got shape {tangents.shape}")
+        if not (np.abs(np.linalg.norm(tangents[:, :3], axis=1) - 1) < 1e-6).all() or not np.isin(tangents[:, 3], (-1.0, 1.0)).all():
+            raise ParameterError("tangents", "xyz must be unit length and w +1 or -1")
+
+    positions = np.ascontiguousarray(v, dtype=np.float32)
+    texcoord = np.ascontiguousarray(np.column_stack([t[:, 0], 1.0 - t[:, 1]]), dtype=np.float32)
+    small = len(positions) < 65535  # 65535 itself is the primitive-restart value
+    index_type = _UINT16 if small else _UINT32
+    indices = np.ascontiguousarray(f, dtype=np.uint16 if small else np.uint32).ravel()
+
+    blobs: list[bytes] = []
+    views: list[dict] = []
+    accessors: list[dict] = []
+    offset = 0
+
+    def add_view(data: bytes, target=None) -> int:
+        nonlocal offset
+        view = {"buffer": 0, "byteOffset": offset, "byteLength": len(data)}
+        if target:
+            view["target"] = target
+        padded = _pad(data, b"\0")
+        blobs.append(padded)
+        offset += len(padded)
+        views.append(view)
+        return len(views) - 1
+
+    def add_accessor(array: np.ndarray, kind: str, component: int, target, minmax=False) -> int:
+        count = array.size if kind == "SCALAR" else len(array)
+        acc = {"bufferView": add_view(array.tobytes(), target), "componentType": component, "count": int(count), "type": kind}
+        if minmax:  # float32 values, exactly as stored
+            acc["min"] = [float(x) for x in array.min(axis=0)]
+            acc["max"] = [float(x) for x in array.max(axis=0)]
+        accessors.append(acc)
+        return len(accessors) - 1
+
+    attributes = {"POSITION": add_accessor(positions, "VEC3", _FLOAT, _ARRAY_BUFFER, minmax=True)}
+    if n is not None:
+        attributes["NORMAL"] = add_accessor(np.ascontiguousarray(n, dtype=np.float32), "VEC3", _FLOAT, _ARRAY_BUFFER)
+    if tangents is not None:
+        tangent32 = tangents.astype(np.float32)
+        tangent32[:, :3] /= np.linalg.norm(tangent32[:, :3], axis=1, keepdims=True)  # unit length in float32 too
+        attributes["TANGENT"] = add_accessor(np.ascontiguousarray(tangent32), "VEC4", _FLOAT, _ARRAY_BUFFER)
+    attributes["TEXCOORD_0"] = add_accessor(texcoord, "VEC2", _FLOAT, _ARRAY_BUFFER)
+    index_accessor = add_accessor(indices, "SCALAR", index_type, _ELEMENT_ARRAY_BUFFER)
+    images: list[bytes] = list(dict.fromkeys(pngs.values()))  # one image (and texture) per distinct PNG
+    image_views = [add_view(png) for png in images]
+    texture = {slot: {"index": images.index(png)} for slot, png in pngs.items()}
+    binary = b"".join(blobs)
+
+    material: dict = {"name": f"{name}_baked",
+                      "pbrMetallicRoughness": {"baseColorTexture": texture["baseColor"], "metallicFactor": 0.0, "roughnessFactor": 1.0}}
+    if tuple(base_factor) != (1.0, 1.0, 1.0, 1.0):
+        material["pbrMetallicRoughness"]["baseColorFactor"] = [float(x) for x in base_factor]
+    if "normal" in texture:
+        material["normalTexture"] = texture["normal"]
+    if "emissive" in texture:
+        material["emissiveTexture"], material["emissiveFactor"] = texture["emissive"], [1.0, 1.0, 1.0]
+    doc = {
+        "asset": {"version": "2.0", "generator": "texbake"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0, "name": name}],
+        "meshes": [{"name": name, "primitives": [{"attributes": attributes, "indices": index_accessor, "material": 0, "mode": _TRIANGLES}]}],
+        "materials": [material],
+        "textures": [{"sampler": 0, "source": i} for i in range(len(images))],
+        "samplers": [{"magFilter": _LINEAR, "minFilter": _LINEAR_MIPMAP_LINEAR, "wrapS": _CLAMP, "wrapT": _CLAMP}],
+        "images": [{"bufferView": view, "mimeType": "image/png"} for view in image_views],
+        "accessors": accessors,
+        "bufferViews": views,
+        "buffers": [{"byteLength": len(binary)}],
+    }
+    chunk_json = _pad(json.dumps(doc, separators=(",", ":"), allow_nan=False).encode(), b" ")
+    total = 12 + 8 + len(chunk_json) + 8 + len(binary)
+    glb = b"".join([
+        struct.pack("<4sII", b"glTF", 2, total),
+        struct.pack("<I4s", len(chunk_json), b"JSON"), chunk_json,
+        struct.pack("<I4s", len(binary), b"BIN\0"), binary,
+    ])
+    write_bytes(path, glb)
+    return {"path": str(path), "bytes": len(glb), "vertices": len(positions), "faces": len(indices) // 3}
+
+
+def write_obj(path, vertices, faces, uv, image_filename, *, normals=None) -> dict:
+    """Write ``path`` (OBJ) and an MTL beside it whose ``map_Kd`` names the image.
+
+    ``image_filename`` is written relative to the OBJ's folder (an absolute path is made
+    relative), with forward slashes. UVs are written as given (v up, as OBJ wants).
+    Returns path, bytes, mtl (its file name), vertices, faces.
+    """
+    path = Path(path)
+    v, f, t, n = _mesh_arrays(vertices, faces, uv, normals)
+    image = Path(image_filename)
+    if image.is_absolute():
+        image = Path(os.path.relpath(image, path.parent.resolve()))
+    image_ref = image.as_posix()
+    if any(ch in image_ref for ch in "\n\r"):
+        raise ParameterError("image_filename", "must not contain line breaks")
+    mtl = path.with_suffix(".mtl")
+    material = f"{path.stem}_baked".replace(" ", "_")
+    write_bytes(mtl, f"newmtl {material}\nKa 0 0 0\nKd 1 1 1\nKs 0 0 0\nillum 1\nmap_Kd {image_ref}\n".encode())
+    lines = ["# texbake", f"mtllib {mtl.name}", f"usemtl {material}"]
+    lines += [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in v]
+    lines += [f"vt {a:.9g} {b:.9g}" for a, b in t]
+    f1 = f + 1
+    if n is not None:
+        lines += [f"vn {x:.7g} {y:.7g} {z:.7g}" for x, y, z in n]
+        lines += [f"f {a}/{a}/{a} {b}/{b}/{b} {c}/{c}/{c}" for a, b, c in f1]
+    else:
+        lines += [f"f {a}/{a} {b}/{b} {c}/{c}" for a, b, c in f1]
+    data = ("\n".join(lines) + "\n").encode()
+    write_bytes(path, data)
+    return {"path": str(path), "bytes": len(data), "mtl": mtl.name, "vertices": len(v), "faces": len(f)}

@@ -1,0 +1,442 @@
+"""Image maps in and out with OpenImageIO, written atomically and checked.
+
+Pixels come in as ``(h, w, c)`` float values, row 0 at the top, c = 1, 2, 3 or 4 (the
+last channel of 2 or 4 is alpha, never colour-encoded). Colour policy by format:
+
+========  =========  =====================================  ==========================
+format    bits       stored as                              ``oiio:ColorSpace``
+========  =========  =====================================  ==========================
+png       8, 16      sRGB-encoded integers                  ``srgb_rec709_scene``
+tif       8, 16      sRGB-encoded integers                  ``srgb_rec709_scene``
+tif       32         linear float                           ``lin_rec709_scene``
+exr       16, 32     linear half / float, zip compression   ``lin_rec709_scene``
+========  =========  =====================================  ==========================
+
+``colorspace`` says what the given pixels are: ``"linear"`` (the default: scene-linear
+Rec.709 colour), ``"srgb"`` (already sRGB-encoded: stored as they are in integer files,
+decoded to linear for float files) or ``"data"`` (non-colour values such as normals or
+masks: stored as they are everywhere, tagged ``data``/``Raw``).
+
+OpenImageIO 3.2 names (its built-in config): ``srgb_rec709_scene`` and
+``lin_rec709_scene`` are canonical; ``"sRGB"`` and ``"linear"`` are accepted aliases, but
+``"scene_linear"`` is the ACEScg *role* (it is stored as ``lin_ap1_scene``: wrong
+primaries) and ``"Raw"`` is stored as ``data`` in EXR. PNG has no way to say "data": such
+a PNG is written as linear (a ``gAMA`` chunk of 1.0, no ``sRGB`` or ``cHRM`` chunk, so
+that an image viewer does not decode it as sRGB) with a ``texbake:ColorSpace`` text field
+saying ``data``, which ``read_image`` looks at (glTF ignores a PNG's colour chunks: the slot
+says how it is read).
+
+A file is written under a temporary name beside its final one (same folder, so the
+rename is atomic), flushed to the disk, read back in full and compared with what was
+meant to be written (OpenImageIO reports success on a PNG truncated by a full disk), and
+only then renamed into place. On any failure the temporary file is removed and
+:class:`OutputError` names the path and the reason; nothing is ever left under the final
+name.
+"""
+
+from __future__ import annotations
+
+import functools
+import struct
+import tempfile
+import zlib
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import OutputError, ParameterError
+from .atomic import replacing
+from .atomic import sync as _sync  # a module global: tests put a failure in it
+
+SRGB = "srgb_rec709_scene"
+LINEAR = "lin_rec709_scene"
+DATA = "data"
+BITS = {"png": (8, 16), "exr": (16, 32), "tif": (8, 16, 32)}
+DEFAULT_BITS = {"png": 8, "exr": 16, "tif": 16}
+_EXTENSION = {"png": ".png", "exr": ".exr", "tif": ".tif"}
+_COLORSPACES = {"linear": "linear", "lin_rec709_scene": "linear", "srgb": "srgb", "srgb_rec709_scene": "srgb",
+                "data": "data", "raw": "data"}
+_BAND_TEXELS = 1 << 20  # texels encoded (and checked) at a time: bounded memory, some 50 MB
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+_PNG_FILTER_UP = 0x20  # png.h's PNG_FILTER_UP
+_EXIF_SRGB, _EXIF_UNCALIBRATED = 1, 0xFFFF
+
+
+def srgb_encode(linear: np.ndarray) -> np.ndarray:
+    """The sRGB transfer function (IEC 61966-2-1) of values clipped to [0, 1]."""
+    x = np.clip(linear, 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+
+
+def srgb_decode(encoded: np.ndarray) -> np.ndarray:
+    """Inverse of :func:`srgb_encode`."""
+    x = np.asarray(encoded, dtype=np.float64)
+    return np.where(x <= 0.04045, x / 12.92, np.power((x + 0.055) / 1.055, 2.4))
+
+
+def _format(path: Path, fmt: str | None) -> str:
+    f = (fmt or path.suffix).lower().lstrip(".")
+    f = "tif" if f == "tiff" else f
+    if f not in BITS:
+        raise ParameterError("format", f"expected png, exr, tif or tiff, got {f!r}")
+    return f
+
+
+# -- exact 8-bit sRGB encoding, fast ------------------------------------------------------
+# A table over 2**20 linear levels gives round(255 * oetf(x)) off by one level for about
+# 1e-4 of the values (those close to a rounding threshold); each value is then moved to
+# the exact code by comparing it with the thresholds on either side of the table's code.
+
+_LUT_LEVELS = 1 << 20
+
+
+@functools.cache
+def _srgb8_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    table = np.rint(srgb_encode(np.arange(_LUT_LEVELS) / (_LUT_LEVELS - 1)) * 255).astype(np.uint8)
+    # code(x) > k  <=>  x >= decode((k + 0.5) / 255); as the smallest float32 at or above it
+    t = srgb_decode((np.arange(255) + 0.5) / 255)
+    t32 = t.astype(np.float32)
+    low = t32.astype(np.float64) < t
+    t32[low] = np.nextafter(t32[low], np.float32(np.inf))
+    above = np.append(t32, np.float32(np.inf))  # threshold to reach code + 1
+    below = np.insert(t32, 0, np.float32(-np.inf))  # threshold of the code itself
+    return table, above, below
+
+
+@functools.cache
+def _encode8_kernel():
+    """:func:`_encode8`, compiled (numba is imported here: the settings import this module)."""
+    import numba
+
+    return numba.njit(cache=True, nogil=True)(_encode8)
+
+
+def _encode8(pixels, colour, table, above, below, out):  # pragma: no cover - compiled
+    """``out`` (h, w, c) uint8 = the 8-bit codes of ``pixels`` (h, w, c) float: its first
+    ``colour`` channels sRGB-encoded exactly (``round(255 * srgb_encode(x))``: the table's
+    code, moved by one where ``x`` lies beyond the thresholds ``above``/``below``), the
+    others ``round(255 * x)``; each value first rounded to float32, NaN taken as 0 and
+    the rest clipped to [0, 1]. One pass: numpy's version made five temporaries and took
+    as long as the compression."""
+    scale, half, top = np.float32(table.shape[0] - 1), np.float32(0.5), np.float32(255.0)
+    h, w, c = pixels.shape
+    for i in range(h):
+        for j in range(w):
+            for k in range(c):
+                x = np.float32(pixels[i, j, k])
+                if not x > 0:  # NaN too
+                    x = np.float32(0.0)
+                elif x > 1:
+                    x = np.float32(1.0)
+                if k < colour:
+                    code = np.int64(table[np.int32(x * scale + half)])
+                    out[i, j, k] = code + (x >= above[code]) - (x < below[code])
+                else:
+                    out[i, j, k] = np.uint8(np.rint(x * top))
+
+
+def _band_rows(width: int) -> int:
+    """Rows of a band of an image ``width`` texels wide (write and check use the same)."""
+    return max(8, _BAND_TEXELS // max(width, 1))
+
+
+def _stored(fmt: str, bits: int, given: str) -> tuple[type, str]:
+    """The file's pixel type and colour space for pixels that hold ``given``."""
+    if fmt == "exr" or bits == 32:
+        return (np.float16 if bits == 16 else np.float32), DATA if given == "data" else LINEAR
+    return (np.uint8 if bits == 8 else np.uint16), DATA if given == "data" else SRGB
+
+
+def _encode(pixels: np.ndarray, fmt: str, bits: int, given: str) -> np.ndarray:
+    """Rows of ``pixels`` as the file stores them (:func:`_stored`)."""
+    colour = 1 if pixels.shape[2] <= 2 else 3  # channels after these are alpha
+    dtype, _ = _stored(fmt, bits, given)
+    if dtype in (np.float16, np.float32):
+        data = pixels.astype(dtype)
+        if given == "srgb":
+            data[..., :colour] = srgb_decode(pixels[..., :colour])
+        return data
+    top = 255 if bits == 8 else 65535
+    out: np.ndarray = np.empty(pixels.shape, dtype=dtype)
+    # NaN is written as 0 and infinities clipped: integer files have no room for them
+    if bits == 8:
+        if pixels.dtype == np.bool_:
+            pixels = pixels.view(np.uint8)
+        elif pixels.dtype not in (np.float32, np.float64):  # float16 (maps of 8192² and more): numba has no such type
+            pixels = pixels.astype(np.float32)  # a band: bounded
+        _encode8_kernel()(pixels, colour if given == "linear" else 0, *_srgb8_tables(), out)
+        return out
+    band = np.clip(np.nan_to_num(pixels.astype(np.float32), nan=0.0), 0.0, 1.0)
+    if given == "linear":
+        out[..., :colour] = np.rint(srgb_encode(band[..., :colour].astype(np.float64)) * top)
+    else:
+        out[..., :colour] = np.rint(band[..., :colour] * np.float32(top))
+    out[..., colour:] = np.rint(band[..., colour:] * np.float32(top))
+    return out
+
+
+def _typedesc(dtype):
+    import OpenImageIO as oiio
+
+    return {np.uint8: oiio.UINT8, np.uint16: oiio.UINT16, np.float16: oiio.HALF, np.float32: oiio.FLOAT}[np.dtype(dtype).type]
+
+
+def write_image(path, pixels, *, fmt: str | None = None, bits: int | None = None, colorspace: str = "linear") -> dict:
+    """Write ``(h, w, c)`` float ``pixels`` (row 0 at the top) to ``path``.
+
+    ``fmt``: "png", "exr", "tif" or "tiff" (default: from the extension); ``bits``: 8 or
+    16 for PNG (default 8), 16 (half, default) or 32 (float) for EXR, 8, 16 (default) or
+    32 (float) for TIFF. ``colorspace``: what ``pixels`` hold, "linear", "srgb" or
+    "data" (see the module's notes). Returns what was written: path, format, bits,
+    colorspace (the file's), width, height, channels, bytes.
+
+    Raises :class:`ParameterError` for a bad format, bit depth, colour space or pixel
+    array and :class:`OutputError` if the file cannot be written completely.
+
+    Long because it is one transaction: validate, encode, write to a temporary name,
+    flush, read back and compare, rename; each step depends on the one before.
+    """
+    import OpenImageIO as oiio  # pip install OpenImageIO
+
+    path = Path(path)
+    fmt = _format(path, fmt)
+    bits = DEFAULT_BITS[fmt] if bits is None else bits
+    if bits not in BITS[fmt]:
+        raise ParameterError("bits", f"{fmt} takes {' or '.join(map(str, BITS[fmt]))} bits, got {bits!r}")
+    given = _COLORSPACES.get(str(colorspace).lower())
+    if given is None:
+        raise ParameterError("colorspace", f"expected linear, srgb or data, got {colorspace!r}")
+    pixels = np.asarray(pixels)
+    if pixels.ndim == 2:
+        pixels = pixels[:, :, None]
+    if pixels.ndim != 3 or pixels.shape[2] not in (1, 2, 3, 4) or 0 in pixels.shape:
+        raise ParameterError("pixels", f"expected (h, w, 1-4) values, got shape {pixels.shape}")
+    if not (np.issubdtype(pixels.dtype, np.floating) or pixels.dtype == np.bool_):
+        raise ParameterError("pixels", f"expected float (or bool) values, got {pixels.dtype}")
+    dtype, stored = _stored(fmt, bits, given)
+    h, w, c = pixels.shape
+
+    with replacing(path, _EXTENSION[fmt]) as tmp:
+        spec = oiio.ImageSpec(w, h, c, _typedesc(dtype))
+        # PNG data: OpenImageIO writes gAMA 1.0 for a linear PNG and no colour chunk for Raw
+        spec.attribute("oiio:ColorSpace", (LINEAR if fmt == "png" else "Raw") if stored == DATA else stored)
+        spec.attribute("Software", "texbake")
+        if stored == DATA:
+            spec.attribute("texbake:ColorSpace", DATA)  # PNG, TIFF cannot say it otherwise
+        if c in (2, 4):
+            spec.attribute("oiio:UnassociatedAlpha", 1)  # alpha is coverage, not premultiplied
+        spec.attribute("compression", "zip")
+        # one row filter, "up", not libpng's trial of all five on every row, and zlib's
+        # level 4 (its first with lazy matching): on baked maps (smooth fields) 2-3x
+        # faster than level 3 with the trial, and files 2-20 % smaller
+        spec.attribute("png:compressionLevel", 4)
+        spec.attribute("png:filter", _PNG_FILTER_UP)
+        if fmt == "tif":
+            # libtiff fails ("TIFFWriteCustomDirectory() of the Exif data") on the Exif
+            # directory OIIO writes unless it holds a tag: the colour space is one.
+            spec.attribute("Exif:ColorSpace", _EXIF_SRGB if stored == SRGB else _EXIF_UNCALIBRATED)
+        out = oiio.ImageOutput.create(str(tmp))
+        if out is None:
+            raise OutputError(f"{path}: cannot create a {fmt} writer: {oiio.geterror() or 'unknown error'}")
+        ok = bool(out.open(str(tmp), spec))
+        error = out.geterror()
+        digests = []  # of each band as written, to check the file against
+        band = _band_rows(w)
+        with ThreadPoolExecutor(1, thread_name_prefix="texbake-encode") as encoder:
+            # a band at a time (memory stays bounded), the next encoded while this one is compressed
+            encode = lambda r: encoder.submit(_encode, pixels[r : r + band], fmt, bits, given)
+            pending = encode(0)
+            for r in range(0, h, band) if ok else ():
+                data = pending.result()
+                if r + band < h:
+                    pending = encode(r + band)
+                digests.append(zlib.crc32(data.data))
+                if not out.write_scanlines(r, r + len(data), 0, data):
+                    ok, error = False, out.geterror()
+                    break
+        ok = bool(out.close()) and ok
+        error = error or out.geterror() or oiio.geterror()
+        if not ok or error:
+            raise OutputError(f"{path}: write failed: {error or 'unknown OpenImageIO error'}")
+        _sync(tmp)
+        _verify(tmp, digests, (h, w, c), dtype, fmt)
+    return {
+        "path": str(path), "format": fmt, "bits": bits, "colorspace": stored,
+        "width": w, "height": h, "channels": c, "bytes": path.stat().st_size,
+    }
+
+
+def encode_png_bytes(pixels, bits: int = 8, *, colorspace: str = "linear") -> bytes:
+    """The bytes of a PNG of ``pixels`` (as :func:`write_image` writes it, checked)."""
+    with tempfile.TemporaryDirectory(prefix="texbake-png-") as folder:
+        target = Path(folder) / "image.png"
+        write_image(target, pixels, fmt="png", bits=bits, colorspace=colorspace)
+        return target.read_bytes()
+
+
+def _verify(tmp: Path, digests: list[int], shape: tuple[int, int, int], dtype, fmt: str) -> None:
+    """Check a written file; raise OutputError unless it is whole.
+
+    A PNG by its chunks' CRCs and its compressed stream, which must inflate (adler-32
+    checked) to exactly ``shape``'s rows of ``dtype`` (libpng reads a PNG whole, which for
+    a 16384² map is 0.8 GB more). Others read back a band at a time: each band of ``shape``
+    pixels of ``dtype`` must have the CRC-32 in ``digests`` it was written with."""
+    import OpenImageIO as oiio
+
+    h, w, c = shape
+    if fmt == "png":
+        _check_png_chunks(tmp, h * (1 + w * c * np.dtype(dtype).itemsize))
+        return
+    if fmt == "tif":
+        _check_tiff_layout(tmp)
+    inp = _open(tmp)
+    if inp is None:
+        raise OutputError(f"{tmp}: cannot be read back: {oiio.geterror() or 'unknown error'}")
+    try:
+        spec = inp.spec()
+        if (spec.height, spec.width, spec.nchannels) != shape:
+            raise OutputError(f"{tmp}: reads back as {spec.width}x{spec.height}x{spec.nchannels}, not {w}x{h}x{c} (disk full?)")
+        rows = _band_rows(w)
+        for band, r in enumerate(range(0, h, rows)):
+            back = inp.read_scanlines(0, 0, r, min(h, r + rows), 0, 0, c, _typedesc(dtype))
+            error = inp.geterror()
+            if back is None or error:
+                raise OutputError(f"{tmp}: cannot be read back: {error or 'no data'}")
+            if zlib.crc32(np.ascontiguousarray(back, dtype=dtype).data) != digests[band]:
+                raise OutputError(f"{tmp}: the written pixels do not read back intact (disk full?)")
+    finally:
+        inp.close()
+
+
+def _check_png_chunks(path: Path, raw_bytes: int) -> None:
+    """Walk a PNG's chunks: each whole with a right CRC, IEND last at the end of the file,
+    and the IDAT stream inflating to ``raw_bytes`` (rows with their filter bytes), in
+    pieces: the image is never held whole.
+
+    libpng reads the pixels of a PNG cut short after its last IDAT without an error.
+    """
+    data = path.read_bytes()
+    if not data.startswith(_PNG_SIGNATURE):
+        raise OutputError(f"{path}: not a PNG file (truncated?)")
+    inflate, inflated = zlib.decompressobj(), 0
+    p = len(_PNG_SIGNATURE)
+    while True:
+        if p + 12 > len(data):
+            raise OutputError(f"{path}: truncated PNG (chunk header at byte {p}, disk full?)")
+        length, kind = struct.unpack_from(">I4s", data, p)
+        end = p + 12 + length
+        if end > len(data):
+            raise OutputError(f"{path}: truncated PNG ({kind.decode('latin-1')} chunk, disk full?)")
+        crc = struct.unpack_from(">I", data, end - 4)[0]
+        if zlib.crc32(data[p + 4 : end - 4]) != crc:
+            raise OutputError(f"{path}: corrupt PNG ({kind.decode('latin-1')} chunk CRC)")
+        if kind == b"IDAT":
+            try:
+                piece = data[p + 8 : end - 4]
+                while piece:
+                    inflated += len(inflate.decompress(piece, 1 << 24))
+                    piece = inflate.unconsumed_tail
+            except zlib.error as exc:
+                raise OutputError(f"{path}: corrupt PNG pixel data ({exc})") from None
+        p = end
+        if kind == b"IEND":
+            break
+    if p != len(data):
+        raise OutputError(f"{path}: {len(data) - p} stray bytes after the PNG's end")
+    if not inflate.eof or inflated != raw_bytes:
+        raise OutputError(f"{path}: the PNG's pixel data is {inflated} bytes, not {raw_bytes} (disk full?)")
+
+
+_TIFF_TYPE_SIZE = {1: 1, 2: 1, 3: 2, 4: 4, 5: 8, 6: 1, 7: 1, 8: 2, 9: 4, 10: 8, 11: 4, 12: 8, 13: 4}
+_TIFF_IFD_POINTERS = (34665, 34853, 40965, 330)  # Exif, GPS, interoperability, SubIFDs
+_TIFF_DATA = ((273, 279), (324, 325))  # strip / tile offsets and byte counts
+
+
+def _check_tiff_layout(path: Path) -> None:
+    """Every directory, tag value, strip and tile of a (classic) TIFF inside the file.
+
+    libtiff reads the pixels of a TIFF cut short in its trailing metadata without an
+    error. BigTIFF files (only written beyond 4 GB) are left to the pixel check.
+    """
+    data = path.read_bytes()
+    size = len(data)
+    if size < 8 or data[:2] not in (b"II", b"MM"):
+        raise OutputError(f"{path}: not a TIFF file (truncated?)")
+    e = "<" if data[:2] == b"II" else ">"
+    if struct.unpack_from(e + "H", data, 2)[0] != 42:
+        return  # BigTIFF
+    todo, seen = [struct.unpack_from(e + "I", data, 4)[0]], set()
+    while todo:
+        ifd = todo.pop()
+        if ifd == 0 or ifd in seen:
+            continue
+        seen.add(ifd)
+        if ifd + 2 > size:
+            raise OutputError(f"{path}: truncated TIFF (directory at byte {ifd}, disk full?)")
+        n = struct.unpack_from(e + "H", data, ifd)[0]
+        if ifd + 2 + 12 * n + 4 > size:
+            raise OutputError(f"{path}: truncated TIFF (directory at byte {ifd}, disk full?)")
+        tags = {}
+        for i in range(n):
+            tag, kind, count, value = struct.unpack_from(e + "HHII", data, ifd + 2 + 12 * i)
+            length = _TIFF_TYPE_SIZE.get(kind, 1) * count
+            if length > 4 and value + length > size:
+                raise OutputError(f"{path}: truncated TIFF (tag {tag} value, disk full?)")
+            if kind in (3, 4, 13) and count:
+                fmt = e + ("H" if kind == 3 else "I") * count
+                tags[tag] = struct.unpack_from(fmt, data, value if length > 4 else ifd + 2 + 12 * i + 8)
+        for tag in _TIFF_IFD_POINTERS:
+            todo.extend(tags.get(tag, ()))
+        for offsets, counts in _TIFF_DATA:
+            for offset, count in zip(tags.get(offsets, ()), tags.get(counts, ()), strict=False):
+                if offset + count > size:
+                    raise OutputError(f"{path}: truncated TIFF (pixel data, disk full?)")
+        todo.append(struct.unpack_from(e + "I", data, ifd + 2 + 12 * n)[0])
+
+
+def _open(path: Path):
+    """An ImageInput that keeps alpha as stored (not premultiplied), or None."""
+    import OpenImageIO as oiio
+
+    config = oiio.ImageSpec()
+    config.attribute("oiio:UnassociatedAlpha", 1)
+    return oiio.ImageInput.open(str(path), config)
+
+
+def read_image(path) -> np.ndarray:
+    """``(h, w, c)`` float32 pixels of an image file, row 0 at the top.
+
+    Colour channels of an sRGB file (by its ``oiio:ColorSpace``; an integer file that says
+    nothing counts as sRGB) are decoded to linear; linear and data files are returned as
+    stored (integers scaled to [0, 1]). Raises :class:`OutputError` if it cannot be read.
+    """
+    import OpenImageIO as oiio
+
+    inp = _open(path)
+    if inp is None:
+        raise OutputError(f"{path}: cannot read: {oiio.geterror() or 'unknown error'}")
+    try:
+        spec = inp.spec()
+        data = inp.read_image(oiio.FLOAT)
+        error = inp.geterror()
+        colorspace = str(spec.getattribute("oiio:ColorSpace") or "").lower()
+        ours = str(spec.getattribute("texbake:ColorSpace") or "").lower()
+        exif = spec.getattribute("Exif:ColorSpace")
+        integer = spec.format.basetype in (oiio.UINT8, oiio.UINT16)
+    finally:
+        inp.close()
+    if data is None or error:
+        raise OutputError(f"{path}: cannot read: {error or 'no data'}")
+    data = np.asarray(data, dtype=np.float32)
+    data = data if data.ndim == 3 else data[:, :, None]
+    if ours == DATA:
+        srgb = False
+    elif colorspace:
+        srgb = "srgb" in colorspace
+    else:  # e.g. TIFF: Exif says sRGB (1) or uncalibrated (65535)
+        srgb = integer and exif != _EXIF_UNCALIBRATED
+    if srgb:
+        colour = 1 if data.shape[2] <= 2 else 3
+        data[..., :colour] = srgb_decode(data[..., :colour])
+    return data

@@ -1,0 +1,292 @@
+"""The bake, as its list of stages: load, atlas, texel lookup, surface samples, (transfer),
+texture mapping and evaluation, accumulation, error estimate, margin; then, on ``save``,
+images, textured mesh and report.
+
+Each stage lives in its own module; this one only chains them. What flows between them:
+``LoadedMesh`` (load) -> ``Atlas`` (atlas) -> UV points of texel samples (texels) ->
+``Samples`` (samples: lookup, surface, transfer) -> values per map (maps: texture
+mapping, texture, shading, bump) -> images (maps.accumulate, margin) -> ``BakeResult``.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import itertools
+import threading
+import time
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+from .atlas.cache import AtlasCache, atlas_key
+from .atlas.decide import Atlas, make_atlas
+from .errors import ParameterError
+from .maps import estimate as estimate_stage
+from .maps import margin as margin_stage
+from .maps.accumulate import Maps
+from .mesh.load import LoadedMesh, load_mesh, mesh_from_trimesh
+from .mesh.normals import split_normals
+from .mesh.tangents import vertex_tangents
+from .output.report import bake_report
+from .sampling.lookup import sample_offsets, sample_uv, tiles
+from .sampling.sampler import Sampler
+from .settings import BakeSettings
+from .textures.mapping import TextureMapping
+
+
+@dataclass
+class BakedMesh:
+    """The mesh with its atlas: per-atlas-vertex arrays, faces index them."""
+
+    vertices: np.ndarray  # (k, 3) float64
+    faces: np.ndarray  # (m, 3) int64
+    uv: np.ndarray  # (k, 2) float64, v up
+    name: str
+    normals: np.ndarray | None = None  # (k, 3) float64 unit shading normals, split at hard edges
+    tangents: np.ndarray | None = None  # (k, 4) float64 tangents (xyz, w = +-1) the normal map was baked in, if one was
+
+
+@dataclass
+class BakeResult:
+    """What a bake made: images as arrays, the mesh with its atlas, and the report."""
+
+    images: dict[str, np.ndarray]  # name -> (h, w, 3) float32 linear, row 0 at the top (float16 over
+    # 8192² texels written as 8 bits: texbake.maps.accumulate): albedo (or albedo_0000... and flipbook), lit, normal (0.5 + 0.5 n: data)
+    coverage: np.ndarray  # (h, w) bool: texels covered by the atlas
+    margin: np.ndarray  # (h, w) bool: texels filled by the margin
+    mesh: BakedMesh
+    report: dict = field(default_factory=dict)
+    settings: BakeSettings = field(default_factory=BakeSettings)
+
+    def save(self, folder, *, fmt: str | None = None, bits: int | None = None, obj: bool | None = None):
+        """Write the maps, ``<name>.glb`` (and OBJ+MTL if ``obj``) and ``report.json``;
+        format, bits and OBJ default to the bake's settings."""
+        from .output.save import save_result
+
+        s = self.settings
+        return save_result(self, Path(folder), fmt=s.format if fmt is None else fmt, bits=s.bits if bits is None else bits,
+                           obj=s.obj if obj is None else obj)
+
+
+def flipbook(frames: list[np.ndarray]) -> np.ndarray:
+    """Frames ``(h, w, c)`` laid out left to right, top to bottom in a near-square grid."""
+    h, w, c = frames[0].shape
+    cols = int(np.ceil(np.sqrt(len(frames))))
+    rows = -(-len(frames) // cols)
+    out = np.zeros((rows * h, cols * w, c), dtype=frames[0].dtype)
+    for i, frame in enumerate(frames):
+        r, k = divmod(i, cols)
+        out[r * h : (r + 1) * h, k * w : (k + 1) * w] = frame
+    return out
+
+
+class Timer:
+    """Seconds per stage, summed over the tiles (and threads) that ran it."""
+
+    def __init__(self) -> None:
+        self.seconds: dict[str, float] = {}
+        self._lock = threading.Lock()
+
+    @contextmanager
+    def stage(self, name: str):
+        start = time.perf_counter()
+        try:
+            yield
+        finally:
+            with self._lock:
+                self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - start
+
+
+def as_mesh(mesh_or_path, max_faces: int, what: str) -> LoadedMesh:
+    """A ``LoadedMesh`` from a path, a trimesh mesh or scene, or a ``LoadedMesh``."""
+    if isinstance(mesh_or_path, LoadedMesh):
+        return mesh_or_path
+    if isinstance(mesh_or_path, (str, Path)):
+        return load_mesh(mesh_or_path, max_faces=max_faces)
+    try:
+        return mesh_from_trimesh(mesh_or_path, max_faces=max_faces)
+    except TypeError:
+        raise ParameterError(what, f"expected a path or a trimesh mesh, got {type(mesh_or_path).__name__}") from None
+
+
+def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *, source=None, workers: int = 2,
+              progress: Callable[[float], None] | None = None, tile_samples: int = 1 << 20,
+              cache: str | Path | AtlasCache | None = None, **options) -> BakeResult:
+    """Bake a solid texture into the UV atlas of a mesh.
+
+    Parameters
+    ----------
+    mesh_or_path : path, trimesh.Trimesh, trimesh.Scene or LoadedMesh
+    settings : BakeSettings, dict of settings, or a texture (name, JSON, spec or spec dict)
+        What to bake and how (``texbake.settings.BakeSettings``); keyword ``options`` are
+        settings too and override it: ``bake_mesh("bunny.ply", "marble", size=2048)``.
+    source : path or mesh, optional
+        A second mesh to transfer the texture from (high poly to low poly): the texture
+        is evaluated where rays along the target normal, at most ``settings.cage`` long
+        (default 5% of the target's bounding-box diagonal), hit it.
+    workers : int
+        Threads for the tiles, the margin and the unwrap.
+    progress : callable, optional
+        Called with the fraction of the bake done, from 0 to 1 (after loading, the atlas,
+        each tile and the margin), from the calling thread or a tile thread.
+    tile_samples : int
+        Samples a tile: bounds the memory of the lookup.
+    cache : folder or ``texbake.atlas.cache.AtlasCache``, optional
+        Where atlases are kept for later bakes: the same mesh at the same atlas settings
+        (``uv``, size, ``charting``) then skips the unwrap (``report["atlas"]["cached"]``).
+        An ``AtlasCache`` object also keeps its latest bakes' texel lookups in memory: the
+        next bake of the atlas at the same size, samples and seed casts no ray
+        (``report["rays"]["lookup_reused"]``).
+
+    The report's ``error_estimate`` estimates the RMSE of the colour map against the
+    converged texel means (see ``texbake.maps.estimate``).
+    """
+    if settings is not None and not isinstance(settings, BakeSettings) and not (isinstance(settings, dict) and "name" not in settings):
+        settings, options = None, {"texture": settings, **options}  # a texture: name, JSON, spec or spec dict
+    settings = BakeSettings.build(settings, **options)
+    quality = settings.quality_settings()
+    width, height = settings.width_height
+    timer, report_progress = Timer(), progress or (lambda fraction: None)
+
+    with timer.stage("load"):
+        mesh = as_mesh(mesh_or_path, settings.max_faces, "mesh")
+        src = None if source is None else as_mesh(source, settings.max_faces, "source")
+    report_progress(0.05)
+    store = None if cache is None else cache if isinstance(cache, AtlasCache) else AtlasCache(cache)
+    with timer.stage("atlas"):
+        atlas, key = _atlas(mesh, settings, max(width, height), workers, store)
+    lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
+    mapping = TextureMapping.for_mesh(lo, hi, settings.texture_space, quality.precision)
+    reach = settings.cage if settings.cage is not None else 0.05 * float(np.linalg.norm(hi - lo))
+    with timer.stage("normals"):  # of the output mesh; a normal map is baked in its tangent frame
+        source_vertex, faces, normals = split_normals(mesh.vertices[atlas.vmapping], atlas.faces)
+        out_vertices, out_uv = mesh.vertices[atlas.vmapping][source_vertex], atlas.uv[source_vertex]
+        tangents = None if settings.bump is None else vertex_tangents(out_vertices, faces, out_uv, normals)
+    with timer.stage("prepare"):
+        maps = Maps(settings, quality, width, height, mapping)
+        corner_normals = normals[faces]  # (m, 3, 3): shading (the lit map) sees the GLB's normals
+        sampler = Sampler(mesh.vertices, mesh.faces, atlas.uv, atlas.faces, width, height,
+                          normals=corner_normals if maps.needs_normals else False,
+                          source=None if src is None else (src.vertices, src.faces), reach=reach,
+                          frame=None if tangents is None else (corner_normals, tangents[faces]),
+                          footprints=quality.filtering or settings.bump is not None)
+    report_progress(0.3)
+    lookups = None if store is None else (store, (key, width, height, quality.samples, settings.seed, tile_samples))
+    (cast, rays, transfer_missed), reused = _bake_tiles(sampler, maps, quality, settings.seed, timer, workers, tile_samples,
+                                                        lambda done: report_progress(0.3 + 0.6 * done), lookups)
+    covered, hits = maps.hits > 0, int(maps.hits.sum(dtype=np.int64))
+    del maps.hits  # the counts are done with; the tiles' freed memory goes back to the system
+    _trim_heap()
+    with timer.stage("estimate"):
+        error_estimate = _estimate(sampler, maps, mapping, covered, quality, settings.seed)
+    with timer.stage("margin"):
+        filled = margin_stage.extend(list(maps.images.values()), covered, settings.margin, workers=workers)
+    report_progress(0.95)
+    images = dict(maps.images)
+    if settings.frames is not None:
+        images["flipbook"] = flipbook([images[name] for name in maps.colours])
+
+    counts = {"cast": int(cast), "rays": int(rays), "lookup_reused": reused, "transfer_missed": int(transfer_missed), "hits": hits}
+    source_info = None if src is None else {"path": src.path, "sha256": src.sha256, "faces": int(len(src.faces)), "cage": reach}
+    report = bake_report(mesh, (lo, hi), source_info, settings, quality, atlas, covered, filled, counts, error_estimate,
+                         timer.seconds)
+    baked = BakedMesh(out_vertices, faces, out_uv, mesh.name, normals, tangents)
+    report_progress(1.0)
+    return BakeResult(images, covered, filled, baked, report, settings)
+
+
+def _trim_heap() -> None:
+    """Give the heap's free memory back to the system (glibc's ``malloc_trim``): the
+    tiles' temporaries, freed but kept by malloc, would otherwise add to the peak of the
+    stages after them (16384²: 0.6 GB). Elsewhere a no-op."""
+    try:
+        ctypes.CDLL(None).malloc_trim(0)
+    except (OSError, AttributeError):
+        pass
+
+
+def _atlas(mesh: LoadedMesh, settings: BakeSettings, size: int, workers: int, store: AtlasCache | None) -> tuple[Atlas, str]:
+    """``(atlas, its cache key)``: from ``store`` when an earlier bake left it there, else
+    made (and left there)."""
+    key = atlas_key(mesh.sha256, settings.uv, size, settings.charting, __version__)
+    found = None if store is None else store.get(key)
+    if found is not None and found.faces.shape == mesh.faces.shape and found.vmapping.max() < len(mesh.vertices):
+        return found, key
+    atlas = make_atlas(mesh.vertices, mesh.faces, mesh.uv, mode=settings.uv, size=size,
+                       deadline=settings.unwrap_deadline, workers=workers, charting=settings.charting)
+    if store is not None:
+        store.put(key, atlas)
+    return atlas, key
+
+
+def _bake_tiles(sampler: Sampler, maps: Maps, quality, seed: int, timer: Timer, workers: int, tile_samples: int,
+                progress: Callable[[float], None], lookups: tuple[AtlasCache, tuple] | None = None) -> tuple[np.ndarray, bool]:
+    """Bake the image in row tiles of about ``tile_samples`` samples into ``maps``.
+
+    Returns ``[samples looked up, lookup rays cast, transfer rays that missed]`` summed
+    over the tiles, and whether the lookups came from ``lookups`` (a cache and the key
+    of this bake's lookups; kept there otherwise; then no ray is cast). Tiles run in threads:
+    the ray casts (texbake.sampling.rays) and the numba kernels release the GIL, numpy mostly does,
+    so the stages of two tiles overlap; each tile writes its own rows.
+    """
+    width, height = maps.width, maps.height
+    offsets = sample_offsets(quality.samples, seed)
+    tile_list = tiles(height, width, quality.samples, tile_samples)
+    finished = itertools.count(1)
+    known = None if lookups is None else lookups[0].lookups(lookups[1])
+    made: list | None = None if lookups is None or known is not None else [None] * len(tile_list)
+    kept = [0]  # bytes of the lookups recorded so far: past the cache's budget, none are
+    lock = threading.Lock()
+
+    def bake_tile(i: int) -> np.ndarray:
+        nonlocal made
+        if known is not None:
+            texels, located = known[i]
+        else:
+            with timer.stage("lookup"):
+                texels = sampler.candidates(tile_list[i])
+                located = sampler.locate(sample_uv(tile_list[i], texels, width, height, offsets), quality.samples)
+            with lock:
+                if made is not None and lookups is not None:
+                    kept[0] += texels.nbytes + located.nbytes
+                    if kept[0] > lookups[0].max_lookup_bytes:
+                        made = None  # too large to keep: not held meanwhile either
+                    else:
+                        made[i] = texels, located
+        s = sampler.at_located(located, timer)
+        values = maps.values(s, timer)
+        texel = texels[s.index // quality.samples]
+        with timer.stage("accumulate"):
+            maps.accumulate(tile_list[i], texel, values)
+        progress(next(finished) / len(tile_list))
+        return np.array([located.count, 0 if known is not None else located.rays, s.transfer_missed])
+
+    with timer.stage("tiles (wall)"), ThreadPoolExecutor(max(1, workers)) as pool:
+        counts = sum(pool.map(bake_tile, range(len(tile_list))), np.zeros(3))
+    if lookups is not None and made is not None:
+        lookups[0].keep_lookups(lookups[1], made)
+    return counts, known is not None
+
+
+def _estimate(sampler: Sampler, maps: Maps, mapping: TextureMapping, covered, quality, seed: int) -> dict:
+    """The error estimate of the colour map (``texbake.maps.estimate``): a probe that sends UV
+    points through the same chain, point-sampled in float64."""
+    spec = maps.colours[maps.colour_name]
+
+    def reference_at(uvs: np.ndarray):
+        s = sampler.at(uvs)
+        hit = np.zeros(len(uvs), dtype=bool)
+        hit[s.index] = True
+        return hit, mapping.evaluate(spec, s.points, None, None, exact=True)
+
+    grid = estimate_stage.probe_grid(quality.samples)
+    edge_grid = grid if quality.samples == 1 else min(16, 2 * grid)
+    estimate = estimate_stage.probe_estimate(reference_at, maps.images[maps.colour_name], covered, seed=seed, grid=grid,
+                                             edge_grid=edge_grid)
+    estimate["map"] = maps.colour_name
+    return estimate

@@ -1,0 +1,123 @@
+"""Texel samples to surface samples: the texel lookup, the surface and the transfer
+stages, chained over one batch type.
+
+A :class:`Sampler` takes ``(m, 2)`` UV points (texel samples) to :class:`Samples`: the
+atlas face under each (``texels.UVLookup``), the surface point, normal and footprint there
+(``surface.SurfaceMap``), and, with a source mesh, the point on the source that rays along
+the normal find (``transfer.SourceMesh``). The bake's tiles and the error estimate's
+probe go through the same chain.
+"""
+
+from __future__ import annotations
+
+from contextlib import nullcontext
+from dataclasses import dataclass
+
+import numpy as np
+
+from .lookup import Tile, UVLookup, hits
+from .surface import SurfaceMap
+
+
+@dataclass
+class Samples:
+    """Surface samples of some of a batch's UV points; ``n`` rows each.
+
+    ``index``: ``(n,)`` int64 position of each sample in the batch (a UV point that hit no
+    face, or whose transfer ray missed, has no sample); ``points``, ``dpdx``, ``dpdy``:
+    ``(n, 3)`` float64 object-space point and footprint (one texel right, one down; None
+    when the sampler was made without footprints);
+    ``normals``: ``(n, 3)`` float64 unit normals of the target surface, or None when the
+    sampler was made without them; ``rays``: lookup rays cast for the batch;
+    ``transfer_missed``: UV points whose transfer rays found no source; ``frame``: ``(n, 3, 3)`` float64 tangent frames (rows T, B, N) of the
+    output mesh, or None when the sampler was made without one.
+    """
+
+    index: np.ndarray
+    points: np.ndarray
+    normals: np.ndarray | None
+    dpdx: np.ndarray | None
+    dpdy: np.ndarray | None
+    rays: int = 0
+    transfer_missed: int = 0
+    frame: np.ndarray | None = None
+
+
+@dataclass
+class Located:
+    """Where a batch's UV points lie: ``count`` points, of which those at ``index`` (``(n,)``
+    int64) hit a face: ``face`` ``(n,)``, ``bary`` ``(n, 3)`` float64; ``rays`` cast to
+    find them. It depends on the atlas and the points only: a later bake of the same atlas
+    at the same size and samples may reuse it (``texbake.atlas.cache``)."""
+
+    index: np.ndarray
+    face: np.ndarray
+    bary: np.ndarray
+    rays: int
+    count: int
+
+    @property
+    def nbytes(self) -> int:
+        return self.index.nbytes + self.face.nbytes + self.bary.nbytes
+
+
+class Sampler:
+    """The lookup, surface and transfer stages for one mesh and its atlas.
+
+    ``vertices`` ``(n, 3)`` and ``faces`` ``(m, 3)`` of the mesh; ``uv`` ``(k, 2)`` and
+    ``uv_faces`` ``(m, 3)`` of its atlas; ``width``, ``height``: the image size;
+    ``normals``: also interpolate normals, True (smooth) or ``(m, 3, 3)`` corner normals
+    (``surface.SurfaceMap``; a transfer always interpolates smooth ones: its rays must
+    not part at hard edges); ``source``: a
+    ``(vertices, faces)`` pair to transfer from, with rays of at most ``reach``; ``frame``:
+    corner normals and tangents of the output mesh (``surface.SurfaceMap``);
+    ``footprints``: the samples' ``dpdx``, ``dpdy`` (False: None, for a bake that
+    point-samples and needs no bump).
+    """
+
+    def __init__(self, vertices, faces, uv, uv_faces, width: int, height: int, *, normals: bool | np.ndarray = False,
+                 source: tuple[np.ndarray, np.ndarray] | None = None, reach: float = 0.0,
+                 frame: tuple[np.ndarray, np.ndarray] | None = None, footprints: bool = True):
+        self.width, self.height, self.footprints = width, height, footprints
+        self.lookup = UVLookup(uv, uv_faces)
+        self.surface = SurfaceMap(vertices, faces, uv, uv_faces, width, height, normals=True if source is not None else normals,
+                                  frame=frame)
+        self.caster = None
+        if source is not None:
+            from .transfer import SourceMesh
+
+            self.caster = SourceMesh(*source)
+        self.reach = reach
+
+    def candidates(self, tile: Tile) -> np.ndarray:
+        """``(t,)`` indices of the texels of ``tile`` that some face can cover."""
+        return self.lookup.candidates(tile, self.width, self.height)
+
+    def locate(self, uvs: np.ndarray, samples: int = 1) -> Located:
+        """The faces under ``(m, 2)`` UV points, ``samples`` a texel in ``sample_uv``'s order
+        (``texels.UVLookup.locate``)."""
+        face, bary, rays = self.lookup.locate(uvs, samples)
+        return Located(*hits(face, bary), rays, len(uvs))
+
+    def at(self, uvs: np.ndarray, timer=None, samples: int = 1) -> Samples:
+        """Surface samples at ``(m, 2)`` UV points (:meth:`locate`, :meth:`at_located`);
+        ``timer.stage(name)`` times each stage."""
+        with (timer.stage("lookup") if timer is not None else nullcontext()):
+            located = self.locate(uvs, samples)
+        return self.at_located(located, timer)
+
+    def at_located(self, located: Located, timer=None) -> Samples:
+        """Surface samples (and, with a source, transferred ones) where ``located`` says."""
+        stage = timer.stage if timer is not None else (lambda name: nullcontext())
+        index, rays = located.index, located.rays
+        with stage("surface"):
+            s = self.surface.samples(located.face, located.bary, self.footprints)
+        found = Samples(index, s.points, s.normals, s.dpdx, s.dpdy, rays=rays, frame=s.frame)
+        if self.caster is None:
+            return found
+        with stage("transfer"):
+            assert s.normals is not None  # a transfer's surface map has normals
+            points, hit = self.caster.project(s.points, s.normals, self.reach)
+            return Samples(index[hit], points[hit], s.normals[hit], None if s.dpdx is None else s.dpdx[hit],
+                           None if s.dpdy is None else s.dpdy[hit], rays=rays,
+                           transfer_missed=int((~hit).sum()), frame=None if s.frame is None else s.frame[hit])

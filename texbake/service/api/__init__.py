@@ -1,0 +1,1 @@
+"""texbake.service.api."""

@@ -1,0 +1,72 @@
+"""/v1/swatch: a texture evaluated without a mesh, as a small PNG (``texbake.swatch``), for the
+page's live preview.
+
+``GET`` takes the spec in the query (a name or JSON: cacheable by the browser), ``POST``
+as a JSON body; both answer the same PNG. Swatches are cached by the hash of the resolved
+spec, size and view (the ETag: an unchanged one is a 304), and at most ``RENDERERS`` are
+rendered at once, so a page typing fast cannot take over the API's CPU.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import threading
+from typing import Annotated, Any, Literal
+
+from fastapi import APIRouter, Depends, Header, Query, Response
+from pydantic import BaseModel, ConfigDict, Field
+
+from texbake import __version__
+from texbake.output.images import encode_png_bytes
+from texbake.settings import Texture
+from texbake.swatch import swatch
+from texbake.textures import parse_spec
+
+from ..deps import client_id
+
+router = APIRouter(prefix="/v1/swatch", tags=["textures"], dependencies=[Depends(client_id)])  # with API keys, a key is needed
+SIZE = 256
+MAX_SIZE = 512
+RENDERERS = threading.BoundedSemaphore(2)
+View = Literal["sphere", "slice"]
+_PNG: dict[int | str, dict[str, Any]] = {200: {"content": {"image/png": {}}, "description": "the swatch, sRGB with alpha (0 off the sphere)"}}
+
+
+class SwatchIn(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    texture: Texture = Field(description="a texture name or spec object, as in the bake settings")
+    size: int = Field(SIZE, ge=16, le=MAX_SIZE, description="width and height in pixels")
+    view: View = Field("sphere", description="sphere: the texture on a lit sphere filling the unit texture space; slice: the plane z = 0.5")
+
+
+@functools.lru_cache(maxsize=256)
+def _png(spec_json: str, size: int, view: str) -> bytes:
+    with RENDERERS:
+        return encode_png_bytes(swatch(json.loads(spec_json), size, view))
+
+
+def _answer(spec, size: int, view: str, if_none_match: str | None) -> Response:
+    spec_json = json.dumps(parse_spec(spec).model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
+    etag = '"' + hashlib.sha256(f"{__version__}|{size}|{view}|{spec_json}".encode()).hexdigest()[:32] + '"'
+    headers = {"ETag": etag, "Cache-Control": "private, max-age=3600"}
+    if if_none_match and etag in (tag.strip() for tag in if_none_match.split(",")):
+        return Response(status_code=304, headers=headers)
+    return Response(_png(spec_json, size, view), media_type="image/png", headers=headers)
+
+
+@router.get("", response_class=Response, responses=_PNG)
+def get_swatch(texture: Annotated[str, Query(min_length=1, max_length=8192, description="a texture name or a JSON spec object")],
+               size: Annotated[int, Query(ge=16, le=MAX_SIZE)] = SIZE, view: View = "sphere",
+               if_none_match: Annotated[str | None, Header(max_length=1024)] = None):
+    """The texture on a sphere (or a slice through it) as a PNG, without a mesh: the bake's
+    own evaluation, filtered by each pixel's footprint."""
+    return _answer(texture, size, view, if_none_match)
+
+
+@router.post("", response_class=Response, responses=_PNG)
+def post_swatch(body: SwatchIn, if_none_match: Annotated[str | None, Header(max_length=1024)] = None):
+    """As ``GET``, with the spec in a JSON body."""
+    return _answer(body.texture, body.size, body.view, if_none_match)

@@ -1,0 +1,111 @@
+"""The service's commands, ``texbake serve`` and ``texbake worker``.
+
+The core's command line finds them through the ``texbake.commands`` entry points, so the
+core never imports the service. Both need the ``service`` extra
+(``pip install 'texbake[service]'``); without it they say so and exit 2.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import typer
+
+
+def _need_service_extra(exc: ImportError):
+    typer.echo(f"texbake: error: this command needs the service extra (pip install 'texbake[service]'): {exc}", err=True)
+    raise typer.Exit(2)
+
+
+def serve(
+    host: str = typer.Option("127.0.0.1", envvar="BAKE_HOST", help="address to listen on"),
+    port: int = typer.Option(8000, envvar="BAKE_PORT", help="port to listen on"),
+    workers: int | None = typer.Option(None, help="embedded bake workers (default BAKE_WORKERS, 2; 0: none, API only)"),
+):
+    """Run the HTTP API with an embedded worker pool (SQLite queue and jobs by default).
+
+    The worker is watched and restarted when it dies; SIGTERM or SIGINT stops the API,
+    then the worker (its running bakes finish within BAKE_STOP_SECONDS or go back to the
+    queue), and leaves no process behind.
+    """
+    import signal
+
+    try:
+        import uvicorn
+
+        from .core import logs
+        from .core.config import get_settings
+        from .main import create_app
+        from .worker.supervise import Supervisor
+    except ImportError as exc:
+        _need_service_extra(exc)
+
+    settings = get_settings()
+    logs.setup(settings.log_format)
+    if host not in ("127.0.0.1", "localhost", "::1") and not settings.api_keys:
+        print(f"texbake serve: listening on {host} with no API keys: anyone who can reach it can bake (set BAKE_API_KEYS)", file=sys.stderr)
+    supervisor = None
+    if workers != 0:
+        command = [sys.executable, "-m", "texbake.cli", "worker"] + ([] if workers is None else ["--workers", str(workers)])
+        supervisor = Supervisor(command, settings.stop_seconds)
+        supervisor.start()
+    # uvicorn stops on SIGTERM/SIGINT, then raises the signal again with the handlers it
+    # found: these, which let this function go on to stop the worker (the default ones
+    # would end the process first and leave the worker running).
+    app = create_app()
+    for signum in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(signum, lambda *_: None)
+    try:
+        # log_config=None: uvicorn's loggers go through ours (text or JSON)
+        uvicorn.run(app, host=host, port=port, log_level="warning", log_config=None)
+    finally:
+        if supervisor is not None:
+            supervisor.stop()
+
+
+def worker(workers: int | None = typer.Option(None, help="bakes at a time (default BAKE_WORKERS, 2)")):
+    """Run bake workers alone (for more machines: point BAKE_REDIS_URL and BAKE_DATABASE_URL at shared servers).
+
+    On SIGTERM the worker takes no new job, gives running bakes BAKE_STOP_SECONDS to
+    finish, then hands the rest back to the queue for another worker; on SIGINT (Ctrl-C)
+    it hands them back at once.
+    """
+    import logging
+    import threading
+
+    try:
+        from .core import logs
+        from .core.config import get_settings
+        from .worker.tasks import hand_back, prestart, queue, reap_forever
+    except ImportError as exc:
+        _need_service_extra(exc)
+
+    settings = get_settings()
+    logs.setup(settings.log_format)
+    count = workers or settings.workers
+    prestart(count)  # the first jobs find their bake processes warm
+    stop = threading.Event()
+    threading.Thread(target=reap_forever, args=(stop, count), daemon=True).start()  # re-queue dead workers' jobs
+    try:  # threads are enough: each bake runs in its own child process
+        # an idle worker looks for work at least every second (huey's default backs off to 10 s)
+        queue().huey.create_consumer(workers=count, worker_type="thread", periodic=True, initial_delay=0.05, max_delay=1.0,
+                                     graceful_signal="TERM", shutdown_timeout=settings.stop_seconds).run()
+    finally:
+        stop.set()
+        returned = hand_back()
+        if returned:
+            logging.getLogger("texbake.service").info("handed %d running jobs back to the queue: %s", len(returned), ", ".join(returned))
+
+
+def gc():
+    """Delete expired jobs (done: BAKE_KEEP_HOURS, failed or cancelled: BAKE_KEEP_FAILED_HOURS)
+    with their folders, and left-overs of processes that died; the API does it every 10 minutes."""
+    try:
+        from .core.config import get_settings
+        from .worker.retention import collect
+    except ImportError as exc:
+        _need_service_extra(exc)
+    collected = collect(get_settings())
+    typer.echo(f"expired {len(collected.jobs)} jobs; removed {len(collected.leftovers)} left-overs")
+    for path in collected.leftovers:
+        typer.echo(f"  {path}")

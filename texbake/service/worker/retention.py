@@ -1,0 +1,59 @@
+"""Retention: finished jobs expire, with their folders (or their objects in the object
+store); nothing in the data folder or the store grows without bound. ``texbake gc`` runs
+:func:`collect` once; the API's reaper every ``GC_SECONDS``.
+
+Done jobs are kept ``BAKE_KEEP_HOURS``, failed and cancelled ones ``BAKE_KEEP_FAILED_HOURS``
+(counted from their last change); an expired job's row goes first (deduplication stops
+returning it), then its files. Left-overs of processes that died are removed too, once
+older than ``LEFTOVER_SECONDS`` (and twice ``BAKE_JOB_SECONDS``, what a bake may take): a
+job folder or a store's job prefix without a row, an upload never turned into a job, a
+finished job's unpublished bake outputs (``out.tmp.LEASE``, a store's ``out.LEASE/``), a
+worker's copy of a job (``work/``, with a store) that it did not live to remove.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from datetime import timedelta
+
+from sqlalchemy import delete, select
+
+from ..core import db
+from ..core.config import Settings
+from ..storage import get_storage
+
+GC_SECONDS = 600.0  # how often the API collects
+LEFTOVER_SECONDS = 3600.0  # a folder or upload older than this without its job is a left-over
+
+
+@dataclass
+class Collected:
+    jobs: list[str] = field(default_factory=list)  # expired: rows and folders removed
+    leftovers: list[str] = field(default_factory=list)  # paths removed (relative to the data folder)
+
+
+def collect(settings: Settings) -> Collected:
+    out = Collected()
+    now = db.now()
+    storage = get_storage(settings)
+    rules = ((("done",), settings.keep_hours), (("failed", "cancelled"), settings.keep_failed_hours))
+    with db.sessions(settings.database)() as session:
+        for states, hours in rules:
+            cutoff = now - timedelta(hours=hours)
+            expired = list(session.scalars(select(db.Job.id).where(db.Job.state.in_(states), db.Job.updated < cutoff)))
+            if expired:  # the same conditions again: a job re-queued meanwhile is not deleted
+                session.execute(delete(db.Job).where(db.Job.id.in_(expired), db.Job.state.in_(states), db.Job.updated < cutoff))
+                session.commit()
+            out.jobs += expired
+        jobs = {row.id: row.lease if row.state in db.FINISHED else None for row in session.execute(select(db.Job.id, db.Job.state, db.Job.lease))}
+    for job_id in out.jobs:
+        storage.delete(job_id)
+    old = time.time() - LEFTOVER_SECONDS
+    out.leftovers += storage.sweep(jobs, older_than=min(old, time.time() - 2 * settings.job_seconds))
+    uploads = settings.data_dir / "uploads"
+    for upload in sorted(uploads.iterdir()) if uploads.is_dir() else []:
+        if upload.stat().st_mtime < old:
+            out.leftovers.append(str(upload.relative_to(settings.data_dir)))
+            upload.unlink(missing_ok=True)
+    return out

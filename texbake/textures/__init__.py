@@ -1,0 +1,53 @@
+"""Solid textures and their evaluation, after pbrt's texture interface.
+
+The textures and their noise follow the procedural-texturing lecture (Brian Russin,
+"Procedural Texturing", module 3C of Johns Hopkins EP 605.767 Applied Computer Graphics;
+kept at ``../shared/reference/procedural-texturing-lecture.txt`` from the project folder),
+cited as "the lecture" everywhere else.
+
+``evaluate(spec, points, footprint)`` takes object-space points and their texel
+footprints through the spec's :class:`~texbake.textures.context.Placement` into texture
+space, points and differentials together, and the spec evaluates itself there with an
+:class:`~texbake.textures.context.EvalContext`. Each spec class owns its evaluation
+(``evaluate``); the registry is the ``TextureSpec`` union in ``spec.py``. It reads nothing
+but its arguments.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .context import EvalContext, Placement
+from .spec import TEXTURES, TextureSpec, Transform, parse_spec
+
+__all__ = ["TEXTURES", "EvalContext", "Placement", "TextureSpec", "Transform", "evaluate", "parse_spec"]
+
+
+def evaluate(spec, points, footprint=None, *, bounds=None, max_octaves=None) -> np.ndarray:
+    """Evaluate a texture at object-space points.
+
+    Parameters
+    ----------
+    spec : texture spec, dict, name or JSON (see :func:`parse_spec`)
+    points : (n, 3) float
+        Object-space points.
+    footprint : (n, 2, 3) float or None
+        ``dpdx`` and ``dpdy``: the object-space change of the point over one texel in
+        x and in y. ``None`` point-samples the texture.
+    bounds : (2, 3) float or None
+        Object-space bounding box of the mesh (used by ``position``); the unit cube if
+        ``None``.
+    max_octaves : int or None
+        Cap on the octaves of turbulence-based textures (turbulence, fbm, marble, flame);
+        the capped octaves add their mean. ``None``: the spec's own count.
+
+    Returns
+    -------
+    (n, channels) float64 linear values; NaN in every channel of a point that is NaN or
+    infinite (or whose footprint is), in object or texture space.
+    """
+    spec = parse_spec(spec)
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    f = None if footprint is None else np.asarray(footprint, dtype=np.float64).reshape(-1, 2, 3)
+    q, dqdx, dqdy = spec.placement()(p, None if f is None else f[:, 0], None if f is None else f[:, 1])
+    return spec(q, EvalContext(dqdx, dqdy, bounds, max_octaves))
