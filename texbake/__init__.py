@@ -5,14 +5,8 @@
     result.save("out/bunny")
 """
 
-from importlib import metadata as _metadata
-
 from .errors import AtlasError, BakeError, MeshError, OutputError, ParameterError, TextureError
-
-try:
-    __version__ = _metadata.version("texbake")
-except _metadata.PackageNotFoundError:  # run from a source tree that was never installed
-    __version__ = "0+unknown"
+from .version import __version__
 
 __all__ = ["__version__", "BakeSettings", "bake_mesh", "BakeResult", "BakeError", "MeshError", "ParameterError", "AtlasError", "TextureError", "OutputError"]
 

@@ -29,7 +29,7 @@ app = typer.Typer(add_completion=False, no_args_is_help=True, help="Bake procedu
 
 def _version(value: bool):
     if value:
-        from . import __version__
+        from .version import __version__
 
         typer.echo(f"texbake {__version__}")
         raise typer.Exit()

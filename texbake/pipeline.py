@@ -22,7 +22,6 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
 from .atlas.cache import AtlasCache, atlas_key
 from .atlas.decide import Atlas, make_atlas
 from .errors import ParameterError
@@ -37,6 +36,7 @@ from .sampling.lookup import sample_offsets, sample_uv, tiles
 from .sampling.sampler import Sampler
 from .settings import BakeSettings
 from .textures.mapping import TextureMapping
+from .version import __version__
 
 
 @dataclass

@@ -15,8 +15,8 @@ from fastapi_offline import FastAPIOffline
 from redis.exceptions import RedisError
 from sqlalchemy.exc import DataError, DBAPIError
 
-from texbake import __version__
 from texbake.errors import BakeError
+from texbake.version import __version__
 
 from .api.routes import jobs, meta, swatch
 from .api.routes.page import add_page

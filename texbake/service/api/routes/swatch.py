@@ -18,11 +18,11 @@ from typing import Annotated, Any, Literal
 from fastapi import APIRouter, Depends, Header, Query, Response
 from pydantic import BaseModel, ConfigDict, Field
 
-from texbake import __version__
 from texbake.output.images import encode_png_bytes
 from texbake.settings import Texture
 from texbake.swatch import swatch
 from texbake.textures import parse_spec
+from texbake.version import __version__
 
 from ..deps import client_id
 
