@@ -3,9 +3,12 @@
 (``texbake serve``), with every request to anywhere but 127.0.0.1 aborted.
 
 A person's round trip: upload bunny.ply, pick a texture and change a parameter (the swatch
-changes), bake at a small size, watch the progress reach 100 %, turn the model in the
-viewer, download the zip; a bad file shows the API's reason. A screenshot of each step is
-kept under pytest's tmp_path and, if TEXBAKE_ARTEFACTS names a folder, copied there.
+changes), bake at a small size (width and height), watch the progress reach 100 %, turn the
+model in the viewer, download the zip (named after the mesh and the texture); a bake that
+fails clears the result and says why; a bad file shows the API's reason. The same page at
+phone width: nothing cut off, the jobs stacked. A screenshot of each step, at laptop
+(1366x768) and phone (375x812) width, is kept under pytest's tmp_path and, if
+TEXBAKE_ARTEFACTS names a folder, copied there.
 """
 
 import io
@@ -15,17 +18,18 @@ import subprocess
 import sys
 import time
 import zipfile
-from urllib.parse import urlsplit
+from urllib.parse import quote, urlsplit
 
 import httpx
 import numpy as np
 import pytest
-from conftest import ROOT, chromium, free_port, keep_artefact, start, stop
+from conftest import ROOT, chromium, free_port, keep_artefact, start, stop, upload, wait
 from playwright.sync_api import expect, sync_playwright
 
 from texbake.output.images import read_image
 
 BACKGROUND = np.array([0x26, 0x2B, 0x33]) / 255  # the viewer's (page.css, app.js), sRGB
+LAPTOP, PHONE = (1366, 768), (375, 812)
 
 
 @pytest.fixture(scope="module")
@@ -58,15 +62,21 @@ def api(tmp_path_factory):
 
 class Page:
     """A browser page cut off from everything but 127.0.0.1, keeping its requests,
-    errors and screenshots."""
+    errors, fields left unworded (the page warns of each) and screenshots."""
 
-    def __init__(self, browser, tmp_path, width=1280, height=900):
-        self.context = browser.new_context(viewport={"width": width, "height": height}, accept_downloads=True)
+    def __init__(self, browser, tmp_path, size=LAPTOP):
+        self.context = browser.new_context(viewport={"width": size[0], "height": size[1]}, accept_downloads=True)
         self.page = self.context.new_page()
-        self.tmp_path, self.blocked, self.requests, self.errors = tmp_path, [], [], []
+        self.tmp_path, self.blocked, self.requests, self.errors, self.unworded = tmp_path, [], [], [], []
         self.context.route("**/*", self._route)
         self.page.on("pageerror", lambda error: self.errors.append(str(error)))
-        self.page.on("console", lambda m: m.type == "error" and self.errors.append(m.text))
+        self.page.on("console", self._console)
+
+    def _console(self, message):
+        if message.type == "error":
+            self.errors.append(message.text)
+        elif message.type == "warning" and "no label for" in message.text:
+            self.unworded.append(message.text)
 
     def _route(self, route):
         url = route.request.url
@@ -92,6 +102,7 @@ def page(browser, tmp_path):
     yield p
     p.close()
     assert not p.blocked, p.blocked  # the page asked for nothing beyond the server
+    assert not p.unworded, p.unworded  # every field it showed has a written label
     # 4xx answers are logged by chromium as failed loads; anything else is a bug of the page
     assert not [e for e in p.errors if "the server responded with a status of 4" not in e], p.errors
 
@@ -106,34 +117,90 @@ def field_error(p, label):
     return p.page.locator(".field", has=p.page.get_by_label(label, exact=True)).locator(".error").first
 
 
-def test_a_round_trip_on_the_page(api, page, meshes, tmp_path):
+def posts(page):
+    return sum(1 for _, method, path in page.requests if method == "POST")
+
+
+def options(p, label):
+    return p.get_by_label(label, exact=True).locator("option").all_text_contents()
+
+
+def test_the_fields_read_as_words(api, page):
+    """Every label and option is written for a person (words.js), not a field's name."""
     p = page.page
     p.goto(api + "/")
-    swatch(page, "01-start")
+    swatch(page, "00-labels")
+    p.locator("#bake-card summary").click()  # More settings
+    for label in ("Image size", "Quality preset", "Shading", "Bump texture", "Image format", "UV layout", "Unwrap method",
+                  "Bit depth", "Also write OBJ + MTL", "Samples per texel", "Octave cap (noise textures)"):
+        expect(p.get_by_label(label, exact=True)).to_be_visible()
+    assert options(p, "Quality preset") == ["Default (1 sample a texel)", "Final (16 samples a texel, slower)"]
+    assert options(p, "Bit depth") == ["Format default", "8 bits", "16 bits", "32 bits"]
+    expect(p.get_by_label("Bit depth", exact=True)).to_have_value("null")  # the format's own, until chosen
+    assert options(p, "Bump texture")[:3] == ["No bump", "Position (RGB = XYZ)", "Checker"]
+    expect(p.get_by_label("Also write OBJ + MTL", exact=True)).to_have_attribute("type", "checkbox")
+    # no label is a field's name ("Uv", "Obj", "Max Octaves"), no option a bare "none"
+    schema = httpx.get(api + "/v1/config", timeout=10).json()["settings_schema"]
+    titles = {prop["title"] for prop in schema["properties"].values()} - {"Shading", "Margin"}  # the two already words
+    labels = set(p.locator("#bake-card .field > label").all_text_contents())
+    assert labels and not labels & titles, labels & titles
+    assert "none" not in p.locator("select option").all_text_contents()
+    # the pattern's scale: one number or x, y, z in one box, like the size
+    checker = swatch(page, "00-labels-checker")
+    p.get_by_text("Placement of the pattern", exact=True).click()
+    scale = p.get_by_label("Scale", exact=True)
+    scale.fill("2, 1,")
+    expect(field_error(page, "Scale")).to_have_text('one number, or x, y and z separated by commas, not "2, 1,"')
+    expect(p.locator("#swatch-state")).to_have_text("not updated: see the error")
+    scale.fill("2, 1, 1")
+    stretched = swatch(page, "00-labels-checker-scale-2-1-1")
+    assert np.abs(stretched - checker).mean() > 0.02, np.abs(stretched - checker).mean()
+    expect(field_error(page, "Scale")).to_be_empty()
+    for name in ("marble", "flame", "wood"):  # the texture's fields too (the fixture: none left unworded)
+        p.select_option("#texture", name)
+        swatch(page, f"00-labels-{name}")
+    page.shot("00-labels-laptop")
 
-    # the texture: marble, then its frequency changed; the swatch follows
+
+def tune_the_texture(page):
+    """Marble, its frequency changed, its colours and back: the swatch follows."""
+    p = page.page
     p.select_option("#texture", "marble")
     before = swatch(page, "02-swatch-marble")
-    p.get_by_label("Frequency", exact=True).fill("-1")  # the API's reason beside the field
-    expect(field_error(page, "Frequency")).to_contain_text("greater than 0", timeout=10000)
-    p.get_by_label("Frequency", exact=True).fill("40")
+    p.get_by_label("Stripe frequency", exact=True).fill("-1")  # the API's reason beside the field
+    expect(field_error(page, "Stripe frequency")).to_contain_text("greater than 0", timeout=10000)
+    p.get_by_label("Stripe frequency", exact=True).fill("40")
     after = swatch(page, "03-swatch-frequency-40")
     assert np.abs(after - before).mean() > 0.02, np.abs(after - before).mean()  # measured 0.14
-    expect(field_error(page, "Frequency")).to_be_empty()
+    expect(field_error(page, "Stripe frequency")).to_be_empty()
     for knot in range(1, 6):  # the colour map, every knot red: a red marble
-        p.get_by_label(f"Colormap: colour of knot {knot}").fill("#ff0000")
+        p.get_by_label(f"Colour map: colour of knot {knot}").fill("#ff0000")
     red = swatch(page, "04-swatch-red-colour-map")
     disk = red[96:160, 96:160]
     assert disk[..., 0].mean() > 0.5 > disk[..., 1].mean() * 4, disk.mean(axis=(0, 1))
     p.get_by_role("button", name="Reset the parameters").click()
-    p.get_by_label("Frequency", exact=True).fill("40")
+    p.get_by_label("Stripe frequency", exact=True).fill("40")
     assert np.abs(swatch(page, "05-swatch-reset") - after).mean() < 0.01  # the same swatch as before the colours
 
-    # the mesh and the settings, then the bake: progress up to 100 %, polled without hammering
+
+def bake_at_width_and_height(page, meshes):
+    """bunny.ply at 96x64, after two sizes the page cannot read (said beside the field,
+    nothing sent): progress up to 100 %, polled without hammering."""
+    p = page.page
+    # the mesh and the settings; a size the page cannot read is said beside it, nothing sent
     p.set_input_files("#mesh", meshes / "bunny.ply")
     expect(p.locator("#mesh-info")).to_contain_text("bunny.ply")
-    p.get_by_label("Size", exact=True).fill("128")
-    p.get_by_label("Shading", exact=True).select_option("ambient-diffuse")
+    size = p.get_by_label("Image size", exact=True)
+    sent = posts(page)
+    for typed, said in (("96x", 'width and height as 2048x1024, not "96x"'), ("96x0", "0 is not allowed (1 ≤ each")):
+        size.fill(typed)
+        p.get_by_role("button", name="Bake", exact=True).click()
+        expect(field_error(page, "Image size")).to_contain_text(said)
+        expect(size).to_be_focused()
+        expect(size).to_have_attribute("aria-invalid", "true")
+    assert posts(page) == sent
+    size.fill("96x64")  # width and height
+    p.get_by_label("Shading", exact=True).select_option(label="Ambient + diffuse: a lit map too")
     page.shot("06-ready-to-bake")
     p.evaluate("""() => {  // every status the page shows, as it shows them
         window.seen = [];
@@ -143,6 +210,7 @@ def test_a_round_trip_on_the_page(api, page, meshes, tmp_path):
     began = time.monotonic()
     p.get_by_role("button", name="Bake", exact=True).click()
     expect(p.locator("#percent")).to_have_text("100 %", timeout=60000)
+    expect(field_error(page, "Image size")).to_be_empty()
     seen = p.evaluate("() => window.seen")
     assert any(s.startswith("Uploading bunny.ply") for s in seen), seen  # the upload's own progress first
     expect(p.locator("#status")).to_contain_text("Done: bunny.ply")
@@ -150,6 +218,10 @@ def test_a_round_trip_on_the_page(api, page, meshes, tmp_path):
     polls = [t for t, method, path in page.requests if t >= began and method == "GET" and path.count("/") == 3 and path.startswith("/v1/jobs/")]
     assert len(polls) <= seconds / 0.45 + 2, (len(polls), seconds)
 
+
+def look_at_the_result(page):
+    """The model in the viewer, lit and unlit, turned; the maps and the figures; the zip."""
+    p = page.page
     # the result: the model in the viewer, lit and unlit, the maps, the figures
     viewer = p.locator("#viewer")
     expect(p.locator("#viewer[data-ready='1']")).to_be_attached(timeout=20000)
@@ -164,35 +236,60 @@ def test_a_round_trip_on_the_page(api, page, meshes, tmp_path):
     turned = page.shot("09-viewer-turned", viewer)
     assert np.abs(turned - unlit).mean() > 0.01
     expect(p.locator("#figures")).to_contain_text("16,295 faces")
+    expect(p.locator("#figures")).to_contain_text("96 × 64 texels")
     images = p.locator("#images img")
     expect(images).to_have_count(3)  # albedo, lit, coverage
     for i in range(3):
         images.nth(i).scroll_into_view_if_needed()
         expect(images.nth(i)).to_have_js_property("complete", True)
-        assert images.nth(i).evaluate("img => img.naturalWidth") == 128
+        assert images.nth(i).evaluate("img => [img.naturalWidth, img.naturalHeight]") == [96, 64]
     page.shot("10-result")
 
-    # the download of every file in one zip
+    # the download of every file in one zip, named after the mesh and the texture
     with p.expect_download() as download:
         p.get_by_role("link", name="All files (result.zip)").click()
+    assert download.value.suggested_filename == "bunny-marble.zip"
     names = set(zipfile.ZipFile(io.BytesIO(download.value.path().read_bytes())).namelist())
     assert {"albedo.png", "lit.png", "coverage.png", "bunny.glb", "report.json"} <= names, names
     expect(p.locator("#jobs tbody tr").first).to_contain_text("done")
 
+
+def keep_uvs_then_fail(page, meshes):
+    """The Duck's own UVs kept (their overlap warned of), then a mesh with none: that bake
+    fails, and the Duck's result gives way to the reason."""
+    p = page.page
     # a GLB whose own UVs overlap, kept: the report's warning is shown with the result
     p.set_input_files("#mesh", meshes / "Duck.glb")
-    p.get_by_label("Size", exact=True).fill("64")
+    p.get_by_label("Image size", exact=True).fill("64, 32")  # width and height, as a list
     p.locator("#bake-card summary").click()  # More settings
-    p.get_by_label("Uv", exact=True).select_option("keep")
+    p.get_by_label("UV layout", exact=True).select_option(label="Keep the mesh's UVs")
     p.get_by_role("button", name="Bake", exact=True).click()
     expect(p.locator("#status")).to_contain_text("Done: Duck.glb", timeout=60000)
     expect(p.locator("#warnings li")).to_have_count(1, timeout=20000)
     expect(p.locator("#warnings")).to_contain_text("overlap")
+    expect(p.locator("#figures")).to_contain_text("64 × 32 texels")
     expect(p.locator("#viewer[data-ready='1']")).to_be_attached(timeout=20000)
     page.shot("11-warnings")
-    p.get_by_label("Uv", exact=True).select_option("auto")
 
-    # a bad file: the API's reason beside the mesh field (dropped, as a person would)
+    # a bake that fails: the Duck's result is gone, the reason is in its place
+    p.set_input_files("#mesh", meshes / "bunny.ply")  # no UVs to keep
+    p.get_by_role("button", name="Bake", exact=True).click()
+    expect(p.locator("#status")).to_contain_text("Failed: bunny.ply", timeout=60000)
+    expect(p.locator("#result-error")).to_have_text("The bake of bunny.ply failed: uv='keep' but the mesh has no UVs. Change the settings and bake again.")
+    expect(p.locator("#result-title")).to_have_text("4. Result: bunny.ply failed")
+    for gone in ("#viewer", "#images", "#downloads", "#figures"):
+        expect(p.locator(gone)).to_be_hidden()
+    expect(p.locator("#images img, #downloads li, #warnings li, #viewer[data-ready='1']")).to_have_count(0)
+    expect(p.locator("#jobs tbody tr").first).to_contain_text("uv='keep' but the mesh has no UVs")
+    page.shot("12-failed")
+    p.get_by_label("UV layout", exact=True).select_option(label="Automatic")
+
+
+def refuse_bad_files(page):
+    """A file that is no mesh (the API's reason), and one too large (said before anything
+    is sent): beside the mesh field."""
+    p = page.page
+    # dropped, as a person would
     p.evaluate("""() => {
         const files = new DataTransfer();
         files.items.add(new File([new Uint8Array([0x50, 0x4b, 0x03, 0x04, 1, 2, 3, 4])], "bad.obj"));
@@ -201,71 +298,114 @@ def test_a_round_trip_on_the_page(api, page, meshes, tmp_path):
     expect(p.locator("#mesh-info")).to_contain_text("bad.obj")
     p.get_by_role("button", name="Bake", exact=True).click()
     expect(p.locator("#mesh-error")).to_contain_text("zip archive", timeout=20000)
-    page.shot("12-bad-file")
+    page.shot("13-bad-file")
     # too large for the server: said before anything is sent
-    posts = sum(1 for _, method, path in page.requests if method == "POST")
+    sent = posts(page)
     p.set_input_files("#mesh", files=[{"name": "big.obj", "mimeType": "text/plain", "buffer": b"v 0 0 0\n" * 300_000}])
     expect(p.locator("#mesh-error")).to_contain_text("larger than this server's limit of 2.00 MB")
     p.get_by_role("button", name="Bake", exact=True).click()
-    assert sum(1 for _, method, path in page.requests if method == "POST") == posts
+    assert posts(page) == sent
 
-    # cancel a long bake, retry it from the list, cancel again
+
+def cancel_and_retry(page, meshes):
+    """A long bake cancelled, retried from the list, cancelled again."""
+    p = page.page
     p.set_input_files("#mesh", meshes / "bunny.ply")
-    p.get_by_label("Size", exact=True).fill("4096")
-    p.get_by_label("Quality", exact=True).select_option("final")
+    p.get_by_label("Image size", exact=True).fill("4096")
+    p.get_by_label("Quality preset", exact=True).select_option(label="Final (16 samples a texel, slower)")
     p.get_by_role("button", name="Bake", exact=True).click()
     expect(p.locator("#status")).to_contain_text("Baking", timeout=30000)
     p.get_by_role("button", name="Cancel", exact=True).click()
     expect(p.locator("#status")).to_contain_text("Cancelled", timeout=10000)
-    p.get_by_role("button", name="bake bunny.ply again").click()
+    p.get_by_role("button", name="bake bunny.ply again").first.click()  # the newest job; the failed one is below
     expect(p.locator("#status")).to_contain_text(re.compile("(Queued|Baking): bunny.ply"), timeout=10000)
     expect(p.locator("#cancel")).to_be_enabled(timeout=10000)
     p.get_by_role("button", name="Cancel", exact=True).click()
     expect(p.locator("#status")).to_contain_text("Cancelled", timeout=10000)
-    expect(p.locator("#jobs tbody tr")).to_have_count(4)
-    page.shot("13-cancelled-and-retried")
+    expect(p.locator("#result")).to_be_hidden()  # nothing of the failed bake's left either
+    expect(p.locator("#jobs tbody tr")).to_have_count(5)
+    page.shot("14-cancelled-and-retried")
 
+
+def test_a_round_trip_on_the_page(api, page, meshes):
+    p = page.page
+    p.goto(api + "/")
+    swatch(page, "01-start")
+    tune_the_texture(page)
+    bake_at_width_and_height(page, meshes)
+    look_at_the_result(page)
+    keep_uvs_then_fail(page, meshes)
+    refuse_bad_files(page)
+    cancel_and_retry(page, meshes)
     # /docs works offline too
     p.goto(api + "/docs")
     expect(p.locator(".swagger-ui .opblock").first).to_be_visible(timeout=20000)
-    page.shot("14-docs")
+    page.shot("15-docs")
 
 
-def test_the_page_at_phone_width(api, browser, tmp_path):
-    page = Page(browser, tmp_path, width=390, height=844)
+def test_the_page_at_phone_width(api, browser, tmp_path, meshes):
+    # two jobs for the list: one done under a long name (not ASCII), one failed with its reason
+    long_name = "suzanne-с-длинным-именем-из-сканера-2024-05-17.ply"
+    done = wait(api, upload(api, meshes / "suzanne.ply", {"texture": "wood", "size": 32}, name=long_name).json()["id"])
+    failed = wait(api, upload(api, meshes / "bunny.ply", {"texture": "wood", "size": 32, "uv": "keep"}).json()["id"])
+    assert (done["state"], failed["state"]) == ("done", "failed"), (done, failed)
+    # the zip is named after them: exactly as filename*, in ASCII as filename
+    disposition = httpx.get(f"{api}/v1/jobs/{done['id']}/result.zip", timeout=30).headers["Content-Disposition"]
+    assert disposition == ("attachment; filename=\"suzanne-_-_______-______-__-_______-2024-05-17-wood.zip\"; filename*=UTF-8''"
+                           + quote("suzanne-с-длинным-именем-из-сканера-2024-05-17-wood.zip")), disposition
+
+    page = Page(browser, tmp_path, size=PHONE)
     try:
-        page.page.goto(api + "/")
-        expect(page.page.locator("#swatch[data-ready='1']")).to_be_attached(timeout=20000)
+        p = page.page
+        p.goto(api + "/")
+        expect(p.locator("#swatch[data-ready='1']")).to_be_attached(timeout=20000)
+        expect(p.locator("#jobs tbody")).to_contain_text(long_name, timeout=10000)
         # nothing wider than the window: readable without scrolling sideways
-        assert page.page.evaluate("() => document.documentElement.scrollWidth") <= 390
-        page.page.keyboard.press("Tab")  # the controls are reachable by keyboard, in order
-        assert page.page.evaluate("() => document.activeElement.textContent") == "API documentation"
-        page.page.keyboard.press("Tab")
-        assert page.page.evaluate("() => document.activeElement.id") == "mesh"
+        assert p.evaluate("() => document.documentElement.scrollWidth") <= PHONE[0]
+        # the jobs stacked: each cell inside the card, said with its column's name
+        cells = p.evaluate("""() => [...document.querySelectorAll("#jobs tbody td")].map((td) => {
+            const box = td.getBoundingClientRect(), card = document.querySelector("#jobs-card").getBoundingClientRect();
+            return [td.dataset.label, getComputedStyle(td, "::before").content, box.left >= card.left && box.right <= card.right, td.scrollWidth <= td.clientWidth];
+        })""")
+        assert cells and all(inside and fits and before == f'"{label}"' for label, before, inside, fits in cells), cells
+        table = p.locator("#jobs-card .table")
+        assert table.evaluate("t => t.scrollWidth <= t.clientWidth"), "the jobs table scrolls sideways"
+        expect(p.locator("#jobs thead")).not_to_be_in_viewport()  # the header only for screen readers
+        failed_row = p.locator("#jobs tbody tr").first  # the newest job
+        expect(failed_row.locator("[data-label='State']")).to_contain_text("failed")
+        expect(failed_row.locator(".reason")).to_have_text("uv='keep' but the mesh has no UVs")
+        expect(failed_row.locator(".reason")).to_be_visible()
+        p.locator("#jobs-card").scroll_into_view_if_needed()
+        page.shot("16-phone-jobs", p.locator("#jobs-card"))
+        p.keyboard.press("Tab")  # the controls are reachable by keyboard, in order
+        assert p.evaluate("() => document.activeElement.textContent") == "API documentation"
+        p.keyboard.press("Tab")
+        assert p.evaluate("() => document.activeElement.id") == "mesh"
         # every control has a name a screen reader says (a label, or aria-label)
-        unnamed = page.page.evaluate("""() => [...document.querySelectorAll("input, select, button")]
+        unnamed = p.evaluate("""() => [...document.querySelectorAll("input, select, button")]
             .filter((c) => !c.labels?.length && !c.getAttribute("aria-label") && !c.textContent.trim() && c.getAttribute("aria-hidden") !== "true")
             .map((c) => c.outerHTML)""")
         assert not unnamed, unnamed
         # every texture's form is made and swatched
-        names = page.page.locator("#texture option").all_text_contents()
+        names = p.locator("#texture option").all_text_contents()
         assert len(names) == 8, names
         for name in names:
-            page.page.select_option("#texture", name)
-            expect(page.page.locator("#swatch[data-ready='1']")).to_be_attached(timeout=20000)
+            p.select_option("#texture", label=name)
+            expect(p.locator("#swatch[data-ready='1']")).to_be_attached(timeout=20000)
         # an animated texture: its frames can be set, and the page says what the bake writes
-        page.page.select_option("#texture", "checker")
-        frames = page.page.get_by_label("Frames", exact=True)
+        p.select_option("#texture", "checker")
+        frames = p.get_by_label("Animation frames (times)", exact=True)
         expect(frames).to_be_hidden()
-        page.page.select_option("#texture", "flame")
+        p.select_option("#texture", "flame")
         expect(frames).to_be_visible()
         frames.fill("0, 0.5, 1")
-        expect(page.page.locator("#maps")).to_contain_text("an albedo map per frame and a flipbook")
-        expect(page.page.locator("#swatch[data-ready='1']")).to_be_attached(timeout=20000)
-        page.shot("15-phone")
+        expect(p.locator("#maps")).to_contain_text("an albedo map per frame and a flipbook")
+        expect(p.locator("#swatch[data-ready='1']")).to_be_attached(timeout=20000)
+        assert p.evaluate("() => document.documentElement.scrollWidth") <= PHONE[0]  # the flame's form too
+        page.shot("17-phone")
     finally:
         page.close()
-    assert not page.blocked and not page.errors, (page.blocked, page.errors)
+    assert not page.blocked and not page.errors and not page.unworded, (page.blocked, page.errors, page.unworded)
 
 
 def test_with_api_keys_the_page_asks_for_the_key(browser, tmp_path, tmp_path_factory, meshes):
@@ -279,7 +419,7 @@ def test_with_api_keys_the_page_asks_for_the_key(browser, tmp_path, tmp_path_fac
         p.get_by_label("API key").fill("wrong")
         p.get_by_role("button", name="Use this key").click()
         expect(p.locator("#key-error")).to_contain_text("missing or unknown API key", timeout=10000)
-        page.shot("16-key-asked")
+        page.shot("18-key-asked")
         p.get_by_label("API key").fill("sesame")
         p.get_by_role("button", name="Use this key").click()
         expect(p.locator("#jobs tbody")).to_contain_text("No jobs yet", timeout=10000)
@@ -289,7 +429,7 @@ def test_with_api_keys_the_page_asks_for_the_key(browser, tmp_path, tmp_path_fac
         assert p.evaluate("() => [sessionStorage.getItem('texbake.key'), localStorage.length]") == ["sesame", 0]
         # a bake with the key: the maps, the model and the downloads come through it too
         p.set_input_files("#mesh", meshes / "suzanne.ply")
-        p.get_by_label("Size", exact=True).fill("32")
+        p.get_by_label("Image size", exact=True).fill("32")
         p.get_by_role("button", name="Bake", exact=True).click()
         expect(p.locator("#viewer[data-ready='1']")).to_be_attached(timeout=60000)
         image = p.locator("#images img").first
@@ -298,8 +438,12 @@ def test_with_api_keys_the_page_asks_for_the_key(browser, tmp_path, tmp_path_fac
         with p.expect_download() as download:
             p.get_by_role("link", name="report.json").click()
         assert b'"suzanne"' in download.value.path().read_bytes()
+        with p.expect_download() as download:  # through fetch, named as the server names it
+            p.get_by_role("link", name="All files (result.zip)").click()
+        assert download.value.suggested_filename == "suzanne-checker.zip"
+        assert "suzanne.glb" in zipfile.ZipFile(io.BytesIO(download.value.path().read_bytes())).namelist()
         expect(p.locator("#jobs tbody tr")).to_have_count(1)  # the key's own
-        page.shot("17-key-given")
+        page.shot("19-key-given")
     finally:
         page.close()
         stop(proc)

@@ -4,6 +4,7 @@
 import * as THREE from "three";
 import { GLTFLoader } from "three/addons/loaders/GLTFLoader.js";
 import { OrbitControls } from "three/addons/controls/OrbitControls.js";
+import { SETTING_WORDS, TEXTURE_NAMES, TEXTURE_WORDS, wordsFor } from "./words.js";
 
 const $ = (id) => document.getElementById(id);
 function el(tag, props = {}, ...children) { // an element with properties and children (false and null left out)
@@ -118,6 +119,8 @@ function showError(error, fallback) {
 }
 
 // ---- forms from a JSON Schema --------------------------------------------------------
+// Each control is made from its schema node; its label, hint and option words come from
+// words.js (a field missing there is titled from its name, and the console says so).
 const resolve = (root, node) => { while (node?.$ref) node = root.$defs[node.$ref.split("/").pop()]; return node || {}; };
 const toSrgb = (c) => (c <= 0.0031308 ? 12.92 * c : 1.055 * c ** (1 / 2.4) - 0.055);
 const toLinear = (c) => (c <= 0.04045 ? c / 12.92 : ((c + 0.055) / 1.055) ** 2.4);
@@ -126,98 +129,148 @@ const linear = (text) => [1, 3, 5].map((i) => Math.round(toLinear(parseInt(text.
 const numbers = (text) => text.split(/[\s,;]+/).filter(Boolean).map((t) => (Number.isFinite(Number(t)) ? Number(t) : t));
 const titled = (prop, key) => prop.title || key[0].toUpperCase() + key.slice(1).replaceAll("_", " ");
 const plain = (text) => text.replaceAll("``", "").replaceAll("`", ""); // the schema's descriptions are reST
+const isNumber = (node) => node.type === "number" || node.type === "integer";
 let ids = 0;
 
-// The range a number may take, and in words ("0 < x ≤ 1000"); `limit`: this server's, if lower
-function range(node, limit) {
-  const lo = node.minimum ?? node.exclusiveMinimum;
-  let hi = node.maximum ?? node.exclusiveMaximum, below = node.maximum == null && hi != null ? "<" : "≤";
+// The range a number may take, in words ("0 < x ≤ 1000", `name` for x) and as a test;
+// `limit`: this server's, if lower
+function range(node, limit, name = "x") {
+  const lo = node.minimum ?? node.exclusiveMinimum, loOpen = node.minimum == null;
+  let hi = node.maximum ?? node.exclusiveMaximum, hiOpen = node.maximum == null;
   const server = limit != null && !(hi <= limit);
-  if (server) [hi, below] = [limit, "≤"];
-  const text = [lo != null && `${lo} ${node.minimum != null ? "≤" : "<"}`, "x", hi != null && `${below} ${hi}`].filter(Boolean).join(" ");
-  return { lo, hi, text: lo == null && hi == null ? "" : text + (server ? ": this server's limit" : "") };
+  if (server) [hi, hiOpen] = [limit, false];
+  const text = [lo != null && `${lo} ${loOpen ? "<" : "≤"}`, name, hi != null && `${hiOpen ? "<" : "≤"} ${hi}`].filter(Boolean).join(" ");
+  const inside = (x) => (lo == null || (loOpen ? x > lo : x >= lo)) && (hi == null || (hiOpen ? x < hi : x <= hi));
+  return { lo, hi, inside, text: lo == null && hi == null ? "" : text + (server ? ": this server's limit" : "") };
 }
 
-// One control for one schema node: {element, get()}; get() gives the value it was made
-// with until the person changes it (a colour round trip through hex is not exact).
-function control(root, prop, key, path, value, changed, limit) {
-  const branches = (resolve(root, prop).anyOf || [prop]).map((b) => resolve(root, b));
-  const nullable = branches.some((b) => b.type === "null");
+// One control for one schema node: {element, get(), problems()}. get() gives the value it
+// was made with until the person changes it (a colour round trip through hex is not exact);
+// problems() lists "path: what is wrong" where the page can tell before the API does.
+function control(ctx, prop, key, path, value, limit) {
+  const branches = (resolve(ctx.root, prop).anyOf || [prop]).map((b) => resolve(ctx.root, b));
   const node = branches.find((b) => b.type !== "null") || {};
-  const id = `f${++ids}`, title = titled(prop, key);
-  let about = plain(prop.description || node.description || "");
-  const field = el("div", { className: "field" });
-  const error = el("p", { className: "error", id: `${id}-error`, role: "alert" });
-  let input, read, touched = false;
-  const hint = (text) => el("p", { className: "hint", id: `${id}-hint`, textContent: text });
-  const labelled = (inp) => { inp.id = id; inp.setAttribute("aria-describedby", `${id}-hint ${id}-error`); };
-  const touch = () => { touched = true; changed(); };
+  const words = wordsFor(ctx.words, path);
+  if (words.label == null) console.warn(`texbake page: no label for ${path.join(".")} in words.js`);
+  const spec = { ctx, path, value, limit, branches, node, words, nullable: branches.some((b) => b.type === "null"),
+    title: words.label ?? titled(prop, key), about: words.hint ?? plain(prop.description || node.description || "") };
+  if (node.properties) return node.properties.knots && node.properties.colours ? colourMap(spec) : group(spec);
+  const build = branches.some(isNumber) && branches.some((b) => b.type === "array" && b.prefixItems) ? numberOrList
+    : node.enum ? choice : node.type === "boolean" ? checkbox : isNumber(node) ? numberBox
+    : node.type === "array" && node.prefixItems?.length === 3 && node.description === "linear RGB" ? colour
+    : node.type === "array" && node.prefixItems ? triple : node.type === "array" ? list : jsonBox;
+  return field(spec, build(spec));
+}
 
-  if (node.properties) { // a group of parameters
-    if (node.properties.knots && node.properties.colours) return colourMap(prop, key, path, value, changed);
-    const children = Object.entries(node.properties).map(([k, p]) => [k, control(root, p, k, [...path, k], (value || {})[k] ?? p.default, changed)]);
-    const group = el("details", {}, el("summary", { textContent: title }), el("div", { className: "form" }, children.map(([, c]) => c.element)));
-    fields.set(path.join("."), { input: null, error });
-    group.append(error);
-    return { element: group, get: () => Object.fromEntries(children.map(([k, c]) => [k, c.get()])) };
+// A labelled control: the label, what `made` built ({input, read, body, note, check,
+// inputs}), a hint and an error line
+function field({ ctx, path, value, title, about }, made) {
+  const { input, read, body = input, note = "", check = () => "" } = made;
+  const id = `f${++ids}`;
+  let touched = false;
+  input.id = id;
+  input.setAttribute("aria-describedby", `${id}-hint ${id}-error`);
+  for (const each of made.inputs || [input]) {
+    each.addEventListener(each.type === "checkbox" || each.tagName === "SELECT" ? "change" : "input", () => { touched = true; ctx.changed(); });
   }
-  if (node.enum) {
-    input = el("select", {}, [...(nullable ? [null] : []), ...node.enum].map((v) => el("option", { value: JSON.stringify(v), textContent: v ?? "none" })));
-    input.value = JSON.stringify(value ?? null);
-    read = () => JSON.parse(input.value);
-  } else if (node.type === "boolean") {
-    input = el("input", { type: "checkbox", checked: !!value });
-    read = () => input.checked;
-  } else if (node.type === "number" || node.type === "integer") {
-    const { lo, hi: top, text } = range(node, limit);
-    input = el("input", { type: "number", step: node.type === "integer" ? "1" : "any", value: value ?? "", placeholder: nullable ? "auto" : "" });
-    if (lo != null) input.min = lo;
-    if (top != null) input.max = top;
-    read = () => (input.value.trim() === "" ? (nullable ? null : input.value) : Number.isFinite(input.valueAsNumber) ? input.valueAsNumber : input.value);
-    const row = el("div", { className: "number" }, input);
-    if (lo != null && top != null && top - lo <= 1000) { // a slider beside the box where the range is small
-      const slider = el("input", { type: "range", min: lo, max: top, step: node.type === "integer" ? 1 : (top - lo) / 200, value: value ?? lo, tabIndex: -1 });
-      slider.setAttribute("aria-hidden", "true");
-      slider.addEventListener("input", () => { input.value = slider.value; touch(); });
-      input.addEventListener("input", () => { slider.value = input.value; });
-      row.append(slider);
-    }
-    labelled(input);
-    field.append(el("label", { htmlFor: id, textContent: title }), row, hint([about, text && `(${text})`].filter(Boolean).join(" ")), error);
-  } else if (node.type === "array" && node.prefixItems?.length === 3 && node.description === "linear RGB") {
-    input = el("input", { type: "color", value: hex(value || [0, 0, 0]) });
-    read = () => linear(input.value);
-  } else if (node.type === "array" && node.prefixItems) { // x, y, z
-    const boxes = node.prefixItems.map((_, i) => el("input", { type: "number", step: "any", value: (value || [])[i] ?? "" }));
-    boxes.forEach((b, i) => { b.setAttribute("aria-label", `${title} ${"xyz"[i]}`); b.addEventListener("input", touch); });
-    labelled(boxes[0]);
-    input = boxes[0];
-    read = () => boxes.map((b) => (Number.isFinite(b.valueAsNumber) ? b.valueAsNumber : b.value));
-    field.append(el("label", { htmlFor: id, textContent: title }), el("div", { className: "triple" }, boxes), hint(about), error);
-  } else if (node.type === "array") { // a list of numbers
-    input = el("input", { type: "text", value: (value || []).join(", "), placeholder: nullable ? "none" : "" });
-    read = () => (input.value.trim() === "" && nullable ? null : numbers(input.value));
-    about ||= "numbers, separated by commas";
-  } else { // anything else: JSON
-    input = el("input", { type: "text", value: JSON.stringify(value ?? null) });
-    read = () => { try { return JSON.parse(input.value); } catch { return input.value; } };
-  }
-  if (!field.childElementCount) {
-    labelled(input);
-    field.append(el("label", { htmlFor: id, textContent: title }), input, hint(about), error);
-  }
-  if (input.type !== "range") input.addEventListener(input.type === "checkbox" || input.tagName === "SELECT" ? "change" : "input", touch);
+  const label = el("label", { htmlFor: id, textContent: title });
+  const hint = el("p", { className: "hint", id: `${id}-hint`, textContent: [about, note].filter(Boolean).join(" ") });
+  const error = el("p", { className: "error", id: `${id}-error`, role: "alert" });
+  const box = input.type === "checkbox";
+  const element = el("div", { className: box ? "field check" : "field" }, box ? [input, label] : [label, body], hint, error);
   fields.set(path.join("."), { input, error });
-  return { element: field, get: () => (touched ? read() : value), field };
+  const problems = () => { const problem = touched && check(); return problem ? [`${path.join(".")}: ${problem}`] : []; };
+  return { element, get: () => (touched ? read() : value), problems };
+}
+
+// A group of parameters, folded
+function group({ ctx, node, path, value, title }) {
+  const children = Object.entries(node.properties).map(([k, p]) => [k, control(ctx, p, k, [...path, k], (value || {})[k] ?? p.default)]);
+  const error = el("p", { className: "error", role: "alert" });
+  fields.set(path.join("."), { input: null, error });
+  const element = el("details", {}, el("summary", { textContent: title }), el("div", { className: "form" }, children.map(([, c]) => c.element)), error);
+  return { element, get: () => Object.fromEntries(children.map(([k, c]) => [k, c.get()])), problems: () => children.flatMap(([, c]) => c.problems()) };
+}
+
+function choice({ node, nullable, value, words }) {
+  const listed = [...(nullable && words.noneIs === undefined ? [null] : []), ...node.enum];
+  const said = (v) => (v === null ? words.none ?? "none" : words.options?.[v] ?? String(v));
+  const input = el("select", {}, listed.map((v) => el("option", { value: JSON.stringify(v), textContent: said(v) })));
+  input.value = JSON.stringify(value ?? words.noneIs ?? null);
+  return { input, read: () => JSON.parse(input.value) };
+}
+
+function checkbox({ value }) {
+  const input = el("input", { type: "checkbox", checked: !!value });
+  return { input, read: () => input.checked };
+}
+
+function numberBox({ node, nullable, value, limit, words }) {
+  const { lo, hi, text } = range(node, limit);
+  const integer = node.type === "integer";
+  const input = el("input", { type: "number", step: integer ? "1" : "any", value: value ?? "", placeholder: nullable ? words.placeholder ?? "auto" : "" });
+  if (lo != null) input.min = lo;
+  if (hi != null) input.max = hi;
+  const body = el("div", { className: "number" }, input);
+  if (lo != null && hi != null && hi - lo <= 1000) { // a slider beside the box where the range is small
+    const slider = el("input", { type: "range", min: lo, max: hi, step: integer ? 1 : (hi - lo) / 200, value: value ?? lo, tabIndex: -1 });
+    slider.setAttribute("aria-hidden", "true");
+    slider.addEventListener("input", () => { input.value = slider.value; input.dispatchEvent(new Event("input")); });
+    input.addEventListener("input", () => { slider.value = input.value; });
+    body.append(slider);
+  }
+  const read = () => (input.value.trim() === "" ? (nullable ? null : input.value) : Number.isFinite(input.valueAsNumber) ? input.valueAsNumber : input.value);
+  return { input, read, body, note: text && `(${text})` };
+}
+
+// One number or a fixed-length list of them in one text box, written as a person would
+// ("2048", "2048x1024", "2048, 1024"), sent as the number or the list the schema takes
+function numberOrList({ branches, value, limit, words }) {
+  const scalar = branches.find(isNumber), n = branches.find((b) => b.type === "array").prefixItems.length;
+  const bounds = range(scalar, limit, "each");
+  const input = el("input", { type: "text", value: [value ?? []].flat().join(words.join ?? ", "), spellcheck: false, autocomplete: "off" });
+  const parse = () => {
+    const parts = input.value.trim().split(/\s*[x×*,;]\s*|\s+/i), values = parts.map(Number); // "96x": ["96", ""]
+    if (!(parts.length === 1 || parts.length === n) || parts.includes("") || !values.every(Number.isFinite)) return undefined;
+    return parts.length === 1 ? values[0] : values;
+  };
+  const check = () => {
+    const parsed = parse();
+    if (parsed === undefined) return `${words.shape ?? `one number, or ${n} separated by commas`}, not "${input.value.trim()}"`;
+    const bad = [parsed].flat().find((x) => !bounds.inside(x) || (scalar.type === "integer" && !Number.isInteger(x)));
+    return bad === undefined ? "" : `${bad} is not allowed (${bounds.text}${scalar.type === "integer" ? ", whole numbers" : ""})`;
+  };
+  return { input, read: () => parse() ?? input.value, check, note: bounds.text && `(${bounds.text})` };
+}
+
+function colour({ value }) {
+  const input = el("input", { type: "color", value: hex(value || [0, 0, 0]) });
+  return { input, read: () => linear(input.value) };
+}
+
+function triple({ node, value, title }) { // x, y, z
+  const boxes = node.prefixItems.map((_, i) => el("input", { type: "number", step: "any", value: (value || [])[i] ?? "" }));
+  boxes.forEach((b, i) => b.setAttribute("aria-label", `${title} ${"xyz"[i]}`));
+  const read = () => boxes.map((b) => (Number.isFinite(b.valueAsNumber) ? b.valueAsNumber : b.value));
+  return { input: boxes[0], inputs: boxes, read, body: el("div", { className: "triple" }, boxes) };
+}
+
+function list({ nullable, value, words, about }) { // a list of numbers
+  const input = el("input", { type: "text", value: (value || []).join(", "), placeholder: words.placeholder ?? (nullable ? "none" : "") });
+  return { input, read: () => (input.value.trim() === "" && nullable ? null : numbers(input.value)), note: about ? "" : "Numbers, separated by commas." };
+}
+
+function jsonBox({ value }) { // anything else: JSON
+  const input = el("input", { type: "text", value: JSON.stringify(value ?? null) });
+  return { input, read: () => { try { return JSON.parse(input.value); } catch { return input.value; } } };
 }
 
 // A colour map: its gradient, and each knot's place and colour (knots can be added and removed)
-function colourMap(prop, key, path, value, changed) {
+function colourMap({ ctx, path, value, title }) {
   const map = { knots: [...(value?.knots || [0, 1])], colours: (value?.colours || [[0, 0, 0], [1, 1, 1]]).map((c) => [...c]) };
   const error = el("p", { className: "error", role: "alert" });
   const bar = el("div", { className: "gradient", role: "img" });
   const list = el("div", { className: "knots" });
-  const title = titled(prop, key);
   let touched = false;
   const draw = () => {
     const [k0, k1] = [map.knots[0], map.knots[map.knots.length - 1]];
@@ -225,7 +278,7 @@ function colourMap(prop, key, path, value, changed) {
     bar.style.backgroundImage = `linear-gradient(to right, ${map.knots.map((k, i) => `${hex(map.colours[i])} ${at(k).toFixed(1)}%`).join(", ")})`;
     bar.setAttribute("aria-label", `${title}: ${map.knots.map((k, i) => `${hex(map.colours[i])} at ${k}`).join(", ")}`);
   };
-  const edit = () => { touched = true; draw(); changed(); };
+  const edit = () => { touched = true; draw(); ctx.changed(); };
   const rows = () => {
     list.replaceChildren(...map.knots.map((k, i) => {
       const place = el("input", { type: "number", step: "any", value: k });
@@ -249,17 +302,18 @@ function colourMap(prop, key, path, value, changed) {
   });
   rows(); draw();
   fields.set(path.join("."), { input: null, error });
-  const element = el("details", { open: true }, el("summary", { textContent: `${title} (colour map)` }), bar, list, add, error);
-  return { element, get: () => (touched ? { knots: [...map.knots], colours: map.colours.map((c) => [...c]) } : value) };
+  const element = el("details", { open: true }, el("summary", { textContent: title }), bar, list, add, error);
+  return { element, get: () => (touched ? { knots: [...map.knots], colours: map.colours.map((c) => [...c]) } : value), problems: () => [] };
 }
 
-// The controls of a schema's top-level properties into `into`; {key: control}
-function form(root, node, into, { prefix, only, skip = [], limits = {}, changed }) {
+// The controls of a schema's top-level properties into `into`; {key: control}. `ctx`:
+// {root: the schema, words: its table in words.js, changed: called on every edit}
+function form(ctx, node, into, { prefix, only, skip = [], limits = {} }) {
   const out = {};
   for (const [key, prop] of Object.entries(node.properties)) {
     if (key === "name" || skip.includes(key) || (only && !only(key))) continue;
     const start = limits[key] != null ? Math.min(prop.default ?? limits[key], limits[key]) : prop.default;
-    out[key] = control(root, prop, key, [...prefix, key], start, changed, limits[key]);
+    out[key] = control(ctx, prop, key, [...prefix, key], start, limits[key]);
     out[key].default = prop.default;
     into.append(out[key].element);
   }
@@ -269,6 +323,8 @@ function form(root, node, into, { prefix, only, skip = [], limits = {}, changed 
 // What differs from the defaults (a group is sent whole: its defaults are the parent's)
 const changedValues = (controls) => Object.fromEntries(Object.entries(controls)
   .filter(([, c]) => !c.element.hidden).map(([k, c]) => [k, c.get()]).filter(([k, v]) => JSON.stringify(v) !== JSON.stringify(controls[k].default)));
+// What the page can tell is wrong with the shown controls: "path: problem; ..." ("" if nothing)
+const typedWrong = (controls) => Object.values(controls).filter((c) => !c.element.hidden).flatMap((c) => c.problems()).join("; ");
 
 // ---- the texture and its swatch ------------------------------------------------------
 const textureDef = (name) => resolve(textureSchema, textureSchema.discriminator ? { $ref: textureSchema.discriminator.mapping[name] } : {});
@@ -280,7 +336,7 @@ function buildTexture(name) {
   const box = $("texture-form");
   box.replaceChildren();
   const def = textureDef(name);
-  textureControls = form(textureSchema, def, box, { prefix: ["texture"], changed: swatchSoon });
+  textureControls = form({ root: textureSchema, words: TEXTURE_WORDS, changed: () => swatchSoon() }, def, box, { prefix: ["texture"] });
   // the placement last, closed: most people tune the pattern, not where it sits
   for (const key of ["transform", "space", "model"]) if (textureControls[key]) box.append(textureControls[key].element);
   $("texture-about").textContent = plain(catalogue.find((t) => t.name === name)?.description || "");
@@ -302,6 +358,13 @@ function swatchSoon(wait = 150) {
 async function updateSwatch() {
   swatchAbort?.abort();
   const abort = (swatchAbort = new AbortController());
+  const wrong = typedWrong(textureControls);
+  if (wrong) { // said beside the field, without asking the server
+    clearErrors("texture");
+    showError({ body: { detail: wrong } }, "texture");
+    $("swatch-state").textContent = "not updated: see the error";
+    return;
+  }
   const spec = textureSpec(), view = $("swatch-view").value;
   const query = new URLSearchParams({ texture: JSON.stringify(spec), view });
   $("swatch-state").textContent = "updating…";
@@ -370,6 +433,7 @@ function showJob(job) {
 async function follow(job) {
   const token = ++following;
   currentJob = job;
+  if (resultOf !== job.id || job.state !== "done") clearResult(); // what is on screen is this job's result, or nothing
   let wait = 500, last = "";
   refreshJobs();
   while (token === following) {
@@ -392,6 +456,14 @@ async function follow(job) {
   currentJob = job;
   refreshJobs();
   if (job.state === "done") await showResult(job);
+  else if (job.state === "failed") showFailure(job);
+}
+
+// The first control marked invalid, its folded groups opened
+function focusInvalid() {
+  const invalid = document.querySelector("[aria-invalid='true']");
+  for (let group = invalid?.closest("details"); group; group = group.parentElement.closest("details")) group.open = true;
+  invalid?.focus();
 }
 
 function bakeSettings() {
@@ -401,9 +473,11 @@ function bakeSettings() {
 async function bake(event) {
   event.preventDefault();
   clearErrors("mesh", "settings", ...Object.keys(settingsControls), "texture");
-  if (!meshFile) {
-    showError({ body: { detail: $("mesh").files.length ? "mesh: choose a mesh file this server takes" : "mesh: choose a mesh file first" } }, "mesh");
-    return $("mesh").focus();
+  const wrong = [typedWrong(settingsControls), typedWrong(textureControls)].filter(Boolean).join("; ");
+  if (!meshFile || wrong) {
+    if (!meshFile) showError({ body: { detail: $("mesh").files.length ? "mesh: choose a mesh file this server takes" : "mesh: choose a mesh file first" } }, "mesh");
+    if (wrong) showError({ body: { detail: wrong } }, "settings");
+    return focusInvalid();
   }
   const form = new FormData();
   form.append("mesh", meshFile);
@@ -492,16 +566,21 @@ async function showModel(url) {
   if (!viewer.renderer) setupViewer();
   const loader = new GLTFLoader().setRequestHeader(headers());
   const gltf = await loader.loadAsync(url);
-  if (viewer.model) {
-    viewer.scene.remove(viewer.model);
-    viewer.model.traverse((o) => { o.geometry?.dispose(); for (const m of [o.userData.lit, o.userData.unlit]) { m?.map?.dispose(); m?.dispose(); } });
-  }
+  dropModel();
   viewer.model = gltf.scene;
   viewer.model.position.sub(new THREE.Box3().setFromObject(viewer.model).getCenter(new THREE.Vector3())); // centred on the origin
   viewer.scene.add(viewer.model);
   frame();
   applyLit();
   $("viewer").dataset.ready = "1";
+}
+
+function dropModel() {
+  if (!viewer.model) return;
+  viewer.scene.remove(viewer.model);
+  viewer.model.traverse((o) => { o.geometry?.dispose(); for (const m of [o.userData.lit, o.userData.unlit]) { m?.map?.dispose(); m?.dispose(); } });
+  viewer.model = null;
+  $("viewer").dataset.ready = "0";
 }
 
 function turn(angle) {
@@ -530,26 +609,58 @@ function figures(report) {
   return el("dl", {}, rows.map(([k, v]) => [el("dt", { textContent: k }), el("dd", { textContent: v })]));
 }
 
+// The name a Content-Disposition header gives the file (filename*, else filename)
+function attachmentName(response) {
+  const header = response.headers.get("Content-Disposition") || "";
+  const utf8 = /filename\*=UTF-8''([^;\s]+)/i.exec(header), ascii = /filename="([^"]+)"/i.exec(header);
+  return utf8 ? decodeURIComponent(utf8[1]) : ascii?.[1];
+}
+
+// A download link; `name` unset: the name the server gives it
 function link(path, name, text) {
-  const a = el("a", { href: path, download: name, textContent: text });
+  const a = el("a", { href: path, download: name ?? "", textContent: text });
   a.addEventListener("click", async (event) => { // with a key, the file comes through fetch
     if (!sessionStorage.getItem(KEY)) return;
     event.preventDefault();
     try {
-      el("a", { href: await fileUrl(path), download: name }).click();
+      const response = await api(path);
+      blobs.push(URL.createObjectURL(await response.blob()));
+      el("a", { href: blobs[blobs.length - 1], download: name ?? attachmentName(response) ?? path.split("/").pop() }).click();
     } catch (error) { showError(error, "jobs"); }
   });
   return a;
 }
 
+// The result card holds one job's: its files, or why it failed (resultOf: that job's id)
+let resultOf = null;
+function clearResult() {
+  resultOf = null;
+  blobs.splice(0).forEach((url) => URL.revokeObjectURL(url));
+  for (const id of ["figures", "warnings", "downloads", "images"]) $(id).replaceChildren();
+  $("result-error").textContent = "";
+  $("result").hidden = true;
+  dropModel();
+}
+
+function showFailure(job) {
+  clearResult();
+  resultOf = job.id;
+  $("result-title").textContent = `4. Result: ${job.mesh} failed`;
+  $("result-body").hidden = true;
+  $("result-error").textContent = `The bake of ${job.mesh} failed: ${job.error || "the server gave no reason"}. Change the settings and bake again.`;
+  $("result").hidden = false;
+}
+
 async function showResult(job) {
   const base = `/v1/jobs/${job.id}`;
-  blobs.splice(0).forEach((url) => URL.revokeObjectURL(url));
+  clearResult();
+  resultOf = job.id;
+  $("result-body").hidden = false;
   $("result").hidden = false;
   $("result-title").textContent = `4. Result: ${job.mesh}`;
   $("figures").replaceChildren(job.report ? figures(job.report) : "");
   $("warnings").replaceChildren(...job.warnings.map((w) => el("li", { textContent: w })));
-  $("downloads").replaceChildren(el("li", {}, link(`${base}/result.zip`, `${job.id}.zip`, "All files (result.zip)")),
+  $("downloads").replaceChildren(el("li", {}, link(`${base}/result.zip`, undefined, "All files (result.zip)")),
     ...job.files.map((name) => el("li", {}, link(`${base}/files/${encodeURIComponent(name)}`, name, name))));
   const images = job.files.filter((name) => name.endsWith(".png"));
   $("images").replaceChildren(...await Promise.all(images.map(async (name) => el("figure", {},
@@ -576,11 +687,13 @@ async function refreshJobs() {
     const texture = job.settings.texture?.name ?? job.settings.texture ?? "checker";
     const live = !FINISHED.includes(job.state);
     const state = `${job.state}${job.state === "running" ? ` ${Math.round(100 * (job.progress || 0))} %` : ""}`;
+    // each cell says its column: on a phone the rows are stacked and the header hidden (page.css)
+    const cell = (column, ...children) => { const td = el("td", {}, ...children); td.dataset.label = column; return td; };
     return el("tr", {},
-      el("td", { textContent: job.mesh }), el("td", { textContent: texture }),
-      el("td", { className: `state-${job.state}`, textContent: state, title: job.error || "" }),
-      el("td", { textContent: new Date(job.created).toLocaleString() }),
-      el("td", {}, el("div", { className: "actions" },
+      cell("Mesh", job.mesh), cell("Texture", TEXTURE_NAMES[texture] ?? texture),
+      cell("State", el("div", {}, el("span", { className: `state-${job.state}`, textContent: state }), job.error && el("small", { className: "reason", textContent: job.error }))),
+      cell("Created", new Date(job.created).toLocaleString()),
+      cell("Actions", el("div", { className: "actions" },
         job.state === "done" && button("Show", `show the result of ${job.mesh}`, () => { currentJob = job; following++; showJob(job); showResult(job); }),
         live && button("Follow", `follow the bake of ${job.mesh}`, () => follow(job)),
         live && button("Cancel", `cancel the bake of ${job.mesh}`, () => cancel(job)),
@@ -617,13 +730,13 @@ async function start() {
   });
 
   const settings = config.settings_schema;
-  const changed = () => { mapsSummary(); };
+  const ctx = { root: settings, words: SETTING_WORDS, changed: mapsSummary };
   const limits = { size: limit.max_size, samples: limit.max_samples, max_faces: limit.max_faces };
   settingsControls = {
-    ...form(settings, settings, $("settings-form"), { prefix: [], only: (k) => MAIN_SETTINGS.includes(k), limits, changed }),
-    ...form(settings, settings, $("settings-more"), { prefix: [], only: (k) => !MAIN_SETTINGS.includes(k), skip: NOT_SETTINGS, limits, changed }),
+    ...form(ctx, settings, $("settings-form"), { prefix: [], only: (k) => MAIN_SETTINGS.includes(k), limits }),
+    ...form(ctx, settings, $("settings-more"), { prefix: [], only: (k) => !MAIN_SETTINGS.includes(k), skip: NOT_SETTINGS, limits }),
   };
-  for (const t of catalogue) $("texture").append(el("option", { value: t.name, textContent: t.name }));
+  for (const t of catalogue) $("texture").append(el("option", { value: t.name, textContent: TEXTURE_NAMES[t.name] ?? t.name }));
   const first = resolve(settings, settings.properties.texture).default;
   buildTexture(typeof first === "string" ? first : catalogue[0].name);
 

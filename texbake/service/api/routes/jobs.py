@@ -11,6 +11,7 @@ import shutil
 import uuid
 from pathlib import Path
 from typing import Annotated
+from urllib.parse import quote
 
 from fastapi import APIRouter, File, Form, HTTPException, Query, Request, Response, UploadFile
 from fastapi.responses import StreamingResponse
@@ -231,5 +232,18 @@ def get_file(job: JobDep, name: str, storage: StorageDep):
 def get_zip(job: JobDep, storage: StorageDep):
     """Every output in one zip, written as it is sent (constant memory, any size)."""
     members = [(name, size, functools.partial(storage.read, job.id, job.lease, name)) for name, size in sorted(_outputs(job, storage).items())]
-    return StreamingResponse(zip_stream(members), media_type="application/zip",
-                             headers={"Content-Disposition": f'attachment; filename="{job.id}.zip"'})
+    return StreamingResponse(zip_stream(members), media_type="application/zip", headers={"Content-Disposition": _attachment(_zip_name(job))})
+
+
+def _zip_name(job: db.Job) -> str:
+    """``<mesh stem>-<texture>.zip``: results downloaded side by side are told apart by what they are."""
+    texture = json.loads(job.settings).get("texture") or BakeSettings.model_fields["texture"].default
+    name = texture.get("name", "texture") if isinstance(texture, dict) else str(texture)
+    return f"{_safe_stem(job.mesh_name)}-{_safe_stem(name)}.zip"
+
+
+def _attachment(filename: str) -> str:
+    """A Content-Disposition for ``filename``: an ASCII ``filename`` for old clients, the
+    exact one as ``filename*`` (RFC 6266; header values are Latin-1, a name may not be)."""
+    fallback = filename.encode("ascii", "replace").decode().replace("?", "_")
+    return f"attachment; filename=\"{fallback}\"; filename*=UTF-8''{quote(filename)}"
