@@ -107,6 +107,23 @@ def run_xatlas_in_child(positions: np.ndarray, faces: np.ndarray, deadline: floa
 # -- the unwrap ----------------------------------------------------------------------
 
 
+def unwrap(request: UnwrapRequest, pool: Pool, deadline: float, patch_faces: int | None, charting: str) -> Unwrapped:
+    """The atlas of ``request`` charted by ``charting`` ("xatlas", in patches of
+    ``patch_faces`` faces or, None, in one piece; or "planar") and packed by xatlas in
+    ``pool``'s workers by its end (``deadline`` seconds from now, for the messages);
+    raises :class:`XatlasFailed`."""
+    faces, size, padding = request.faces, request.size, request.padding
+    pos = normalised(request.vertices)
+    good = _good_faces(pos, faces)
+    if charting == "planar":
+        meshes, charts, flat = _chart_planar(pos, faces, good, size)
+        vm, fa, uv = _pack(pos, faces, meshes, size, padding, pool, deadline)
+        return Unwrapped(vm, fa, uv, "planar", {"planar_charts": charts, "flat_share": round(flat, 4)})
+    meshes, n_patches = _chart_xatlas(pos, faces, good, pool, deadline, patch_faces)
+    vm, fa, uv = _pack(pos, faces, meshes, size, padding, pool, deadline)
+    return Unwrapped(vm, fa, uv, "xatlas-patches" if n_patches > 1 else "xatlas", {"patches": n_patches})
+
+
 def _patches(vertices: np.ndarray, faces: np.ndarray, target: int) -> list[np.ndarray]:
     """Face index arrays of spatially coherent patches of at most ``target`` faces.
 
@@ -331,20 +348,3 @@ def _place(uv: np.ndarray, chart: np.ndarray, source: np.ndarray, placed: np.nda
     direct = whole[c]
     out[source[direct]] = placed[direct]
     return out
-
-
-def unwrap(request: UnwrapRequest, pool: Pool, deadline: float, patch_faces: int | None, charting: str) -> Unwrapped:
-    """The atlas of ``request`` charted by ``charting`` ("xatlas", in patches of
-    ``patch_faces`` faces or, None, in one piece; or "planar") and packed by xatlas in
-    ``pool``'s workers by its end (``deadline`` seconds from now, for the messages);
-    raises :class:`XatlasFailed`."""
-    faces, size, padding = request.faces, request.size, request.padding
-    pos = normalised(request.vertices)
-    good = _good_faces(pos, faces)
-    if charting == "planar":
-        meshes, charts, flat = _chart_planar(pos, faces, good, size)
-        vm, fa, uv = _pack(pos, faces, meshes, size, padding, pool, deadline)
-        return Unwrapped(vm, fa, uv, "planar", {"planar_charts": charts, "flat_share": round(flat, 4)})
-    meshes, n_patches = _chart_xatlas(pos, faces, good, pool, deadline, patch_faces)
-    vm, fa, uv = _pack(pos, faces, meshes, size, padding, pool, deadline)
-    return Unwrapped(vm, fa, uv, "xatlas-patches" if n_patches > 1 else "xatlas", {"patches": n_patches})
