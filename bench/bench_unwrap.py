@@ -33,9 +33,8 @@ sys.path.insert(0, str(ROOT))
 
 from _rows import emit  # noqa: E402
 
+from texbake.atlas import atlas_stats, make_atlas, overlap  # noqa: E402
 from texbake.atlas.charts import density_spread  # noqa: E402
-from texbake.atlas.decide import atlas_stats, make_atlas  # noqa: E402
-from texbake.atlas.uvcheck import overlap  # noqa: E402
 from texbake.checks.cad import meshes as cad_meshes  # noqa: E402
 from texbake.errors import BakeError  # noqa: E402
 from texbake.mesh.load import load_mesh  # noqa: E402

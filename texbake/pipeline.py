@@ -22,8 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .atlas.cache import AtlasCache, atlas_key
-from .atlas.decide import Atlas, make_atlas
+from .atlas import Atlas, AtlasCache, atlas_key, make_atlas
 from .errors import ParameterError
 from .maps import estimate as estimate_stage
 from .maps import margin as margin_stage

@@ -32,7 +32,7 @@ from pydantic import (
 )
 
 from .errors import ParameterError, TextureError
-from .output.images import BITS
+from .output.images import bits_problem, format_name
 from .quality import PRESETS, Quality
 from .textures.spec import TEXTURES, TextureSpec, parse_spec
 
@@ -97,15 +97,12 @@ class BakeSettings(BaseModel):
     @field_validator("format", mode="before")
     @classmethod
     def _format_name(cls, value):
-        if isinstance(value, str):
-            value = value.lower().lstrip(".")
-            return "tif" if value == "tiff" else value
-        return value
+        return format_name(value) if isinstance(value, str) else value
 
     @model_validator(mode="after")
     def _consistent(self):
-        if self.bits is not None and self.bits not in BITS[self.format]:
-            raise ValueError(f"bits: {self.format} takes {' or '.join(map(str, BITS[self.format]))} bits, got {self.bits}")
+        if self.bits is not None and (problem := bits_problem(self.format, self.bits)):
+            raise ValueError(f"bits: {problem}")
         if self.frames is not None and "time" not in type(self.texture).model_fields:
             raise ValueError(f"frames: texture {self.texture.name!r} has no time to animate")
         return self

@@ -1,1 +1,44 @@
-"""texbake.atlas."""
+"""The UV atlas stage: a mesh's UVs kept, or unwrapped into charts packed by xatlas.
+
+What the rest of texbake uses is named here; the modules are this folder's own:
+
+- ``decide``: :func:`make_atlas`, the list of attempts (keep, unwrap one way, the other,
+  fall back), and :class:`Atlas`, what it returns;
+- ``uvcheck``: whether UVs are usable, texel coverage and overlap, an atlas's statistics;
+- ``charts``: planar charts (faces grouped by normal direction, projected onto planes);
+- ``pack``: the unwrap in xatlas' worker processes (charting, packing, refitting), and
+  ``packworker``, the worker process itself;
+- ``fallback``: the grid atlas, one cell per triangle;
+- ``cache``: atlases kept on disk across bakes (:class:`AtlasCache`, :func:`atlas_key`).
+
+The names are imported on first use: ``python -m texbake.atlas.packworker`` imports this
+package too, and a worker needs numpy and xatlas only.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .cache import AtlasCache, atlas_key
+    from .decide import Atlas, make_atlas
+    from .pack import run_xatlas_in_child
+    from .uvcheck import atlas_stats, overlap, uv_problem
+
+_HOMES = {
+    "Atlas": "decide", "make_atlas": "decide",
+    "AtlasCache": "cache", "atlas_key": "cache",
+    "uv_problem": "uvcheck", "atlas_stats": "uvcheck", "overlap": "uvcheck",
+    "run_xatlas_in_child": "pack",
+}
+
+__all__ = ["Atlas", "make_atlas", "AtlasCache", "atlas_key", "uv_problem", "atlas_stats", "overlap", "run_xatlas_in_child"]
+
+
+def __getattr__(name: str):
+    """A name of ``__all__``, imported from its module when first asked for."""
+    home = _HOMES.get(name)
+    if home is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f"{__name__}.{home}"), name)

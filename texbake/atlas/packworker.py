@@ -1,6 +1,6 @@
 """xatlas worker process: ``python -m texbake.atlas.packworker`` serves the unwrap's jobs
 (``chart``, ``pack``) until stdin closes, a :mod:`texbake.workers` worker started by
-:mod:`texbake.atlas.decide`. xatlas can hang or crash on bad input; here that only takes down this
+:mod:`texbake.atlas.pack`. xatlas can hang or crash on bad input; here that only takes down this
 process, which the parent kills at its deadline or sees die. Only numpy, xatlas and two
 small modules of the package (:mod:`texbake.mesh.uvgeometry`, :mod:`texbake.workers`) are imported.
 """
@@ -63,10 +63,10 @@ def pack(meshes: list, size: int, padding: int):
         po.resolution = 0  # one atlas, as large as the density needs
         po.texels_per_unit = texels_per_unit
         po.padding = padding
-        # bilinear=True dilates each chart by a texel: 5x slower on sliver fans, and padding is already texels
+        # bilinear=True dilates each chart by a texel: far slower on sliver fans, and padding is already texels
         po.bilinear = False
         po.blockAlign = False
-        po.bruteForce = False  # 0.05-0.1 more utilisation, 5-50x the time
+        po.bruteForce = False  # a little more utilisation for many times the time
         co = xatlas.ChartOptions()
         co.max_iterations = 1
         atlas.generate(co, po)

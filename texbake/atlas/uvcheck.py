@@ -1,15 +1,23 @@
-"""How many faces cover each texel centre of a UV layout: overlap measured on the texel
-grid the bake uses (a mirrored half mapped onto the other half is overlap too).
+"""UV checks: whether a mesh's own UVs (or an unwrap's) make a usable atlas, how many faces
+cover each texel centre of a layout, and the statistics an atlas is reported with.
 
-A texel centre lies in a face when it is inside the face's UV triangle or on an edge that
-the top-left rule gives it (as GPUs rasterise), so two faces that share an edge never both
-count a centre on that edge.
+Overlap is measured on the texel grid the bake uses (a mirrored half mapped onto the other
+half is overlap too). A texel centre lies in a face when it is inside the face's UV
+triangle or on an edge that the top-left rule gives it (as GPUs rasterise), so two faces
+that share an edge never both count a centre on that edge.
 """
 
 from __future__ import annotations
 
 import numba as nb  # pip install numba
 import numpy as np
+
+from ..mesh.components import connected_components
+from ..mesh.uvgeometry import areas, uv_areas, uv_jacobian
+
+UV_EPS = 1e-6  # tolerance of the unit-square test of UVs
+OVERLAP_GRID = 2048  # overlap is measured on the bake's texel grid, at most this fine
+BARE_LIMIT = 0.01  # a warning when more of the surface lies on charts without a texel centre
 
 
 @nb.njit(cache=True, nogil=True)
@@ -128,3 +136,125 @@ def overlap_of(counts: np.ndarray) -> tuple[float, int]:
     """:func:`overlap` from :func:`coverage_counts`."""
     covered = int((counts > 0).sum())
     return (float((counts > 1).sum()) / covered if covered else 0.0), int(counts.max())
+
+
+# -- usable UVs ----------------------------------------------------------------------
+
+
+def uv_problem(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray | None) -> str | None:
+    """Why per-vertex UVs are not usable as an atlas of the mesh, or None if they are.
+
+    Usable: given, one ``(u, v)`` row per vertex, finite, inside the unit square (within
+    ``UV_EPS``: a repeating texture's UVs are not an atlas) and every face with a UV
+    area above zero.
+    """
+    if uv is None:
+        return "the mesh has no UVs"
+    uv = np.asarray(uv, dtype=np.float64)
+    n = len(vertices)
+    if uv.ndim != 2 or uv.shape != (n, 2):
+        return f"the mesh's UVs have shape {uv.shape}, expected ({n}, 2)"
+    faces = np.asarray(faces)
+    if len(faces) == 0:
+        return "the mesh has no faces"
+    used = uv[np.unique(faces)]
+    if not np.isfinite(used).all():
+        return "the mesh's UVs are not finite"
+    lo, hi = used.min(), used.max()
+    if lo < -UV_EPS or hi > 1 + UV_EPS:
+        return f"the mesh's UVs leave the unit square (range {lo:.3g} to {hi:.3g})"
+    zero = int((uv_areas(uv, faces) <= 0).sum())
+    if zero:
+        return f"{zero} faces have zero UV area"
+    return None
+
+
+def unwrap_problem(vmapping: np.ndarray, faces: np.ndarray, uv: np.ndarray, mesh_faces: np.ndarray, n_vertices: int) -> str | None:
+    """Why an atlas ``(vmapping, faces, uv)`` made for a mesh of ``n_vertices`` vertices and
+    ``mesh_faces`` is unusable, or None: it must have the mesh's faces, in order, and
+    finite UVs of faces with an area, in the unit square."""
+    n_faces = len(mesh_faces)
+    if faces.shape != (n_faces, 3):
+        return f"{len(faces)} faces came back for {n_faces}"
+    if len(vmapping) != len(uv) or (len(vmapping) and (vmapping.min() < 0 or vmapping.max() >= n_vertices)):
+        return "the vertex mapping is inconsistent"
+    if len(faces) and (faces.min() < 0 or faces.max() >= len(uv)):
+        return "the faces index missing UV vertices"
+    if not np.array_equal(vmapping[faces], mesh_faces):
+        return "the faces do not match the mesh's faces"
+    if not np.isfinite(uv).all():
+        return "the UVs are not finite"
+    if uv.min() < -UV_EPS or uv.max() > 1 + UV_EPS:
+        return f"the UVs leave the unit square ({uv.min():.3g} to {uv.max():.3g})"
+    zero = int((uv_areas(uv, faces) <= 0).sum())
+    if zero:
+        return f"{zero} faces have zero UV area"
+    return None
+
+
+# -- statistics ----------------------------------------------------------------------
+
+
+def chart_labels(uv_faces: np.ndarray, k: int) -> np.ndarray:
+    """``(m,)`` int64 the chart of each face: connected pieces of the UV mesh (faces sharing
+    one of the ``k`` UV vertices), numbered in the order of their first face."""
+    m = len(uv_faces)
+    rows = np.repeat(np.arange(m), 3)
+    return connected_components(m + k, rows, np.asarray(uv_faces).ravel() + m)[:m]
+
+
+def atlas_stats(vertices, faces, uv_faces, uv) -> dict:
+    """Chart count, utilisation and stretch of an atlas (``uv_faces`` index ``uv``).
+
+    ``charts``: connected pieces of the UV mesh (faces sharing atlas vertices).
+    ``utilisation``: the UV area covered, as a fraction of the unit square.
+    ``stretch``: Sander et al.'s L2 stretch of the map from UV to the surface,
+    normalised so that 1.0 is an isometry up to one global scale. Per face,
+    ``L2^2 = (|dP/du|^2 + |dP/dv|^2) / 2``; over the mesh,
+    ``stretch = sqrt(sum(A3d * L2^2) / sum(A3d)) * sqrt(sum(Auv) / sum(A3d))``. It grows
+    with anisotropic distortion and with uneven texel density between faces (faces with
+    zero UV area are left out).
+    """
+    charts = len(np.unique(chart_labels(uv_faces, len(uv))))
+
+    ps, pt, det = uv_jacobian(vertices, faces, uv, uv_faces)  # dP/du, dP/dv
+    ok = np.abs(det) > 0  # faces of zero UV area are left out
+    l2sq = 0.5 * (np.einsum("ij,ij->i", ps, ps) + np.einsum("ij,ij->i", pt, pt))
+    a_uv = 0.5 * np.abs(det)
+    a_3d = areas(vertices, faces)
+    w3, wuv = a_3d[ok].sum(), a_uv[ok].sum()
+    if w3 > 0 and wuv > 0:
+        stretch = float(np.sqrt((a_3d[ok] * l2sq[ok]).sum() / w3 * wuv / w3))
+    else:
+        stretch = float("inf")
+    return {"charts": int(charts), "utilisation": float(a_uv.sum()), "stretch": stretch}
+
+
+def measure(vertices: np.ndarray, faces: np.ndarray, uv_faces: np.ndarray, uv: np.ndarray, size: int,
+            raster: tuple[np.ndarray, np.ndarray] | None = None) -> dict:
+    """:func:`atlas_stats` of an atlas for a ``size``-texel texture, plus ``overlap`` (the
+    share of covered texel centres under two or more faces, on a grid of at most
+    ``OVERLAP_GRID``) and ``bare_area`` (the share of the surface on charts that hold no
+    texel centre at ``size``: their texels are all margin; None above 8192). ``raster``:
+    :func:`coverage` of the layout on that grid, when already made."""
+    grid = min(size, OVERLAP_GRID)
+    stats = atlas_stats(vertices, faces, uv_faces, uv)
+    counts, covering = raster if raster is not None else coverage(uv, uv_faces, grid)
+    stats["overlap"], _ = overlap_of(counts)
+    stats["bare_area"] = None
+    if size <= 8192:
+        a3, chart = areas(vertices, faces), chart_labels(uv_faces, len(uv))
+        held = np.zeros(chart.max() + 1, dtype=bool)
+        held[chart[covering if grid == size else covering_faces(uv, uv_faces, size)]] = True
+        stats["bare_area"] = float(a3[~held[chart]].sum() / max(a3.sum(), 1e-300))
+    return stats
+
+
+def bare_warning(stats: dict, size: int) -> list[str]:
+    """A warning when more than ``BARE_LIMIT`` of the surface lies on charts without a texel
+    centre (``stats["bare_area"]``, see :func:`measure`)."""
+    share = stats["bare_area"]
+    if share is None or share <= BARE_LIMIT:
+        return []
+    return [f"{share:.0%} of the surface lies on charts that hold no texel centre at {size}x{size}: they show "
+            "only the margin's colours (bake larger, or unwrap)"]

@@ -530,7 +530,7 @@ def _bake(mesh, texture="marble", **kw):
 def _scale_case(name: str, scale: float, offset: float, what: str):
     @case(name, f"a mesh {what} unwraps with xatlas and bakes as the unit mesh does")
     def _() -> Figure:
-        from ..atlas.decide import make_atlas
+        from ..atlas import make_atlas
 
         v, f = _sphere(2)
         moved = v * scale + offset
@@ -605,13 +605,13 @@ HANG_DEADLINE = 2.0
 
 @case("xatlas-hang", "xatlas hanging on an infinite vertex is stopped at the deadline")
 def _() -> Figure:
-    from ..atlas.decide import _run_xatlas_in_child
+    from ..atlas import run_xatlas_in_child
 
     v, f = _sphere(2)
     v = v.astype(np.float32)
     v[0] = np.inf  # xatlas loops forever on it
     start = time.monotonic()
-    ok, why = _run_xatlas_in_child(v, f, deadline=HANG_DEADLINE)
+    ok, why = run_xatlas_in_child(v, f, deadline=HANG_DEADLINE)
     seconds = time.monotonic() - start
     stopped = not ok and "timed out" in str(why)
     # the deadline, then terminate (0.5 s grace) and kill: 2 s of slack on a busy machine
@@ -620,11 +620,11 @@ def _() -> Figure:
 
 @case("xatlas-crash", "xatlas crashing (icosphere(6) in one piece) is survived and reported")
 def _() -> Figure:
-    from ..atlas.decide import _run_xatlas_in_child
+    from ..atlas import run_xatlas_in_child
 
     v, f = _sphere(6)
     start = time.monotonic()
-    ok, why = _run_xatlas_in_child(v.astype(np.float32), f, deadline=60.0)
+    ok, why = run_xatlas_in_child(v.astype(np.float32), f, deadline=60.0)
     seconds = time.monotonic() - start
     crashed = not ok and "crashed" in str(why)
     # it dies after charting for some seconds; the 60 s deadline must not be what ends it
@@ -633,7 +633,7 @@ def _() -> Figure:
 
 @case("xatlas-crash-fallback", "make_atlas on the mesh that crashes xatlas still gives a packed xatlas atlas")
 def _() -> Figure:
-    from ..atlas.decide import make_atlas
+    from ..atlas import make_atlas
 
     v, f = _sphere(6)
     a = make_atlas(v, f, mode="unwrap", size=1024, _patch_faces=None)

@@ -119,7 +119,7 @@ def default_settings(size: int = 512) -> list[Setting]:
 
 def prepare_mesh(mesh_or_path, *, size: int = 1024, uv: str = "auto", workers: int = 2) -> LoadedMesh:
     """The mesh with its atlas as its own UVs (loaded and unwrapped once), for ``uv="keep"`` bakes."""
-    from ..atlas.decide import make_atlas
+    from ..atlas import make_atlas
     from ..pipeline import as_mesh
 
     mesh = as_mesh(mesh_or_path, 5_000_000, "mesh")

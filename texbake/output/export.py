@@ -26,13 +26,13 @@ import numpy as np
 
 from ..errors import OutputError, ParameterError
 from .atomic import write_bytes
+from .images import PNG_SIGNATURE
 
 # glTF constants
 _FLOAT, _UINT16, _UINT32 = 5126, 5123, 5125
 _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
 _LINEAR, _LINEAR_MIPMAP_LINEAR, _CLAMP = 9729, 9987, 33071
 _TRIANGLES = 4
-_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
 def _pad(data: bytes, fill: bytes) -> bytes:
@@ -79,7 +79,7 @@ def _png(path: Path, slot: str, texture) -> bytes:
             png = Path(texture).read_bytes()
         except OSError as exc:
             raise OutputError(f"{path}: cannot read the {slot} texture {texture}: {exc.strerror or exc}") from None
-    if not png.startswith(_PNG_SIGNATURE):
+    if not png.startswith(PNG_SIGNATURE):
         raise ParameterError("texture", f"{slot}: expected a PNG image (file or bytes)")
     return png
 
@@ -98,69 +98,110 @@ def write_glb(path, vertices, faces, uv, textures, *, normals=None, tangents=Non
     ``normals``); ``base_factor``: the base colour's factor (black for a texture that is
     light, not paint: the flame, bound as emissive). Indices are uint16 below 65535 vertices, else uint32. Returns path,
     bytes, vertices, faces.
-
-    One function, not several: it lays out one binary buffer and the JSON that indexes
-    it, offset by offset, and reads best top to bottom.
     """
     path = Path(path)
     v, f, t, n = _mesh_arrays(vertices, faces, uv, normals)
+    pngs = _slot_pngs(path, textures)
+    tangents = _checked_tangents(tangents, n, len(v))
+
+    buffer = _Buffer()
+    attributes = _attributes(buffer, v, t, n, tangents)
+    small = len(v) < 65535  # 65535 itself is the primitive-restart value
+    indices = np.ascontiguousarray(f, dtype=np.uint16 if small else np.uint32).ravel()
+    index_accessor = buffer.accessor(indices, "SCALAR", _UINT16 if small else _UINT32, _ELEMENT_ARRAY_BUFFER)
+    images: list[bytes] = list(dict.fromkeys(pngs.values()))  # one image (and texture) per distinct PNG
+    image_views = [buffer.view(png) for png in images]
+    texture = {slot: {"index": images.index(png)} for slot, png in pngs.items()}
+    binary = b"".join(buffer.blobs)
+    doc = {
+        "asset": {"version": "2.0", "generator": "texbake"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0, "name": name}],
+        "meshes": [{"name": name, "primitives": [{"attributes": attributes, "indices": index_accessor, "material": 0, "mode": _TRIANGLES}]}],
+        "materials": [_material(name, texture, base_factor)],
+        "textures": [{"sampler": 0, "source": i} for i in range(len(images))],
+        "samplers": [{"magFilter": _LINEAR, "minFilter": _LINEAR_MIPMAP_LINEAR, "wrapS": _CLAMP, "wrapT": _CLAMP}],
+        "images": [{"bufferView": view, "mimeType": "image/png"} for view in image_views],
+        "accessors": buffer.accessors,
+        "bufferViews": buffer.views,
+        "buffers": [{"byteLength": len(binary)}],
+    }
+    glb = _glb(doc, binary)
+    write_bytes(path, glb)
+    return {"path": str(path), "bytes": len(glb), "vertices": len(v), "faces": len(indices) // 3}
+
+
+def _slot_pngs(path: Path, textures) -> dict[str, bytes]:
+    """The PNG bytes of each texture slot :func:`write_glb` was given."""
     slots = dict(textures) if isinstance(textures, dict) else {"baseColor": textures}
     unknown = sorted(set(slots) - set(SLOTS))
     if unknown or "baseColor" not in slots:
         raise ParameterError("textures", f"expected a baseColor PNG and optionally {', '.join(SLOTS[1:])}, got {sorted(slots)}")
-    pngs = {slot: _png(path, slot, texture) for slot, texture in slots.items()}
-    if tangents is not None:
-        tangents = np.asarray(tangents, dtype=np.float64)
-        if n is None or tangents.shape != (len(v), 4) or not np.isfinite(tangents).all():
-            raise ParameterError("tangents", f"expected ({len(v)}, 4) finite values with normals, got shape {tangents.shape}")
-        if not (np.abs(np.linalg.norm(tangents[:, :3], axis=1) - 1) < 1e-6).all() or not np.isin(tangents[:, 3], (-1.0, 1.0)).all():
-            raise ParameterError("tangents", "xyz must be unit length and w +1 or -1")
+    return {slot: _png(path, slot, texture) for slot, texture in slots.items()}
 
-    positions = np.ascontiguousarray(v, dtype=np.float32)
-    texcoord = np.ascontiguousarray(np.column_stack([t[:, 0], 1.0 - t[:, 1]]), dtype=np.float32)
-    small = len(positions) < 65535  # 65535 itself is the primitive-restart value
-    index_type = _UINT16 if small else _UINT32
-    indices = np.ascontiguousarray(f, dtype=np.uint16 if small else np.uint32).ravel()
 
-    blobs: list[bytes] = []
-    views: list[dict] = []
-    accessors: list[dict] = []
-    offset = 0
+def _checked_tangents(tangents, normals: np.ndarray | None, k: int) -> np.ndarray | None:
+    """``(k, 4)`` float64 tangents, checked: finite, given with normals, unit xyz, w = +-1."""
+    if tangents is None:
+        return None
+    tangents = np.asarray(tangents, dtype=np.float64)
+    if normals is None or tangents.shape != (k, 4) or not np.isfinite(tangents).all():
+        raise ParameterError("tangents", f"expected ({k}, 4) finite values with normals, got shape {tangents.shape}")
+    if not (np.abs(np.linalg.norm(tangents[:, :3], axis=1) - 1) < 1e-6).all() or not np.isin(tangents[:, 3], (-1.0, 1.0)).all():
+        raise ParameterError("tangents", "xyz must be unit length and w +1 or -1")
+    return tangents
 
-    def add_view(data: bytes, target=None) -> int:
-        nonlocal offset
-        view = {"buffer": 0, "byteOffset": offset, "byteLength": len(data)}
+
+class _Buffer:
+    """The BIN chunk as it is laid out: its pieces, each padded to 4 bytes, and the buffer
+    views and accessors that index it, offset by offset."""
+
+    def __init__(self) -> None:
+        self.blobs: list[bytes] = []
+        self.views: list[dict] = []
+        self.accessors: list[dict] = []
+        self.offset = 0
+
+    def view(self, data: bytes, target=None) -> int:
+        """Append ``data`` as a buffer view; its index."""
+        view = {"buffer": 0, "byteOffset": self.offset, "byteLength": len(data)}
         if target:
             view["target"] = target
         padded = _pad(data, b"\0")
-        blobs.append(padded)
-        offset += len(padded)
-        views.append(view)
-        return len(views) - 1
+        self.blobs.append(padded)
+        self.offset += len(padded)
+        self.views.append(view)
+        return len(self.views) - 1
 
-    def add_accessor(array: np.ndarray, kind: str, component: int, target, minmax=False) -> int:
+    def accessor(self, array: np.ndarray, kind: str, component: int, target, minmax: bool = False) -> int:
+        """Append ``array`` as a buffer view and an accessor of it; the accessor's index."""
         count = array.size if kind == "SCALAR" else len(array)
-        acc = {"bufferView": add_view(array.tobytes(), target), "componentType": component, "count": int(count), "type": kind}
+        acc = {"bufferView": self.view(array.tobytes(), target), "componentType": component, "count": int(count), "type": kind}
         if minmax:  # float32 values, exactly as stored
             acc["min"] = [float(x) for x in array.min(axis=0)]
             acc["max"] = [float(x) for x in array.max(axis=0)]
-        accessors.append(acc)
-        return len(accessors) - 1
+        self.accessors.append(acc)
+        return len(self.accessors) - 1
 
-    attributes = {"POSITION": add_accessor(positions, "VEC3", _FLOAT, _ARRAY_BUFFER, minmax=True)}
+
+def _attributes(buffer: _Buffer, v: np.ndarray, t: np.ndarray, n: np.ndarray | None, tangents: np.ndarray | None) -> dict[str, int]:
+    """The primitive's vertex attributes (accessor indices), written into ``buffer`` as float32."""
+    positions = np.ascontiguousarray(v, dtype=np.float32)
+    attributes = {"POSITION": buffer.accessor(positions, "VEC3", _FLOAT, _ARRAY_BUFFER, minmax=True)}
     if n is not None:
-        attributes["NORMAL"] = add_accessor(np.ascontiguousarray(n, dtype=np.float32), "VEC3", _FLOAT, _ARRAY_BUFFER)
+        attributes["NORMAL"] = buffer.accessor(np.ascontiguousarray(n, dtype=np.float32), "VEC3", _FLOAT, _ARRAY_BUFFER)
     if tangents is not None:
         tangent32 = tangents.astype(np.float32)
         tangent32[:, :3] /= np.linalg.norm(tangent32[:, :3], axis=1, keepdims=True)  # unit length in float32 too
-        attributes["TANGENT"] = add_accessor(np.ascontiguousarray(tangent32), "VEC4", _FLOAT, _ARRAY_BUFFER)
-    attributes["TEXCOORD_0"] = add_accessor(texcoord, "VEC2", _FLOAT, _ARRAY_BUFFER)
-    index_accessor = add_accessor(indices, "SCALAR", index_type, _ELEMENT_ARRAY_BUFFER)
-    images: list[bytes] = list(dict.fromkeys(pngs.values()))  # one image (and texture) per distinct PNG
-    image_views = [add_view(png) for png in images]
-    texture = {slot: {"index": images.index(png)} for slot, png in pngs.items()}
-    binary = b"".join(blobs)
+        attributes["TANGENT"] = buffer.accessor(np.ascontiguousarray(tangent32), "VEC4", _FLOAT, _ARRAY_BUFFER)
+    texcoord = np.ascontiguousarray(np.column_stack([t[:, 0], 1.0 - t[:, 1]]), dtype=np.float32)  # glTF: v down
+    attributes["TEXCOORD_0"] = buffer.accessor(texcoord, "VEC2", _FLOAT, _ARRAY_BUFFER)
+    return attributes
 
+
+def _material(name: str, texture: dict[str, dict], base_factor) -> dict:
+    """The one material: base colour, and normal and emissive where ``texture`` has them."""
     material: dict = {"name": f"{name}_baked",
                       "pbrMetallicRoughness": {"baseColorTexture": texture["baseColor"], "metallicFactor": 0.0, "roughnessFactor": 1.0}}
     if tuple(base_factor) != (1.0, 1.0, 1.0, 1.0):
@@ -169,29 +210,18 @@ def write_glb(path, vertices, faces, uv, textures, *, normals=None, tangents=Non
         material["normalTexture"] = texture["normal"]
     if "emissive" in texture:
         material["emissiveTexture"], material["emissiveFactor"] = texture["emissive"], [1.0, 1.0, 1.0]
-    doc = {
-        "asset": {"version": "2.0", "generator": "texbake"},
-        "scene": 0,
-        "scenes": [{"nodes": [0]}],
-        "nodes": [{"mesh": 0, "name": name}],
-        "meshes": [{"name": name, "primitives": [{"attributes": attributes, "indices": index_accessor, "material": 0, "mode": _TRIANGLES}]}],
-        "materials": [material],
-        "textures": [{"sampler": 0, "source": i} for i in range(len(images))],
-        "samplers": [{"magFilter": _LINEAR, "minFilter": _LINEAR_MIPMAP_LINEAR, "wrapS": _CLAMP, "wrapT": _CLAMP}],
-        "images": [{"bufferView": view, "mimeType": "image/png"} for view in image_views],
-        "accessors": accessors,
-        "bufferViews": views,
-        "buffers": [{"byteLength": len(binary)}],
-    }
+    return material
+
+
+def _glb(doc: dict, binary: bytes) -> bytes:
+    """The GLB container: header, JSON chunk (space padded), BIN chunk."""
     chunk_json = _pad(json.dumps(doc, separators=(",", ":"), allow_nan=False).encode(), b" ")
     total = 12 + 8 + len(chunk_json) + 8 + len(binary)
-    glb = b"".join([
+    return b"".join([
         struct.pack("<4sII", b"glTF", 2, total),
         struct.pack("<I4s", len(chunk_json), b"JSON"), chunk_json,
         struct.pack("<I4s", len(binary), b"BIN\0"), binary,
     ])
-    write_bytes(path, glb)
-    return {"path": str(path), "bytes": len(glb), "vertices": len(positions), "faces": len(indices) // 3}
 
 
 def write_obj(path, vertices, faces, uv, image_filename, *, normals=None) -> dict:

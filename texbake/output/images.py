@@ -52,13 +52,13 @@ from .atomic import sync as _sync  # a module global: tests put a failure in it
 SRGB = "srgb_rec709_scene"
 LINEAR = "lin_rec709_scene"
 DATA = "data"
-BITS = {"png": (8, 16), "exr": (16, 32), "tif": (8, 16, 32)}
+BITS = {"png": (8, 16), "exr": (16, 32), "tif": (8, 16, 32)}  # the bit depths each format takes
 DEFAULT_BITS = {"png": 8, "exr": 16, "tif": 16}
 _EXTENSION = {"png": ".png", "exr": ".exr", "tif": ".tif"}
 _COLORSPACES = {"linear": "linear", "lin_rec709_scene": "linear", "srgb": "srgb", "srgb_rec709_scene": "srgb",
                 "data": "data", "raw": "data"}
 _BAND_TEXELS = 1 << 20  # texels encoded (and checked) at a time: bounded memory, some 50 MB
-_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 _PNG_FILTER_UP = 0x20  # png.h's PNG_FILTER_UP
 _EXIF_SRGB, _EXIF_UNCALIBRATED = 1, 0xFFFF
 
@@ -75,12 +75,26 @@ def srgb_decode(encoded: np.ndarray) -> np.ndarray:
     return np.where(x <= 0.04045, x / 12.92, np.power((x + 0.055) / 1.055, 2.4))
 
 
-def _format(path: Path, fmt: str | None) -> str:
-    f = (fmt or path.suffix).lower().lstrip(".")
-    f = "tif" if f == "tiff" else f
-    if f not in BITS:
-        raise ParameterError("format", f"expected png, exr, tif or tiff, got {f!r}")
-    return f
+def format_name(name: str) -> str:
+    """An image format as texbake names it: lower case, no leading dot, "tiff" as "tif"."""
+    name = name.lower().lstrip(".")
+    return "tif" if name == "tiff" else name
+
+
+def image_format(name: str) -> str:
+    """:func:`format_name` of ``name`` (a format or an extension); :class:`ParameterError`
+    (``format``) unless it is one of :data:`BITS`."""
+    fmt = format_name(name)
+    if fmt not in BITS:
+        raise ParameterError("format", f"expected png, exr, tif or tiff, got {fmt!r}")
+    return fmt
+
+
+def bits_problem(fmt: str, bits) -> str | None:
+    """Why ``bits`` is not a bit depth the image format ``fmt`` takes, or None."""
+    if bits in BITS[fmt]:
+        return None
+    return f"{fmt} takes {' or '.join(map(str, BITS[fmt]))} bits, got {bits!r}"
 
 
 # -- exact 8-bit sRGB encoding, fast ------------------------------------------------------
@@ -193,20 +207,31 @@ def write_image(path, pixels, *, fmt: str | None = None, bits: int | None = None
 
     Raises :class:`ParameterError` for a bad format, bit depth, colour space or pixel
     array and :class:`OutputError` if the file cannot be written completely.
-
-    Long because it is one transaction: validate, encode, write to a temporary name,
-    flush, read back and compare, rename; each step depends on the one before.
     """
-    import OpenImageIO as oiio  # pip install OpenImageIO
-
     path = Path(path)
-    fmt = _format(path, fmt)
+    fmt = image_format(fmt or path.suffix)
     bits = DEFAULT_BITS[fmt] if bits is None else bits
-    if bits not in BITS[fmt]:
-        raise ParameterError("bits", f"{fmt} takes {' or '.join(map(str, BITS[fmt]))} bits, got {bits!r}")
+    if problem := bits_problem(fmt, bits):
+        raise ParameterError("bits", problem)
     given = _COLORSPACES.get(str(colorspace).lower())
     if given is None:
         raise ParameterError("colorspace", f"expected linear, srgb or data, got {colorspace!r}")
+    pixels = _pixels(pixels)
+    dtype, stored = _stored(fmt, bits, given)
+    h, w, c = pixels.shape
+    # one transaction: write to a temporary name, flush, read back and compare, rename
+    with replacing(path, _EXTENSION[fmt]) as tmp:
+        digests = _write_bands(path, tmp, pixels, _spec(pixels.shape, dtype, fmt, stored), (fmt, bits, given))
+        _sync(tmp)
+        _verify(tmp, digests, (h, w, c), dtype, fmt)
+    return {
+        "path": str(path), "format": fmt, "bits": bits, "colorspace": stored,
+        "width": w, "height": h, "channels": c, "bytes": path.stat().st_size,
+    }
+
+
+def _pixels(pixels) -> np.ndarray:
+    """``pixels`` as an ``(h, w, c)`` array, c = 1 to 4, of floats or bools; a 2D array is one channel."""
     pixels = np.asarray(pixels)
     if pixels.ndim == 2:
         pixels = pixels[:, :, None]
@@ -214,57 +239,64 @@ def write_image(path, pixels, *, fmt: str | None = None, bits: int | None = None
         raise ParameterError("pixels", f"expected (h, w, 1-4) values, got shape {pixels.shape}")
     if not (np.issubdtype(pixels.dtype, np.floating) or pixels.dtype == np.bool_):
         raise ParameterError("pixels", f"expected float (or bool) values, got {pixels.dtype}")
-    dtype, stored = _stored(fmt, bits, given)
-    h, w, c = pixels.shape
+    return pixels
 
-    with replacing(path, _EXTENSION[fmt]) as tmp:
-        spec = oiio.ImageSpec(w, h, c, _typedesc(dtype))
-        # PNG data: OpenImageIO writes gAMA 1.0 for a linear PNG and no colour chunk for Raw
-        spec.attribute("oiio:ColorSpace", (LINEAR if fmt == "png" else "Raw") if stored == DATA else stored)
-        spec.attribute("Software", "texbake")
-        if stored == DATA:
-            spec.attribute("texbake:ColorSpace", DATA)  # PNG, TIFF cannot say it otherwise
-        if c in (2, 4):
-            spec.attribute("oiio:UnassociatedAlpha", 1)  # alpha is coverage, not premultiplied
-        spec.attribute("compression", "zip")
-        # one row filter, "up", not libpng's trial of all five on every row, and zlib's
-        # level 4 (its first with lazy matching): on baked maps (smooth fields) 2-3x
-        # faster than level 3 with the trial, and files 2-20 % smaller
-        spec.attribute("png:compressionLevel", 4)
-        spec.attribute("png:filter", _PNG_FILTER_UP)
-        if fmt == "tif":
-            # libtiff fails ("TIFFWriteCustomDirectory() of the Exif data") on the Exif
-            # directory OIIO writes unless it holds a tag: the colour space is one.
-            spec.attribute("Exif:ColorSpace", _EXIF_SRGB if stored == SRGB else _EXIF_UNCALIBRATED)
-        out = oiio.ImageOutput.create(str(tmp))
-        if out is None:
-            raise OutputError(f"{path}: cannot create a {fmt} writer: {oiio.geterror() or 'unknown error'}")
-        ok = bool(out.open(str(tmp), spec))
-        error = out.geterror()
-        digests = []  # of each band as written, to check the file against
-        band = _band_rows(w)
-        with ThreadPoolExecutor(1, thread_name_prefix="texbake-encode") as encoder:
-            # a band at a time (memory stays bounded), the next encoded while this one is compressed
-            encode = lambda r: encoder.submit(_encode, pixels[r : r + band], fmt, bits, given)
-            pending = encode(0)
-            for r in range(0, h, band) if ok else ():
-                data = pending.result()
-                if r + band < h:
-                    pending = encode(r + band)
-                digests.append(zlib.crc32(data.data))
-                if not out.write_scanlines(r, r + len(data), 0, data):
-                    ok, error = False, out.geterror()
-                    break
-        ok = bool(out.close()) and ok
-        error = error or out.geterror() or oiio.geterror()
-        if not ok or error:
-            raise OutputError(f"{path}: write failed: {error or 'unknown OpenImageIO error'}")
-        _sync(tmp)
-        _verify(tmp, digests, (h, w, c), dtype, fmt)
-    return {
-        "path": str(path), "format": fmt, "bits": bits, "colorspace": stored,
-        "width": w, "height": h, "channels": c, "bytes": path.stat().st_size,
-    }
+
+def _spec(shape: tuple[int, ...], dtype, fmt: str, stored: str):
+    """The OpenImageIO ``ImageSpec`` of a file of ``(h, w, c)`` pixels of ``dtype`` whose colour space is ``stored``."""
+    import OpenImageIO as oiio  # pip install OpenImageIO
+
+    h, w, c = shape
+    spec = oiio.ImageSpec(w, h, c, _typedesc(dtype))
+    # PNG data: OpenImageIO writes gAMA 1.0 for a linear PNG and no colour chunk for Raw
+    spec.attribute("oiio:ColorSpace", (LINEAR if fmt == "png" else "Raw") if stored == DATA else stored)
+    spec.attribute("Software", "texbake")
+    if stored == DATA:
+        spec.attribute("texbake:ColorSpace", DATA)  # PNG, TIFF cannot say it otherwise
+    if c in (2, 4):
+        spec.attribute("oiio:UnassociatedAlpha", 1)  # alpha is coverage, not premultiplied
+    spec.attribute("compression", "zip")
+    # one row filter, "up", not libpng's trial of all five on every row, and zlib's level 4
+    # (its first with lazy matching): baked maps are smooth fields, which "up" predicts well
+    spec.attribute("png:compressionLevel", 4)
+    spec.attribute("png:filter", _PNG_FILTER_UP)
+    if fmt == "tif":
+        # libtiff fails ("TIFFWriteCustomDirectory() of the Exif data") on the Exif
+        # directory OIIO writes unless it holds a tag: the colour space is one.
+        spec.attribute("Exif:ColorSpace", _EXIF_SRGB if stored == SRGB else _EXIF_UNCALIBRATED)
+    return spec
+
+
+def _write_bands(path: Path, tmp: Path, pixels: np.ndarray, spec, encoding: tuple[str, int, str]) -> list[int]:
+    """Write ``pixels`` to ``tmp`` a band at a time (memory stays bounded), the next band
+    encoded (:func:`_encode` with ``encoding``: format, bits, colour space given) while
+    this one is compressed; return the CRC-32 of each band as written, to check the file
+    against. :class:`OutputError` names ``path`` if OpenImageIO fails."""
+    import OpenImageIO as oiio
+
+    fmt = encoding[0]
+    out = oiio.ImageOutput.create(str(tmp))
+    if out is None:
+        raise OutputError(f"{path}: cannot create a {fmt} writer: {oiio.geterror() or 'unknown error'}")
+    ok = bool(out.open(str(tmp), spec))
+    error = out.geterror()
+    digests = []
+    h, band = len(pixels), _band_rows(pixels.shape[1])
+    with ThreadPoolExecutor(1, thread_name_prefix="texbake-encode") as encoder:
+        pending = encoder.submit(_encode, pixels[:band], *encoding)
+        for r in range(0, h, band) if ok else ():
+            data = pending.result()
+            if r + band < h:
+                pending = encoder.submit(_encode, pixels[r + band : r + 2 * band], *encoding)
+            digests.append(zlib.crc32(data.data))
+            if not out.write_scanlines(r, r + len(data), 0, data):
+                ok, error = False, out.geterror()
+                break
+    ok = bool(out.close()) and ok
+    error = error or out.geterror() or oiio.geterror()
+    if not ok or error:
+        raise OutputError(f"{path}: write failed: {error or 'unknown OpenImageIO error'}")
+    return digests
 
 
 def encode_png_bytes(pixels, bits: int = 8, *, colorspace: str = "linear") -> bytes:
@@ -317,10 +349,10 @@ def _check_png_chunks(path: Path, raw_bytes: int) -> None:
     libpng reads the pixels of a PNG cut short after its last IDAT without an error.
     """
     data = path.read_bytes()
-    if not data.startswith(_PNG_SIGNATURE):
+    if not data.startswith(PNG_SIGNATURE):
         raise OutputError(f"{path}: not a PNG file (truncated?)")
     inflate, inflated = zlib.decompressobj(), 0
-    p = len(_PNG_SIGNATURE)
+    p = len(PNG_SIGNATURE)
     while True:
         if p + 12 > len(data):
             raise OutputError(f"{path}: truncated PNG (chunk header at byte {p}, disk full?)")

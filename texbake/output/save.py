@@ -14,10 +14,8 @@ from pathlib import Path
 from ..errors import OutputError, ParameterError
 from .atomic import remove_stale
 from .export import write_glb, write_obj
-from .images import write_image
+from .images import bits_problem, image_format, write_image
 from .report import write_json
-
-FORMATS = {"png": (8, 16), "exr": (16, 32), "tif": (8, 16, 32)}
 
 
 def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = None, obj: bool = False) -> dict:
@@ -32,12 +30,9 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
     presence means the rest is complete. Colour maps are sRGB; the normal map and the
     coverage are data (a linear PNG: ``texbake.output.images``).
     """
-    fmt = fmt.lower().lstrip(".")
-    fmt = "tif" if fmt == "tiff" else fmt
-    if fmt not in FORMATS:
-        raise ParameterError("format", f"expected one of {', '.join(FORMATS)}, got {fmt!r}")
-    if bits is not None and bits not in FORMATS[fmt]:
-        raise ParameterError("bits", f"{fmt} takes {FORMATS[fmt]} bits, got {bits}")
+    fmt = image_format(fmt)
+    if bits is not None and (problem := bits_problem(fmt, bits)):
+        raise ParameterError("bits", problem)
     folder = Path(folder)
     try:
         folder.mkdir(parents=True, exist_ok=True)

@@ -7,8 +7,7 @@ import trimesh
 from conftest import run_cli
 
 import texbake
-from texbake.atlas.cache import AtlasCache, atlas_key
-from texbake.atlas.decide import make_atlas
+from texbake.atlas import AtlasCache, atlas_key, make_atlas
 
 
 def test_a_second_bake_of_the_mesh_takes_its_atlas_from_the_cache(meshes, tmp_path):

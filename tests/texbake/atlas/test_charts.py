@@ -1,4 +1,4 @@
-"""Planar charts (bake/charts.py) and the atlases made of them on CAD-like meshes."""
+"""Planar charts (texbake/atlas/charts.py) and the atlases made of them on CAD-like meshes."""
 
 from __future__ import annotations
 
@@ -7,9 +7,8 @@ import pytest
 import trimesh
 from conftest import MESHES
 
+from texbake.atlas import atlas_stats, make_atlas, overlap
 from texbake.atlas.charts import ANGLE_LIMIT, density_spread, directions, planar_charts, prefer_planar
-from texbake.atlas.decide import atlas_stats, make_atlas
-from texbake.atlas.uvcheck import overlap
 from texbake.checks.cad import fan_cylinder, holed_plate
 from texbake.mesh.load import load_mesh
 from texbake.mesh.uvgeometry import uv_areas
@@ -123,7 +122,7 @@ def test_the_outline_of_a_sliver_fan_is_a_few_well_shaped_triangles():
 
 @pytest.mark.parametrize("mirror", [False, True])
 def test_charts_packed_by_their_outline_follow_the_packer(mirror):
-    from texbake.atlas.decide import _place
+    from texbake.atlas.pack import _place
 
     rng = np.random.default_rng(1)
     uv = rng.random((40, 2))

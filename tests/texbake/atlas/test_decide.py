@@ -1,6 +1,6 @@
 """UV atlas: reuse, unwrap, xatlas' hangs and crashes, and the parallel patch unwrap.
 
-Crashes and hangs are tested with injected workers (``texbake.atlas.decide.WORKER`` pointed at a
+Crashes and hangs are tested with injected workers (``texbake.atlas.pack.WORKER`` pointed at a
 script that wraps the real worker and crashes, hangs or fails on the jobs it is told
 to); one test, marked ``xatlas_failure``, checks a real xatlas failure."""
 
@@ -13,8 +13,10 @@ import pytest
 import trimesh
 from conftest import MESHES
 
-from texbake.atlas import decide as atlas
-from texbake.atlas.decide import PATCH_FACES, _grid_atlas, _run_xatlas_in_child, atlas_stats, make_atlas, uv_problem
+from texbake.atlas import atlas_stats, make_atlas, run_xatlas_in_child, uv_problem
+from texbake.atlas import pack as atlas_pack
+from texbake.atlas.fallback import grid_atlas
+from texbake.atlas.pack import PATCH_FACES
 from texbake.errors import AtlasError, ParameterError
 
 
@@ -185,11 +187,11 @@ def test_real_xatlas_hang_is_stopped_at_the_deadline():
     v = s.vertices.astype(np.float32)
     v[0] = np.inf
     start = time.monotonic()
-    ok, why = _run_xatlas_in_child(v, s.faces, deadline=2.0)
+    ok, why = run_xatlas_in_child(v, s.faces, deadline=2.0)
     assert not ok and "timed out after 2 s" in why
     assert time.monotonic() - start < 4
     # normalised first, the same xatlas call is fine
-    ok, (vm, fa, uv) = _run_xatlas_in_child(s.vertices.astype(np.float32), s.faces, deadline=30.0)
+    ok, (vm, fa, uv) = run_xatlas_in_child(s.vertices.astype(np.float32), s.faces, deadline=30.0)
     assert ok and fa.shape == s.faces.shape and np.isfinite(uv).all()
 
 
@@ -229,7 +231,7 @@ def failing_worker(tmp_path, monkeypatch):
     script.write_text(FAILING_WORKER)
 
     def inject(how, job="chart", min_faces=0):
-        monkeypatch.setattr(atlas, "WORKER", [sys.executable, str(script), how, job, str(min_faces)])
+        monkeypatch.setattr(atlas_pack, "WORKER", [sys.executable, str(script), how, job, str(min_faces)])
 
     return inject
 
@@ -253,7 +255,7 @@ def test_a_crashing_xatlas_charting_gives_planar_charts(failing_worker, how, cod
     assert a.reason.endswith(f"(after: xatlas crashed (exit code {code}))")
     check_atlas(a, s.vertices, s.faces)
     assert overlap(a) == 0
-    ok, why = _run_xatlas_in_child(s.vertices.astype(np.float32), s.faces, deadline=30.0)
+    ok, why = run_xatlas_in_child(s.vertices.astype(np.float32), s.faces, deadline=30.0)
     assert not ok and why == f"xatlas crashed (exit code {code})"
 
 
@@ -316,7 +318,7 @@ def test_a_hanging_worker_is_stopped_at_the_deadline(failing_worker, job, deadli
                             r"xatlas timed out after [0-9.]+ s while packing; used fallback", a.reason), a.reason
     check_atlas(a, s.vertices, s.faces)
     start = time.monotonic()
-    ok, why = _run_xatlas_in_child(s.vertices.astype(np.float32), s.faces, deadline=float(deadline))
+    ok, why = run_xatlas_in_child(s.vertices.astype(np.float32), s.faces, deadline=float(deadline))
     assert not ok and why == f"xatlas timed out after {deadline} s" and time.monotonic() - start < deadline + 2
 
 
@@ -331,7 +333,7 @@ def test_deadline_gives_a_fallback_grid():
 def test_grid_atlas_of_odd_triangles():
     v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [2, 0, 0], [1e-9, 1e-9, 0]], float)
     f = np.array([[0, 1, 2], [0, 1, 3], [0, 0, 1], [0, 1, 4]])  # ok, collinear, repeated, sliver
-    vm, fa, uv = _grid_atlas(v, f, 2 / 1024)
+    vm, fa, uv = grid_atlas(v, f, 2 / 1024)
     assert np.array_equal(vm[fa], f) and (uv_area(uv, fa) > 0).all() and uv.min() >= 0 and uv.max() <= 1
 
 

@@ -342,3 +342,36 @@ def test_read_image_of_a_broken_file(tmp_path):
     (tmp_path / "a.png").write_bytes(b"\x89PNG\r\n\x1a\nnot really")
     with pytest.raises(OutputError, match="a.png"):
         read_image(tmp_path / "a.png")
+
+
+@pytest.mark.parametrize("name, fmt", [("png", "png"), (".PNG", "png"), ("tif", "tif"), ("TIFF", "tif"), (".tiff", "tif"), ("exr", "exr")])
+def test_one_format_rule_for_the_settings_the_writer_and_the_saver(tmp_path, name, fmt):
+    """``tiff`` is ``tif`` and the bit depths are :data:`BITS`, wherever a format is named."""
+    from texbake.output.save import save_result
+    from texbake.settings import BakeSettings
+
+    assert imageio.image_format(name) == fmt and BakeSettings(format=name).format == fmt
+    for bits in (8, 16, 32):
+        takes = bits in imageio.BITS[fmt]
+        assert (imageio.bits_problem(fmt, bits) is None) == takes
+        if not takes:
+            with pytest.raises(ParameterError, match=f"'bits': {fmt} takes"):
+                write_image(tmp_path / f"a.{fmt}", ramp(), bits=bits)
+            with pytest.raises(ParameterError, match=f"'bits': {fmt} takes"):
+                save_result(None, tmp_path / "out", fmt=name, bits=bits)  # checked before the result is read
+            with pytest.raises(ValueError, match=f"bits: {fmt} takes"):
+                BakeSettings(format=name, bits=bits)
+    assert not (tmp_path / "out").exists()
+
+
+def test_an_unknown_format_is_refused_by_each_of_them(tmp_path):
+    from pydantic import ValidationError
+
+    from texbake.output.save import save_result
+    from texbake.settings import BakeSettings
+
+    for call in (lambda: write_image(tmp_path / "a.jpg", ramp()), lambda: save_result(None, tmp_path / "out", fmt="jpeg")):
+        with pytest.raises(ParameterError, match="'format': expected png, exr, tif or tiff, got 'jp"):
+            call()
+    with pytest.raises(ValidationError, match="format"):
+        BakeSettings(format="jpeg")

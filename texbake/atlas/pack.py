@@ -1,0 +1,350 @@
+"""The unwrap in xatlas' worker processes: charting, then one packing of all charts.
+
+xatlas hangs on some inputs (an infinite vertex, a mesh 1e20 units across), returns NaN
+UVs on others and segfaults on some (``trimesh.creation.icosphere(6)`` in one piece). So
+it only ever runs in worker processes (:mod:`texbake.atlas.packworker`, fresh
+interpreters, started by :func:`start_workers` from ``WORKER``) under one wall-clock
+deadline, on a copy of the mesh normalised to a unit box in float64 before the cast to
+float32, and whatever comes back is checked (:func:`texbake.atlas.uvcheck.unwrap_problem`).
+
+Charting, one of two ways: planar charts (:mod:`texbake.atlas.charts`), or xatlas' own
+(the mesh cut into spatially coherent patches of about ``PATCH_FACES`` faces that the
+workers chart in parallel, each patch brought to one texel density). Packing: faces whose
+chart collapsed or that were left out get a small chart of their own (laid flat as in
+:mod:`texbake.atlas.fallback`), and all charts are packed together in a single xatlas
+packing pass at the texture's resolution and padding (one ``add_uv_mesh`` per mesh of
+charts). Large charts are packed by a proxy, the triangulation of their outline, and
+refitted to where the packer placed it (:func:`_place`). Any failure raises
+:class:`XatlasFailed`, saying what failed.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from ..mesh.uvgeometry import areas, uv_areas
+from ..workers import Pool
+from .charts import outline_triangles, planar_charts
+from .fallback import flat_triangles, normalised
+from .uvcheck import chart_labels
+
+SWAP_FACES = 20_000  # meshes packed once more with u and v swapped (xatlas' greedy packer then often fills more), up to this many triangles
+PROXY_FACES = 32  # charts of more faces are packed by the triangulation of their outline
+PATCH_FACES = 2000  # faces per patch of the parallel unwrap
+CHART_ITERATIONS = 1  # xatlas ChartOptions.max_iterations: more iterations take longer for no better atlas on the meshes here
+
+
+@dataclass(frozen=True)
+class UnwrapRequest:
+    """What an unwrap is asked for: a mesh and the texture its charts are packed into."""
+
+    vertices: np.ndarray  # (n, 3) float64
+    faces: np.ndarray  # (m, 3) int64
+    size: int  # texels of the square texture
+    padding: int  # texels between charts
+
+
+class Unwrapped(NamedTuple):
+    """An unwrap's atlas, as :class:`texbake.atlas.decide.Atlas` holds it, and how it was made."""
+
+    vmapping: np.ndarray  # (k,) int64: atlas vertex -> mesh vertex
+    faces: np.ndarray  # (m, 3) int64: the mesh's faces in atlas vertices
+    uv: np.ndarray  # (k, 2) float64 in the unit square
+    method: str  # "planar" | "xatlas" | "xatlas-patches"
+    detail: dict  # for the atlas' stats: ``patches``, or ``planar_charts`` and ``flat_share``
+
+
+class XatlasFailed(Exception):
+    """An unwrap failed: xatlas crashed, hung, or gave UVs that cannot be used (the message says which)."""
+
+
+# The command that starts an xatlas worker (``texbake.workers`` protocol; tests put in one
+# that crashes or hangs).
+WORKER = [sys.executable, "-m", "texbake.atlas.packworker"]
+
+
+def start_workers(count: int, end: float) -> Pool:
+    """``count`` xatlas workers (``WORKER``) whose jobs must be done by ``end`` (``time.monotonic()``)."""
+    return Pool(WORKER, count, end)
+
+
+def _describe(why: str, deadline: float) -> str:
+    """What a worker's failure ``why`` (``texbake.workers``: "timeout", "exit code N", or an error) means for the unwrap."""
+    if why == "timeout":
+        return f"xatlas timed out after {deadline:.3g} s"
+    if why.startswith("exit code"):
+        return f"xatlas crashed ({why})"
+    return f"xatlas failed ({why})"
+
+
+def run_xatlas_in_child(positions: np.ndarray, faces: np.ndarray, deadline: float, *, size: int = 1024,
+                        padding: int = 2) -> tuple[bool, object]:
+    """Chart and pack ``(n, 3)`` float32 positions, as given, in one worker: how xatlas
+    itself fares on a mesh (the stability checks and the tests).
+
+    Returns ``(True, (vmapping, faces, uv))`` or ``(False, why)`` once the worker is
+    done, dead, or past ``deadline`` seconds (then it is killed).
+    """
+    start = time.monotonic()
+    with start_workers(1, start + deadline) as workers:
+        ((ok, value),) = workers.run([("chart", (np.asarray(positions, np.float32), np.asarray(faces, np.uint32),
+                                                 CHART_ITERATIONS))])
+        if not ok:
+            return False, _describe(value, deadline)
+        vmap, idx, uv = value
+        ((ok, value),) = workers.run([("pack", ([(uv.astype(np.float32), idx)], size, padding))])
+        if not ok:
+            return False, _describe(value, deadline)
+        ((v2, idx2, uv2),), _ = value
+        return True, (vmap[v2].astype(np.int64), idx2.astype(np.int64), uv2)
+
+
+# -- the unwrap ----------------------------------------------------------------------
+
+
+def unwrap(request: UnwrapRequest, pool: Pool, deadline: float, patch_faces: int | None, charting: str) -> Unwrapped:
+    """The atlas of ``request`` charted by ``charting`` ("xatlas", in patches of
+    ``patch_faces`` faces or, None, in one piece; or "planar") and packed by xatlas in
+    ``pool``'s workers by its end (``deadline`` seconds from now, for the messages);
+    raises :class:`XatlasFailed`."""
+    faces, size, padding = request.faces, request.size, request.padding
+    pos = normalised(request.vertices)
+    good = _good_faces(pos, faces)
+    if charting == "planar":
+        meshes, charts, flat = _chart_planar(pos, faces, good, size)
+        vm, fa, uv = _pack(pos, faces, meshes, size, padding, pool, deadline)
+        return Unwrapped(vm, fa, uv, "planar", {"planar_charts": charts, "flat_share": round(flat, 4)})
+    meshes, n_patches = _chart_xatlas(pos, faces, good, pool, deadline, patch_faces)
+    vm, fa, uv = _pack(pos, faces, meshes, size, padding, pool, deadline)
+    return Unwrapped(vm, fa, uv, "xatlas-patches" if n_patches > 1 else "xatlas", {"patches": n_patches})
+
+
+def _patches(vertices: np.ndarray, faces: np.ndarray, target: int) -> list[np.ndarray]:
+    """Face index arrays of spatially coherent patches of at most ``target`` faces.
+
+    Recursive bisection of the face centroids at the median of the longest axis.
+    """
+    centroids = vertices[faces].mean(axis=1)
+    stack, out = [np.arange(len(faces))], []
+    while stack:
+        idx = stack.pop()
+        if len(idx) <= target:
+            if len(idx):
+                out.append(idx)
+            continue
+        c = centroids[idx]
+        axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
+        order = idx[np.argsort(c[:, axis], kind="stable")]
+        half = len(order) // 2
+        stack += [order[half:], order[:half]]
+    return out
+
+
+def _good_faces(pos: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Indices of the faces that keep an area in float32 (xatlas' precision); the rest
+    would give NaNs or collapse, and get a small chart of their own (:func:`_pack`)."""
+    return np.flatnonzero(areas(pos.astype(np.float32), faces) > 0)
+
+
+def _chart_xatlas(pos, faces, good, pool, deadline, patch_faces):
+    """xatlas' charts of the ``good`` faces: ``(meshes, patch count)``, meshes as
+    :func:`_pack` takes them (faces whose chart collapsed are left out); raises
+    ``XatlasFailed``.
+
+    Meshes of more than ``2 * patch_faces`` faces are charted in spatial patches, in
+    parallel; each patch's charts are brought to one texel density (world units of
+    ``pos``).
+    """
+    pos32 = pos.astype(np.float32)
+    if patch_faces is None or len(good) <= 2 * patch_faces:
+        patches = [good] if len(good) else []
+    else:
+        patches = [good[p] for p in _patches(pos, faces[good], patch_faces)]
+    jobs, used_of = [], []
+    for p in patches:
+        used, local = np.unique(faces[p], return_inverse=True)
+        used_of.append(used)
+        jobs.append(("chart", (pos32[used], local.reshape(-1, 3).astype(np.uint32), CHART_ITERATIONS)))
+    done = pool.run(jobs)
+    for (ok, value), p in zip(done, patches, strict=True):
+        if not ok:
+            what = _describe(value, deadline)
+            raise XatlasFailed(what if len(patches) == 1 else f"{what} on a patch of {len(p)} faces")
+    meshes = []
+    for (_, (vmap, idx, uv)), p, used in zip(done, patches, used_of, strict=True):
+        idx = idx.astype(np.int64)
+        if idx.shape != (len(p), 3) or not np.isfinite(uv).all():
+            raise XatlasFailed("xatlas returned bad UVs for a patch")
+        a_uv = uv_areas(uv, idx)
+        if not a_uv.sum() > 0:
+            raise XatlasFailed("xatlas returned UVs of zero area for a patch")
+        keep = a_uv > 0
+        if keep.any():
+            scale = np.sqrt(areas(pos, faces[p]).sum() / a_uv.sum())
+            meshes.append((p[keep], used[vmap.astype(np.int64)], uv * scale, idx[keep]))
+    return meshes, len(patches)
+
+
+def _chart_planar(pos, faces, good, size):
+    """Planar charts (:mod:`texbake.atlas.charts`) of the ``good`` faces: ``(meshes, chart count,
+    flat share)``, meshes as :func:`_pack` takes them, in world units of ``pos``.
+
+    Slivers under a thousandth of a texel high (at the density a ``size``-texel atlas
+    would have) are left out: xatlas' float32 UVs can collapse them, and they hold no
+    texel centre anyway; they get charts of their own.
+    """
+    c = planar_charts(pos, faces[good], grid=size)
+    a_uv = uv_areas(c.uv, c.faces)
+    tri = c.uv[c.faces]
+    longest = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2).max(axis=1)
+    texel = np.sqrt(a_uv.sum() / 0.5) / size
+    keep = 2 * a_uv > 1e-3 * texel * longest
+    if not keep.any():
+        return [], 0, c.flat
+    used, local = np.unique(c.faces[keep], return_inverse=True)  # vertices of the faces kept
+    return [(good[keep], c.vmapping[used], c.uv[used], local.reshape(-1, 3))], int(c.labels.max()) + 1, c.flat
+
+
+def _pack(pos, faces, meshes, size, padding, pool, deadline):
+    """Pack charted UV meshes into one atlas ``(vmapping, faces, uv)`` of all ``faces``.
+
+    ``meshes``: ``(face ids, chart vertex -> mesh vertex, uv, faces in chart vertices)``
+    at one texel density. Faces in none of them get a chart each, about two
+    texels wide. One xatlas packing pass at the texture's resolution and padding (one
+    ``add_uv_mesh`` per mesh: xatlas merges touching or overlapping charts of one mesh);
+    up to ``SWAP_FACES`` triangles a second at the same time with u and v swapped, the
+    fuller one kept.
+    """
+    m = len(faces)
+    charted = np.zeros(m, dtype=bool)
+    for face_ids, *_ in meshes:
+        charted[face_ids] = True
+    lost = np.flatnonzero(~charted)
+    if len(lost):
+        total = max(areas(pos, faces).sum(), 1e-30)
+        texel = np.sqrt(total / 0.7) / size  # world units per texel, roughly
+        flat = flat_triangles(pos, faces[lost])
+        flat *= (2 * texel / flat.max(axis=(1, 2)))[:, None, None]
+        flat[:, :, 0] += (np.arange(len(lost)) * 4 * texel)[:, None]
+        meshes = [*meshes, (lost, faces[lost].reshape(-1), flat.reshape(-1, 2), np.arange(3 * len(lost)).reshape(-1, 3))]
+
+    meshes = [_compact(*mesh) for mesh in meshes]
+    texel = np.sqrt(sum(float(uv_areas(uv, idx).sum()) for _, _, uv, idx in meshes) / 0.5) / size  # UV units, roughly
+    for outlines in (True, False):  # by the charts' outlines; by their own triangles if xatlas split an outline
+        proxies = [_proxy(uv, idx, 0.25 * texel, outlines) for _, _, uv, idx in meshes]
+        small = sum(len(tri) for _, tri, _ in proxies) <= SWAP_FACES
+        best = None
+        swaps = (False, True) if small else (False,)
+        replies = pool.run([("pack", (_pack_input(meshes, proxies, swap), size, padding)) for swap in swaps])
+        for ok, value in replies:
+            if not ok:
+                raise XatlasFailed(f"{_describe(value, deadline)} while packing")
+            uvs = _placed(meshes, proxies, value)
+            if uvs is None:
+                continue
+            face_areas = [uv_areas(u, idx) for u, (_, _, _, idx) in zip(uvs, meshes, strict=True)]
+            if any((a <= 0).any() for a in face_areas):
+                continue  # a sliver collapsed in xatlas' float32 UVs
+            used = sum(float(a.sum()) for a in face_areas)
+            if best is None or used > best[0]:
+                best = used, uvs
+        if best is not None:
+            uvs = best[1]
+            break
+        if not outlines:
+            raise XatlasFailed("xatlas' packing distorted a chart or collapsed a face")
+    maps, out_faces, offset = [], np.full((m, 3), -1, dtype=np.int64), 0
+    for face_ids, vmap, uv, idx in meshes:
+        maps.append(vmap)
+        out_faces[face_ids] = idx + offset
+        offset += len(uv)
+    return np.concatenate(maps), out_faces, np.concatenate(uvs)
+
+
+def _pack_input(meshes, proxies, swap: bool) -> list[tuple[np.ndarray, np.ndarray]]:
+    """What one xatlas packing gets: each mesh's proxy ``(uv (k, 2) float32, triangles
+    (t, 3) uint32)``, u and v swapped if ``swap``."""
+    out = []
+    for (_, _, uv, _), (used, tri, _) in zip(meshes, proxies, strict=True):
+        q = uv[used][:, ::-1] if swap else uv[used]
+        out.append((np.ascontiguousarray(q, dtype=np.float32), np.ascontiguousarray(tri[:, ::-1] if swap else tri, dtype=np.uint32)))
+    return out
+
+
+def _placed(meshes, proxies, value) -> list[np.ndarray] | None:
+    """Each mesh's UVs as the packing ``value`` placed its proxy, or None if a chart
+    packed by its outline came back distorted."""
+    packed, _info = value
+    if len(packed) != len(meshes):
+        raise XatlasFailed("xatlas' packing lost meshes")
+    try:
+        return [_place(uv, chart, used[vm2.astype(np.int64)], uv2.astype(np.float64))
+                for (_, _, uv, _), (used, _, chart), (vm2, _, uv2) in zip(meshes, proxies, packed, strict=True)]
+    except XatlasFailed:
+        return None
+
+
+def _compact(face_ids, vmap, uv, idx):
+    """A UV mesh for :func:`_pack` without the vertices no face uses."""
+    used, local = np.unique(idx, return_inverse=True)
+    return face_ids, vmap[used], uv[used], local.reshape(-1, 3)
+
+
+def _proxy(uv: np.ndarray, faces: np.ndarray, tolerance: float, outlines: bool = True):
+    """What the packer gets for a UV mesh: ``(used (u,), triangles (t, 3) into used,
+    chart (k,))``: each chart of more than ``PROXY_FACES`` faces as the ear-cut
+    triangulation of its outline simplified within ``tolerance`` (a quarter texel:
+    :func:`texbake.atlas.charts.outline_triangles`; xatlas rasterises each triangle over its
+    bounding box, so a fan of 4000 slivers costs it seconds), the others (all, without
+    ``outlines``) as they are; ``chart``: each vertex's chart."""
+    chart = np.zeros(len(uv), dtype=np.int64)
+    face_chart = chart_labels(faces, len(uv))
+    chart[faces] = face_chart[:, None]
+    order = np.argsort(face_chart, kind="stable")
+    starts = np.flatnonzero(np.r_[True, face_chart[order][1:] != face_chart[order][:-1]])
+    parts = []
+    for members in np.split(order, starts[1:]):
+        tri = outline_triangles(uv, faces[members], tolerance) if outlines and len(members) > PROXY_FACES else None
+        parts.append(faces[members] if tri is None else tri)
+    tri = np.concatenate(parts)
+    used, local = np.unique(tri, return_inverse=True)
+    return used, local.reshape(-1, 3), chart
+
+
+def _place(uv: np.ndarray, chart: np.ndarray, source: np.ndarray, placed: np.ndarray) -> np.ndarray:
+    """``uv`` (k, 2) moved chart by chart as the packer moved the ``source`` vertices to
+    ``placed``: a chart whose vertices were all placed as placed, the others (packed by
+    their outline) by the affine map that fits the placed ones best by least squares
+    (xatlas rotates, scales, and turns a chart a quarter by swapping u and v, a mirror);
+    raises ``XatlasFailed`` if that map does not fit."""
+    k = int(chart.max()) + 1
+    c = chart[source]
+    n = np.bincount(c, minlength=k)
+    if (n[np.unique(chart)] == 0).any():
+        raise XatlasFailed("xatlas' packing lost a chart")
+    x = np.column_stack([uv[source], np.ones(len(source))])  # (s, 3)
+    gram = np.zeros((k, 3, 3))
+    rhs = np.zeros((k, 3, 2))
+    np.add.at(gram, c, x[:, :, None] * x[:, None, :])
+    np.add.at(rhs, c, x[:, :, None] * placed[:, None, :])
+    maps = np.linalg.pinv(gram) @ rhs  # (k, 3, 2): each chart's affine map
+    err = np.linalg.norm(np.einsum("si,sij->sj", x, maps[c]) - placed, axis=1)
+    whole = n >= np.bincount(chart, minlength=k)  # every vertex placed: xatlas' own placement
+    lo = np.full((k, 2), np.inf)
+    hi = np.full((k, 2), -np.inf)
+    np.minimum.at(lo, c, placed)
+    np.maximum.at(hi, c, placed)
+    extent = (hi - lo).max(axis=1)
+    worst = np.zeros(k)
+    np.maximum.at(worst, c, err)
+    if (~whole & (worst > 1e-3 * extent + 1e-7)).any():
+        raise XatlasFailed("xatlas' packing distorted a chart")
+    out = np.einsum("ki,kij->kj", np.column_stack([uv, np.ones(len(uv))]), maps[chart])
+    direct = whole[c]
+    out[source[direct]] = placed[direct]
+    return out
