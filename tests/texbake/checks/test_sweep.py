@@ -25,7 +25,10 @@ def test_sweep_writes_one_row_per_setting(swept, tmp_path):
         records = list(csv.DictReader(f))
     assert tuple(records[0]) == COLUMNS and len(records) == len(SETTINGS)
     assert [r["setting"] for r in records] == [s.name for s in SETTINGS]
-    assert all(float(r["seconds"]) > 0 and float(r["rmse"]) > 0 for r in records)
+    for record, row in zip(records, rows, strict=True):  # the rows' figures, to 6 significant digits
+        for column in ("seconds", "rmse", "estimate", "ratio"):
+            assert float(record[column]) == pytest.approx(getattr(row, column), rel=1e-5), (column, record)
+        assert float(record["seconds"]) > 0 and float(record["rmse"]) > 0
     assert paths["png"].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     image = read_image(paths["png"])
     assert image.ndim == 3 and image.shape[0] > 100 and image.shape[1] > 100
