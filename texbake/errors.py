@@ -9,14 +9,25 @@ from __future__ import annotations
 
 
 class BakeError(Exception):
-    """A bake could not be done because of its input or its settings."""
+    """A bake could not be done because of its input or its settings.
+
+    The base of every error here: catch it to catch any of them. ``str(error)`` is one
+    line that names the file or the parameter and the problem.
+    """
 
 
 class MeshError(BakeError):
     """A mesh file is unreadable, unsafe or unusable.
 
-    ``path`` names the file (or ``"<mesh>"`` for an in-memory mesh), ``problem`` says
-    what is wrong with it.
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file, or ``"<mesh>"`` for an in-memory mesh; kept as ``str`` in ``path``.
+    problem : str
+        What is wrong with it, in one line; kept in ``problem``.
+
+    The message is ``"{path}: {problem}"``. Picklable, so it crosses process
+    boundaries (batch and service workers) unchanged.
     """
 
     def __init__(self, path: str, problem: str):
@@ -29,7 +40,17 @@ class MeshError(BakeError):
 
 
 class ParameterError(BakeError, ValueError):
-    """A bake parameter is out of range or unknown: ``name`` and the problem."""
+    """A bake parameter is out of range, of the wrong type or unknown.
+
+    Parameters
+    ----------
+    name : str
+        The parameter as the caller spelt it (``"size"``, ``"uv"``); kept in ``name``.
+    problem : str
+        What is wrong with its value, in one line; kept in ``problem``.
+
+    The message is ``"parameter {name!r}: {problem}"``. A ``ValueError`` too; picklable.
+    """
 
     def __init__(self, name: str, problem: str):
         self.name = name
@@ -41,12 +62,30 @@ class ParameterError(BakeError, ValueError):
 
 
 class AtlasError(BakeError):
-    """No usable UV atlas could be made (or kept) for the mesh."""
+    """No usable UV atlas could be made (or kept) for the mesh.
+
+    Raised for arrays that are not ``(n, 3)`` vertices and ``(m, 3)`` faces, a mesh
+    without faces, faces that index missing vertices or vertices that are not finite;
+    for ``uv="keep"`` on a mesh whose UVs are not usable (the message says why); and
+    when not even the fallback grid is usable. The message is the reason, in one line.
+    """
 
 
 class TextureError(BakeError, ValueError):
-    """A texture spec is invalid: unknown texture, unknown or out-of-range parameter."""
+    """A texture spec is invalid: an unknown texture, or an unknown or out-of-range parameter.
+
+    The message names the texture and the parameter (``"texture 'marble': frequency:
+    Input should be greater than 0"``); every string that is neither a texture name
+    nor a JSON object gets the same message, so it never tells whether a file exists.
+    A ``ValueError`` too.
+    """
 
 
 class OutputError(BakeError):
-    """An output file could not be written completely (disk full, bad folder)."""
+    """An output file could not be written or read back whole (a full disk, a missing or
+    read-only folder, a file cut short).
+
+    The message names the file. Nothing half-written is left under its name: a writer
+    that raises this has removed its temporary file, and an older file of that name is
+    as it was.
+    """

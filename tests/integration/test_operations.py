@@ -5,6 +5,7 @@ import contextlib
 import json
 import os
 import subprocess
+import time
 from pathlib import Path
 
 import httpx
@@ -17,7 +18,10 @@ def test_json_logs_one_object_a_line(tmp_path, meshes):
     api = start(["serve", "--port", str(port), "--workers", "1"], tmp_path, {"BAKE_LOG_FORMAT": "json"}, port=port)
     url = f"http://127.0.0.1:{port}"
     try:
-        job = wait(url, upload(url, meshes / "suzanne.ply", {"size": 64}).json()["id"], timeout=120)
+        began = time.perf_counter()
+        posted = upload(url, meshes / "suzanne.ply", {"size": 64})
+        took = time.perf_counter() - began  # the client's wait: the server's own time is within it
+        job = wait(url, posted.json()["id"], timeout=120)
         assert job["state"] == "done", job["error"]
         assert httpx.get(f"{url}/v1/jobs/nope", timeout=10).status_code == 404
     finally:
@@ -30,7 +34,8 @@ def test_json_logs_one_object_a_line(tmp_path, meshes):
     assert all({"time", "level", "logger", "message"} <= set(entry) for entry in logged)
     access = [e for e in logged if e["logger"] == "texbake.access"]
     post = [e for e in access if e["method"] == "POST" and e["path"] == "/v1/jobs"]
-    assert len(post) == 1 and post[0]["status"] == 202 and post[0]["client"] == "127.0.0.1" and post[0]["seconds"] >= 0, post
+    assert len(post) == 1 and post[0]["status"] == 202 and post[0]["client"] == "127.0.0.1", post
+    assert 0 < post[0]["seconds"] <= took + 0.001, (post, took)  # logged to the millisecond
     assert any(e["path"] == "/v1/jobs/nope" and e["status"] == 404 for e in access)
     states = [(e["state"], e["detail"]) for e in logged if e["logger"] == "texbake.jobs" and e["job"] == job["id"]]
     assert [state for state, _ in states] == ["queued", "running", "done"], states

@@ -65,25 +65,56 @@ def make_atlas(
     charting: str = "auto",
     _patch_faces: int | None = PATCH_FACES,
 ) -> Atlas:
-    """A UV atlas for ``(n, 3)`` float64 vertices and ``(m, 3)`` int faces.
+    """A UV atlas for a triangle mesh: its own UVs kept, or an unwrap.
 
-    ``uv``: ``(n, 2)`` per-vertex UVs or None. ``mode``: "auto" keeps usable UVs (see
-    :func:`texbake.atlas.uvcheck.uv_problem`) that do not overlap (more than ``OVERLAP_LIMIT``
-    of the covered texel centres under two or more faces, measured on the bake's grid) and
-    unwraps otherwise, saying why; "unwrap" always unwraps; "keep" requires usable UVs
-    (:class:`AtlasError` otherwise) and keeps overlapping ones with a warning. ``size``
-    (texels of the square texture) and ``padding`` (texels between charts) set the
-    packing; ``deadline`` bounds the wall time of all xatlas work, in ``workers``
-    processes. ``charting``: "planar" (:mod:`texbake.atlas.charts`), "xatlas" (its own charts;
-    meshes of more than ``2 * PATCH_FACES`` faces in patches, in parallel;
-    ``_patch_faces=None``: in one piece, for tests) or "auto"
-    (:func:`texbake.atlas.charts.prefer_planar`); the other is tried when the first fails, and
-    a "fallback-grid" atlas only when both have. ``reason`` says why the UVs were not
-    kept, which charting was used and why, and what failed. ``stats``: see
-    :func:`texbake.atlas.uvcheck.measure` (charts, utilisation, stretch, overlap,
-    bare_area), plus ``seconds``, and ``patches`` or ``planar_charts`` and ``flat_share``.
-    ``warnings``: what a user should know (overlapping UVs kept, the fallback grid, over
-    ``BARE_LIMIT`` of the surface on charts that hold no texel centre).
+    Parameters
+    ----------
+    vertices : (n, 3) array_like of float
+        Positions, finite where a face uses them; cast to float64.
+    faces : (m, 3) array_like of int
+        Triangles, indices in ``[0, n)``, m >= 1; cast to int64.
+    uv : (n, 2) array_like of float, optional
+        The mesh's per-vertex UVs, or None.
+    mode : {"auto", "unwrap", "keep"}, optional
+        "auto" keeps usable UVs (:func:`uv_problem`) that do not overlap (more than
+        ``OVERLAP_LIMIT`` of the covered texel centres under two or more faces, on the
+        bake's grid) and unwraps otherwise, saying why; "unwrap" always unwraps; "keep"
+        requires usable UVs and keeps overlapping ones with a warning.
+    size : int, optional
+        Texels of the square texture, 1 to 65536: the packing's resolution.
+    padding : int, optional
+        Texels between charts, 0 to 64.
+    deadline : float, optional
+        Seconds for all xatlas work, in ``workers`` processes.
+    workers : int, optional
+        xatlas worker processes.
+    charting : {"auto", "xatlas", "planar"}, optional
+        "planar" (:mod:`texbake.atlas.charts`), "xatlas" (its own charts; meshes of more
+        than ``2 * PATCH_FACES`` faces in patches, in parallel) or "auto"
+        (:func:`texbake.atlas.charts.prefer_planar`). The other is tried when the first
+        fails, and a "fallback-grid" atlas (a cell per triangle) only when both have.
+    _patch_faces : int or None
+        Faces per patch of the xatlas unwrap; None: the whole mesh in one piece (tests).
+
+    Returns
+    -------
+    Atlas
+        ``reason`` says why the UVs were not kept, which charting was used and why, and
+        what failed. ``stats``: :func:`texbake.atlas.uvcheck.measure` (charts,
+        utilisation, stretch, ``overlap``: the share of covered texels under two or more
+        faces, ``bare_area``: the share of the surface on charts that hold no texel centre
+        at ``size``, None above 8192), plus ``seconds``,
+        and ``patches`` or ``planar_charts`` and ``flat_share``. ``warnings``: overlapping
+        UVs kept, the fallback grid, over ``BARE_LIMIT`` of the surface on bare charts.
+
+    Raises
+    ------
+    ParameterError
+        A bad ``mode`` (named ``uv``), ``charting``, ``size``, ``padding``, ``deadline``
+        or ``workers``.
+    AtlasError
+        Arrays of the wrong shape, no faces, faces that index missing vertices, vertices
+        that are not finite, unusable UVs with ``mode="keep"``, or no atlas at all.
     """
     start = time.perf_counter()
     _check_settings(mode=mode, charting=charting, size=size, padding=padding, deadline=deadline, workers=workers)

@@ -83,8 +83,28 @@ class LoadedMesh:
 def load_mesh(path, *, max_faces: int = 5_000_000) -> LoadedMesh:
     """Read and validate the mesh file at ``path`` (see the module docstring).
 
-    Raises :class:`~texbake.errors.MeshError` naming the file and the problem for any file
-    that is missing, unreadable, unsafe or holds no usable triangles.
+    Parameters
+    ----------
+    path : str or os.PathLike
+        An OBJ, PLY, STL, OFF, glTF or GLB file (by its suffix, case-insensitive); an
+        OBJ's MTL files and a glTF's buffers must lie in its folder.
+    max_faces : int, optional
+        The most triangles (after triangulation) the file may hold; at least 1.
+
+    Returns
+    -------
+    LoadedMesh
+        ``vertices`` (n, 3) float64, ``faces`` (m, 3) int64 and ``uv`` (n, 2) float64
+        or None, with the counts of the faces removed and the file's SHA-256.
+
+    Raises
+    ------
+    MeshError
+        Naming the file and the problem, for a file that is missing, unreadable,
+        unsafe (an archive, a reference outside its folder or a URL), malformed, over
+        ``max_faces``, or without a usable triangle.
+    ParameterError
+        ``max_faces`` is not a positive integer.
     """
     _check_max_faces(max_faces)
     path = Path(path)

@@ -86,18 +86,49 @@ def _png(path: Path, slot: str, texture) -> bytes:
 
 def write_glb(path, vertices, faces, uv, textures, *, normals=None, tangents=None, name: str = "baked",
               base_factor: tuple[float, float, float, float] = (1.0, 1.0, 1.0, 1.0)) -> dict:
-    """Write a GLB: one mesh, its UVs, and its material's textures.
+    """Write a GLB: one mesh, its UVs, and its material's textures, atomically.
 
-    ``vertices``: ``(k, 3)`` float (written as float32); ``faces``: ``(m, 3)`` int;
-    ``uv``: ``(k, 2)`` float, v up; ``textures``: a PNG (file path or bytes), bound as
-    base colour, or a dict of PNGs by slot: ``baseColor`` (required; sRGB colour),
-    ``normal`` (a tangent-space normal map, +Y up: linear data) and ``emissive`` (sRGB,
-    with ``emissiveFactor`` 1); slots given the same PNG share one image. ``normals``:
-    optional ``(k, 3)`` normals (normalised here); ``tangents``: optional ``(k, 4)``
-    tangents, unit xyz orthogonal to the normals and w = +-1 (``texbake.mesh.tangents``; needs
-    ``normals``); ``base_factor``: the base colour's factor (black for a texture that is
-    light, not paint: the flame, bound as emissive). Indices are uint16 below 65535 vertices, else uint32. Returns path,
-    bytes, vertices, faces.
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The ``.glb`` file; its folder must exist.
+    vertices : (k, 3) array_like of float
+        Positions, finite; written as float32.
+    faces : (m, 3) array_like of int
+        Triangles, indices in ``[0, k)``; written as uint16 below 65535 vertices, else
+        uint32.
+    uv : (k, 2) array_like of float
+        One texture coordinate per vertex, OpenGL convention (v up); written as glTF's
+        ``(u, 1 - v)`` in float32.
+    textures : str, os.PathLike, bytes or dict
+        A PNG (file path or bytes), bound as the base colour; or a dict of PNGs by slot:
+        ``"baseColor"`` (required; sRGB colour), ``"normal"`` (a tangent-space normal
+        map, +Y up: linear data) and ``"emissive"`` (sRGB, with ``emissiveFactor`` 1).
+        Slots given the same PNG share one image; the PNGs are embedded as they are.
+    normals : (k, 3) array_like of float, optional
+        Shading normals, non-zero and finite; normalised here.
+    tangents : (k, 4) array_like of float, optional
+        glTF tangents: unit xyz orthogonal to the normals and w = +1 or -1
+        (:mod:`texbake.mesh.tangents`); needs ``normals``.
+    name : str, optional
+        The node's name.
+    base_factor : (4,) tuple of float, optional
+        The base colour's factor: black for a texture that is light, not paint (the
+        flame, bound as emissive).
+
+    Returns
+    -------
+    dict
+        ``path`` (str), ``bytes`` (the file's size), ``vertices`` and ``faces`` (counts).
+
+    Raises
+    ------
+    ParameterError
+        A bad array (its shape, dtype, range or finiteness), texture slot or non-PNG
+        texture, naming the parameter.
+    OutputError
+        A texture file cannot be read, or the GLB cannot be written (a missing folder, a
+        name taken by a folder); nothing is left under ``path``'s name.
     """
     path = Path(path)
     v, f, t, n = _mesh_arrays(vertices, faces, uv, normals)

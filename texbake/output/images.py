@@ -197,16 +197,39 @@ def _typedesc(dtype):
 
 
 def write_image(path, pixels, *, fmt: str | None = None, bits: int | None = None, colorspace: str = "linear") -> dict:
-    """Write ``(h, w, c)`` float ``pixels`` (row 0 at the top) to ``path``.
+    """Write an image map to ``path``, atomically, and check it was written whole.
 
-    ``fmt``: "png", "exr", "tif" or "tiff" (default: from the extension); ``bits``: 8 or
-    16 for PNG (default 8), 16 (half, default) or 32 (float) for EXR, 8, 16 (default) or
-    32 (float) for TIFF. ``colorspace``: what ``pixels`` hold, "linear", "srgb" or
-    "data" (see the module's notes). Returns what was written: path, format, bits,
-    colorspace (the file's), width, height, channels, bytes.
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; its folder must exist. An older file of that name is replaced only
+        once the new one is complete.
+    pixels : (h, w, c) or (h, w) array_like of float or bool
+        Row 0 at the top; c = 1, 2, 3 or 4 (the last of 2 or 4 is alpha, never
+        colour-encoded). float16, float32, float64 or bool (the coverage mask). Integer
+        files clip values to ``[0, 1]`` and write NaN as 0; float files keep every value.
+    fmt : {"png", "exr", "tif", "tiff"}, optional
+        Default: from the suffix of ``path``.
+    bits : int, optional
+        8 or 16 for PNG (default 8); 16 (half, default) or 32 (float) for EXR; 8, 16
+        (default) or 32 (float) for TIFF.
+    colorspace : {"linear", "srgb", "data"}, optional
+        What ``pixels`` hold (see the module's table): scene-linear colour (default),
+        sRGB-encoded colour, or non-colour data stored as given.
 
-    Raises :class:`ParameterError` for a bad format, bit depth, colour space or pixel
-    array and :class:`OutputError` if the file cannot be written completely.
+    Returns
+    -------
+    dict
+        What was written: ``path`` (str), ``format``, ``bits``, ``colorspace`` (the
+        file's), ``width``, ``height``, ``channels`` and ``bytes`` (the file's size).
+
+    Raises
+    ------
+    ParameterError
+        A bad format, bit depth, colour space, or pixel array (shape or dtype).
+    OutputError
+        The file could not be written or read back whole (a full disk, a missing or
+        read-only folder); nothing is left under ``path``'s name, nor a temporary file.
     """
     path = Path(path)
     fmt = image_format(fmt or path.suffix)

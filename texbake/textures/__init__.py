@@ -28,23 +28,34 @@ def evaluate(spec, points, footprint=None, *, bounds=None, max_octaves=None) -> 
 
     Parameters
     ----------
-    spec : texture spec, dict, name or JSON (see :func:`parse_spec`)
-    points : (n, 3) float
-        Object-space points.
-    footprint : (n, 2, 3) float or None
-        ``dpdx`` and ``dpdy``: the object-space change of the point over one texel in
-        x and in y. ``None`` point-samples the texture.
-    bounds : (2, 3) float or None
-        Object-space bounding box of the mesh (used by ``position``); the unit cube if
-        ``None``.
-    max_octaves : int or None
-        Cap on the octaves of turbulence-based textures (turbulence, fbm, marble, flame);
-        the capped octaves add their mean. ``None``: the spec's own count.
+    spec : TextureSpec, dict or str
+        The texture: a parsed spec, a mapping with its ``name`` and parameters, a texture
+        name or a JSON object (see :func:`parse_spec`; a string is never read as a path).
+    points : (n, 3) array_like of float
+        Object-space points; cast to float64. One point of shape ``(3,)`` is taken as
+        ``(1, 3)``.
+    footprint : (n, 2, 3) array_like of float, optional
+        ``dpdx`` and ``dpdy``: the object-space change of the point over one texel in x
+        and in y; cast to float64. None (the default) point-samples the texture.
+    bounds : (2, 3) array_like of float, optional
+        Object-space bounding box ``(lo, hi)`` of the mesh: ``position`` maps it to
+        ``[0, 1]^3``, the flame stands on its base and the filtered checkerboard's
+        footprints are cut to it. None: the unit cube.
+    max_octaves : int, optional
+        Cap on the octaves of turbulence-based textures (turbulence, fbm, marble,
+        flame); the capped octaves add their mean. None: the spec's own count.
 
     Returns
     -------
-    (n, channels) float64 linear values; NaN in every channel of a point that is NaN or
-    infinite (or whose footprint is), in object or texture space.
+    values : (n, 3) ndarray of float64
+        Linear RGB; in ``[0, 1]`` except the flame, which is light and may exceed 1. NaN
+        in every channel of a point that is NaN or infinite (or whose footprint is),
+        in object or texture space.
+
+    Raises
+    ------
+    TextureError
+        The spec is not a known texture or has an unknown or out-of-range parameter.
     """
     spec = parse_spec(spec)
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)

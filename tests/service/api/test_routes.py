@@ -74,8 +74,10 @@ def test_not_json_settings_and_unknown_routes(client, meshes):
     assert client.get("/v2/anything").status_code == 404
 
 
-def test_readiness_checks_queue_database_workers_and_disk(client, meshes):
-    from texbake.service.core import db
+def test_readiness_checks_queue_database_workers_and_disk(client, meshes, monkeypatch):
+    import shutil
+
+    from texbake.service.core import config, db
     from texbake.service.core.config import get_settings
 
     r = client.get("/readyz")  # a new data folder, no worker
@@ -86,7 +88,14 @@ def test_readiness_checks_queue_database_workers_and_disk(client, meshes):
     assert post(client, meshes / "suzanne.ply", {"texture": "wood"}).status_code == 202
     answer = client.get("/readyz").json()
     assert answer["ok"] and answer["queued"] == 1 and (answer["workers"], answer["slots"]) == (1, 2), answer
-    assert answer["disk_free_mb"] > 0
+    free = shutil.disk_usage(get_settings().data_dir).free >> 20  # MiB, as /readyz counts them
+    assert abs(answer["disk_free_mb"] - free) <= 64, (answer["disk_free_mb"], free)  # other writers on this disk
+    # asked to keep more free than there is, the service is not ready and says why
+    monkeypatch.setenv("BAKE_MIN_FREE_MB", str(free + (1 << 20)))
+    config.get_settings.cache_clear()
+    r = client.get("/readyz")
+    assert r.status_code == 503 and r.json()["ok"] is False, r.json()
+    assert r.json()["detail"] == f"not ready: {r.json()['disk_free_mb']} MB free on the data folder's disk"
 
 
 def test_a_texture_naming_a_server_path_is_an_unknown_name(client, meshes, tmp_path):

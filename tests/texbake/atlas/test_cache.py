@@ -1,6 +1,7 @@
 """Reuse across bakes (bake/cache.py): the atlas of a mesh kept for its later bakes."""
 
 import json
+import time
 
 import numpy as np
 import trimesh
@@ -27,10 +28,26 @@ def test_a_second_bake_of_the_mesh_takes_its_atlas_from_the_cache(meshes, tmp_pa
 def test_the_cache_keeps_to_its_size_and_survives_bad_files(tmp_path):
     m = trimesh.creation.icosphere(2)
     atlas = make_atlas(m.vertices, m.faces, mode="unwrap", size=64)
-    cache = AtlasCache(tmp_path / "c", max_bytes=1)  # one file is already over: only the newest stays
-    for i in range(3):
-        cache.put(atlas_key(str(i), "auto", 64, "auto", "v"), atlas)
-    assert len(list((tmp_path / "c").glob("atlas-*.npz"))) <= 1
+    keys = [atlas_key(str(i), "auto", 64, "auto", "v") for i in range(4)]
+    one = AtlasCache(tmp_path / "one")
+    one.put(keys[0], atlas)
+    size = (tmp_path / "one" / f"atlas-{keys[0]}.npz").stat().st_size
+    AtlasCache(tmp_path / "none", max_bytes=size - 1).put(keys[0], atlas)
+    assert list((tmp_path / "none").glob("atlas-*.npz")) == []  # one atlas over the budget: not kept
+
+    def kept():
+        return sorted(p.name for p in (tmp_path / "c").glob("atlas-*.npz"))
+
+    cache = AtlasCache(tmp_path / "c", max_bytes=2 * size + size // 2)  # room for two
+    for key in keys[:3]:
+        cache.put(key, atlas)
+        time.sleep(0.05)  # file times a clock tick apart
+    assert kept() == sorted(f"atlas-{k}.npz" for k in keys[1:3])  # the least recently used went
+    back = cache.get(keys[1])  # now the most recently used
+    assert back is not None and np.array_equal(back.uv, atlas.uv) and np.array_equal(back.faces, atlas.faces)
+    time.sleep(0.05)
+    cache.put(keys[3], atlas)
+    assert kept() == sorted(f"atlas-{k}.npz" for k in (keys[1], keys[3]))
     key = atlas_key("x", "auto", 64, "auto", "v")
     (tmp_path / "c" / f"atlas-{key}.npz").write_bytes(b"not an npz")  # a file cut short, another version's
     assert cache.get(key) is None

@@ -142,12 +142,15 @@ def test_scene_parts_are_joined_and_uvs_kept_only_if_all_have_them():
 
 def test_gltf_with_sibling_buffers_and_with_data_uris(meshes, tmp_path):
     scene = trimesh.load(meshes / "BoxTextured.glb")
+    ref = load_mesh(meshes / "BoxTextured.glb")
     for folder, embed in [("files", False), ("embedded", True)]:
         (tmp_path / folder).mkdir()
         for name, data in trimesh.exchange.gltf.export_gltf(scene, embed_buffers=embed).items():
             (tmp_path / folder / name).write_bytes(data)
         m = load_mesh(tmp_path / folder / "model.gltf")
         assert len(m.faces) == 12 and m.uv is not None
+        # the same triangles and texture coordinates as the GLB they were written from
+        assert np.array_equal(m.vertices[m.faces], ref.vertices[ref.faces]) and np.array_equal(m.uv[m.faces], ref.uv[ref.faces])
 
 
 def test_degenerate_faces_removed_and_counted(tmp_path):

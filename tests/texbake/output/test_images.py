@@ -201,10 +201,16 @@ def test_non_finite_values(tmp_path):
     assert np.isnan(back[0, 0, 0]) and back[0, 1, 0] == np.inf and back[1, 0, 0] == -np.inf
 
 
-def test_encode_png_bytes():
+@pytest.mark.parametrize("colorspace", ["linear", "data"])
+def test_encode_png_bytes_are_the_file_write_image_writes(tmp_path, colorspace):
     img = ramp(c=4)
-    data = encode_png_bytes(img, bits=16)
+    data = encode_png_bytes(img, bits=16, colorspace=colorspace)
     assert data.startswith(b"\x89PNG\r\n\x1a\n") and data.endswith(b"IEND\xaeB`\x82")
+    write_image(tmp_path / "a.png", img, bits=16, colorspace=colorspace)
+    assert data == (tmp_path / "a.png").read_bytes()
+    (tmp_path / "b.png").write_bytes(data)
+    stored, spec = raw_pixels(tmp_path / "b.png")
+    assert spec.format == oiio.UINT16 and stored.shape == img.shape
 
 
 def test_bad_parameters(tmp_path):

@@ -163,7 +163,7 @@ def test_flame_lights_most_of_an_ordinary_mesh(meshes):
 
     result = bake_mesh(meshes / "suzanne.ply", "flame", size=64, margin=0)
     albedo = result.images["albedo"][result.coverage]
-    assert (albedo.sum(axis=1) > 1e-3).mean() > 0.75  # 0.86 now; 0.14-0.49 (issue 12) with the axis on the min-x face
+    assert (albedo.sum(axis=1) > 1e-3).mean() > 0.75  # a flame standing on the min-x face lights far less of it
 
 
 # -- the rim seam of a box standing on its base (one chart a face, off the texel grid) --
@@ -222,7 +222,7 @@ def rim_mismatch(image, covered):
 def test_filtered_checker_has_no_seam_at_the_rim_of_a_flat_base():
     # Wall texels at the rim have footprints reaching below the base (z < 0, where there is
     # no surface); cut to the object's bounding box they no longer average the cell below.
-    # Tolerance from issue 12: the mismatch across the rim within 2x of 16 point samples'.
+    # The tolerance: the mismatch across the rim within 2x of 16 point samples'.
     from texbake import bake_mesh
 
     mesh = box_mesh()
@@ -235,7 +235,7 @@ def test_filtered_checker_has_no_seam_at_the_rim_of_a_flat_base():
 
 
 def test_filtered_checker_is_cut_to_the_objects_box():
-    # the one-liner of issue 12: a texel 0.3 of its width above a base at y = 0
+    # a texel 0.3 of its width above a base at y = 0
     p, f = [[0.3, 0.3 / 1024, 0.3]], [[[1 / 1024, 0, 0], [0, 1 / 1024, 0]]]
     assert evaluate("checker", p, f)[0, 0] == pytest.approx(0.73)  # no bounds: the whole footprint
     assert evaluate("checker", p, f, bounds=[[0, 0, 0], [1, 1, 1]])[0, 0] == pytest.approx(0.9)  # cut at y = 0
