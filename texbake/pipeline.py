@@ -3,9 +3,11 @@ texture mapping and evaluation, accumulation, error estimate, margin; then, on `
 images, textured mesh and report.
 
 Each stage lives in its own module; this one only chains them. What flows between them:
-``LoadedMesh`` (load) -> ``Atlas`` (atlas) -> UV points of texel samples (texels) ->
-``Samples`` (samples: lookup, surface, transfer) -> values per map (maps: texture
-mapping, texture, shading, bump) -> images (maps.accumulate, margin) -> ``BakeResult``.
+``BakeSettings`` (settings) and ``LoadedMesh`` (mesh.load) -> ``Atlas`` (atlas) -> UV
+points of texel samples (sampling.lookup) -> ``Samples`` (sampling.sampler: lookup,
+surface, transfer) -> values per map (maps.accumulate: texture mapping, texture, shading,
+bump) -> images (maps.accumulate, maps.margin) -> ``BakeResult`` with its report
+(output.report).
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ from .maps.accumulate import Maps
 from .mesh.load import LoadedMesh, load_mesh, mesh_from_trimesh
 from .mesh.normals import split_normals
 from .mesh.tangents import vertex_tangents
-from .output.report import bake_report
+from .output.report import BakeTally, bake_report
 from .sampling.lookup import sample_offsets, sample_uv, tiles
 from .sampling.sampler import Sampler
 from .settings import BakeSettings
@@ -52,12 +54,31 @@ class BakedMesh:
 
 @dataclass
 class BakeResult:
-    """What a bake made: images as arrays, the mesh with its atlas, and the report."""
+    """What a bake made: images as arrays, the mesh with its atlas, and the report.
 
-    images: dict[str, np.ndarray]  # name -> (h, w, 3) float32 linear, row 0 at the top (float16 over
-    # 8192² texels written as 8 bits: texbake.maps.accumulate): albedo (or albedo_0000... and flipbook), lit, normal (0.5 + 0.5 n: data)
-    coverage: np.ndarray  # (h, w) bool: texels covered by the atlas
-    margin: np.ndarray  # (h, w) bool: texels filled by the margin
+    Attributes
+    ----------
+    images : dict of str to (h, w, 3) float32 ndarray
+        Linear values, row 0 at the top: ``albedo`` (or ``albedo_0000``... and
+        ``flipbook`` for the frames of an animated texture), ``lit`` (shading other than
+        "decal"), ``normal`` (a bump texture given; ``0.5 + 0.5 n``, data, not colour).
+        float16 instead for images of over 8192² texels written as 8 bits
+        (``texbake.maps.accumulate``).
+    coverage : (h, w) bool ndarray
+        Texels covered by the atlas (some sample hit them).
+    margin : (h, w) bool ndarray
+        Texels filled by the margin.
+    mesh : BakedMesh
+        The mesh with its atlas, as it is written.
+    report : dict
+        The bake's report (``report.json``; ``texbake.output.report``).
+    settings : BakeSettings
+        The settings it was baked with, preset resolved.
+    """
+
+    images: dict[str, np.ndarray]
+    coverage: np.ndarray
+    margin: np.ndarray
     mesh: BakedMesh
     report: dict = field(default_factory=dict)
     settings: BakeSettings = field(default_factory=BakeSettings)
@@ -120,83 +141,127 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
 
     Parameters
     ----------
-    mesh_or_path : path, trimesh.Trimesh, trimesh.Scene or LoadedMesh
-    settings : BakeSettings, dict of settings, or a texture (name, JSON, spec or spec dict)
-        What to bake and how (``texbake.settings.BakeSettings``); keyword ``options`` are
-        settings too and override it: ``bake_mesh("bunny.ply", "marble", size=2048)``.
-    source : path or mesh, optional
+    mesh_or_path : str, pathlib.Path, trimesh.Trimesh, trimesh.Scene or LoadedMesh
+        The mesh: a file (OBJ, PLY, STL, OFF, glTF, GLB) or one in memory.
+    settings : BakeSettings, dict, or a texture (name, JSON text, spec or spec dict), optional
+        What to bake and how (:class:`texbake.settings.BakeSettings`); keyword ``options``
+        are settings too and override it: ``bake_mesh("bunny.ply", "marble", size=2048)``.
+    source : str, pathlib.Path or mesh, optional
         A second mesh to transfer the texture from (high poly to low poly): the texture
         is evaluated where rays along the target normal, at most ``settings.cage`` long
         (default 5% of the target's bounding-box diagonal), hit it.
     workers : int
         Threads for the tiles, the margin and the unwrap.
     progress : callable, optional
-        Called with the fraction of the bake done, from 0 to 1 (after loading, the atlas,
-        each tile and the margin), from the calling thread or a tile thread.
+        Called with the fraction of the bake done, a float from 0 to 1 (after loading, the
+        atlas, each tile and the margin), from the calling thread or a tile thread.
     tile_samples : int
         Samples a tile: bounds the memory of the lookup.
-    cache : folder or ``texbake.atlas.cache.AtlasCache``, optional
+    cache : str, pathlib.Path or AtlasCache, optional
         Where atlases are kept for later bakes: the same mesh at the same atlas settings
         (``uv``, size, ``charting``) then skips the unwrap (``report["atlas"]["cached"]``).
-        An ``AtlasCache`` object also keeps its latest bakes' texel lookups in memory: the
-        next bake of the atlas at the same size, samples and seed casts no ray
-        (``report["rays"]["lookup_reused"]``).
+        An ``AtlasCache`` also keeps its latest lookups in memory: the next bake of the
+        atlas at the same size, samples and seed casts no ray (``report["rays"]["lookup_reused"]``).
 
-    The report's ``error_estimate`` estimates the RMSE of the colour map against the
-    converged texel means (see ``texbake.maps.estimate``).
+    Returns
+    -------
+    BakeResult
+        The maps as ``(h, w, 3)`` float32 images, the ``(h, w)`` bool coverage and margin
+        masks, the mesh with its atlas, the report (``report["settings"]`` is
+        ``settings.model_dump(mode="json")``; ``report["error_estimate"]`` estimates the
+        colour map's RMSE against the converged texel means, ``texbake.maps.estimate``)
+        and the settings.
+
+    Raises
+    ------
+    ParameterError, MeshError, AtlasError, TextureError
+        A bad setting or argument (named), a mesh that cannot be read or is rejected, an
+        atlas that cannot be made, a bad texture spec.
     """
-    if settings is not None and not isinstance(settings, BakeSettings) and not (isinstance(settings, dict) and "name" not in settings):
-        settings, options = None, {"texture": settings, **options}  # a texture: name, JSON, spec or spec dict
-    settings = BakeSettings.build(settings, **options)
-    quality = settings.quality_settings()
-    width, height = settings.width_height
-    timer, report_progress = Timer(), progress or (lambda fraction: None)
-
+    settings = _settings(settings, options)
+    timer, say = Timer(), progress or (lambda fraction: None)
     with timer.stage("load"):
         mesh = as_mesh(mesh_or_path, settings.max_faces, "mesh")
         src = None if source is None else as_mesh(source, settings.max_faces, "source")
-    report_progress(0.05)
+    say(0.05)
     store = None if cache is None else cache if isinstance(cache, AtlasCache) else AtlasCache(cache)
     with timer.stage("atlas"):
-        atlas, key = _atlas(mesh, settings, max(width, height), workers, store)
-    lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
-    mapping = TextureMapping.for_mesh(lo, hi, settings.texture_space, quality.precision)
-    reach = settings.cage if settings.cage is not None else 0.05 * float(np.linalg.norm(hi - lo))
+        atlas, key = _atlas(mesh, settings, workers, store)
+    mapping = TextureMapping.for_mesh(*_bounds(mesh), settings.texture_space, settings.precision)
     with timer.stage("normals"):  # of the output mesh; a normal map is baked in its tangent frame
-        source_vertex, faces, normals = split_normals(mesh.vertices[atlas.vmapping], atlas.faces)
-        out_vertices, out_uv = mesh.vertices[atlas.vmapping][source_vertex], atlas.uv[source_vertex]
-        tangents = None if settings.bump is None else vertex_tangents(out_vertices, faces, out_uv, normals)
+        baked = _output_mesh(mesh, atlas, tangents=settings.bump is not None)
     with timer.stage("prepare"):
-        maps = Maps(settings, quality, width, height, mapping)
-        corner_normals = normals[faces]  # (m, 3, 3): shading (the lit map) sees the GLB's normals
-        sampler = Sampler(mesh.vertices, mesh.faces, atlas.uv, atlas.faces, width, height,
-                          normals=corner_normals if maps.needs_normals else False,
-                          source=None if src is None else (src.vertices, src.faces), reach=reach,
-                          frame=None if tangents is None else (corner_normals, tangents[faces]),
-                          footprints=quality.filtering or settings.bump is not None)
-    report_progress(0.3)
-    lookups = None if store is None else (store, (key, width, height, quality.samples, settings.seed, tile_samples))
-    (cast, rays, transfer_missed), reused = _bake_tiles(sampler, maps, quality, settings.seed, timer, workers, tile_samples,
-                                                        lambda done: report_progress(0.3 + 0.6 * done), lookups)
-    covered, hits = maps.hits > 0, int(maps.hits.sum(dtype=np.int64))
-    del maps.hits  # the counts are done with; the tiles' freed memory goes back to the system
-    _trim_heap()
+        maps = Maps(settings, mapping)
+        sampler = _sampler(mesh, atlas, baked, src, settings, maps.needs_normals)
+    say(0.3)
+    lookups = None if store is None else (store, (key, *settings.width_height, settings.samples, settings.seed, tile_samples))
+    (cast, rays, missed), reused = _bake_tiles(sampler, maps, settings, timer, workers, tile_samples,
+                                               lambda done: say(0.3 + 0.6 * done), lookups)
+    covered, hits = _coverage(maps)
     with timer.stage("estimate"):
-        error_estimate = _estimate(sampler, maps, mapping, covered, quality, settings.seed)
+        error_estimate = _estimate(sampler, maps, mapping, covered, settings)
     with timer.stage("margin"):
         filled = margin_stage.extend(list(maps.images.values()), covered, settings.margin, workers=workers)
-    report_progress(0.95)
+    say(0.95)
+    images = _images(maps, settings)
+    tally = BakeTally(covered, filled, cast=int(cast), rays=int(rays), transfer_missed=int(missed), hits=hits, lookup_reused=reused,
+                      error_estimate=error_estimate, seconds=timer.seconds)
+    report = bake_report(settings, mesh, atlas, tally, source=src, cage=sampler.reach)
+    say(1.0)
+    return BakeResult(images, covered, filled, baked, report, settings)
+
+
+def _settings(settings, options: dict) -> BakeSettings:
+    """The bake's settings from ``bake_mesh``'s ``settings`` and ``options``: ``settings``
+    given as a texture (a name, JSON text, spec or spec dict) is the ``texture``."""
+    if settings is not None and not isinstance(settings, BakeSettings) and not (isinstance(settings, dict) and "name" not in settings):
+        settings, options = None, {"texture": settings, **options}
+    return BakeSettings.build(settings, **options)
+
+
+def _bounds(mesh: LoadedMesh) -> tuple[np.ndarray, np.ndarray]:
+    """``(lo, hi)``: the ``(3,)`` float64 corners of the mesh's bounding box."""
+    return mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
+
+
+def _output_mesh(mesh: LoadedMesh, atlas: Atlas, *, tangents: bool) -> BakedMesh:
+    """The mesh as it is written: atlas vertices split again at hard edges, with shading
+    normals and, for a normal map, the tangents it is baked in."""
+    source_vertex, faces, normals = split_normals(mesh.vertices[atlas.vmapping], atlas.faces)
+    vertices, uv = mesh.vertices[atlas.vmapping][source_vertex], atlas.uv[source_vertex]
+    frame = vertex_tangents(vertices, faces, uv, normals) if tangents else None
+    return BakedMesh(vertices, faces, uv, mesh.name, normals, frame)
+
+
+def _sampler(mesh: LoadedMesh, atlas: Atlas, baked: BakedMesh, src: LoadedMesh | None, settings: BakeSettings,
+             needs_normals: bool) -> Sampler:
+    """The sampler of the bake's texels on ``mesh`` (and ``src``, to transfer from)."""
+    assert baked.normals is not None  # _output_mesh gives normals
+    corner_normals = baked.normals[baked.faces]  # (m, 3, 3): shading (the lit map) sees the GLB's normals
+    lo, hi = _bounds(mesh)
+    reach = settings.cage if settings.cage is not None else 0.05 * float(np.linalg.norm(hi - lo))
+    return Sampler(mesh.vertices, mesh.faces, atlas.uv, atlas.faces, *settings.width_height,
+                   normals=corner_normals if needs_normals else False,
+                   source=None if src is None else (src.vertices, src.faces), reach=reach,
+                   frame=None if baked.tangents is None else (corner_normals, baked.tangents[baked.faces]),
+                   footprints=settings.filtering or settings.bump is not None)
+
+
+def _coverage(maps: Maps) -> tuple[np.ndarray, int]:
+    """``(covered (h, w) bool, samples that hit)`` from the maps' counts, which are then
+    freed: the tiles' memory goes back to the system before the stages after them."""
+    covered, hits = maps.hits > 0, int(maps.hits.sum(dtype=np.int64))
+    del maps.hits
+    _trim_heap()
+    return covered, hits
+
+
+def _images(maps: Maps, settings: BakeSettings) -> dict[str, np.ndarray]:
+    """The maps' images, and the flipbook of the frames of an animated texture."""
     images = dict(maps.images)
     if settings.frames is not None:
         images["flipbook"] = flipbook([images[name] for name in maps.colours])
-
-    counts = {"cast": int(cast), "rays": int(rays), "lookup_reused": reused, "transfer_missed": int(transfer_missed), "hits": hits}
-    source_info = None if src is None else {"path": src.path, "sha256": src.sha256, "faces": int(len(src.faces)), "cage": reach}
-    report = bake_report(mesh, (lo, hi), source_info, settings, quality, atlas, covered, filled, counts, error_estimate,
-                         timer.seconds)
-    baked = BakedMesh(out_vertices, faces, out_uv, mesh.name, normals, tangents)
-    report_progress(1.0)
-    return BakeResult(images, covered, filled, baked, report, settings)
+    return images
 
 
 def _trim_heap() -> None:
@@ -209,9 +274,10 @@ def _trim_heap() -> None:
         pass
 
 
-def _atlas(mesh: LoadedMesh, settings: BakeSettings, size: int, workers: int, store: AtlasCache | None) -> tuple[Atlas, str]:
+def _atlas(mesh: LoadedMesh, settings: BakeSettings, workers: int, store: AtlasCache | None) -> tuple[Atlas, str]:
     """``(atlas, its cache key)``: from ``store`` when an earlier bake left it there, else
     made (and left there)."""
+    size = max(settings.width_height)
     key = atlas_key(mesh.sha256, settings.uv, size, settings.charting, __version__)
     found = None if store is None else store.get(key)
     if found is not None and found.faces.shape == mesh.faces.shape and found.vmapping.max() < len(mesh.vertices):
@@ -223,7 +289,7 @@ def _atlas(mesh: LoadedMesh, settings: BakeSettings, size: int, workers: int, st
     return atlas, key
 
 
-def _bake_tiles(sampler: Sampler, maps: Maps, quality, seed: int, timer: Timer, workers: int, tile_samples: int,
+def _bake_tiles(sampler: Sampler, maps: Maps, settings: BakeSettings, timer: Timer, workers: int, tile_samples: int,
                 progress: Callable[[float], None], lookups: tuple[AtlasCache, tuple] | None = None) -> tuple[np.ndarray, bool]:
     """Bake the image in row tiles of about ``tile_samples`` samples into ``maps``.
 
@@ -233,9 +299,9 @@ def _bake_tiles(sampler: Sampler, maps: Maps, quality, seed: int, timer: Timer, 
     the ray casts (texbake.sampling.rays) and the numba kernels release the GIL, numpy mostly does,
     so the stages of two tiles overlap; each tile writes its own rows.
     """
-    width, height = maps.width, maps.height
-    offsets = sample_offsets(quality.samples, seed)
-    tile_list = tiles(height, width, quality.samples, tile_samples)
+    (width, height), samples = settings.width_height, settings.samples
+    offsets = sample_offsets(samples, settings.seed)
+    tile_list = tiles(height, width, samples, tile_samples)
     finished = itertools.count(1)
     known = None if lookups is None else lookups[0].lookups(lookups[1])
     made: list | None = None if lookups is None or known is not None else [None] * len(tile_list)
@@ -249,7 +315,7 @@ def _bake_tiles(sampler: Sampler, maps: Maps, quality, seed: int, timer: Timer, 
         else:
             with timer.stage("lookup"):
                 texels = sampler.candidates(tile_list[i])
-                located = sampler.locate(sample_uv(tile_list[i], texels, width, height, offsets), quality.samples)
+                located = sampler.locate(sample_uv(tile_list[i], texels, width, height, offsets), samples)
             with lock:
                 if made is not None and lookups is not None:
                     kept[0] += texels.nbytes + located.nbytes
@@ -259,7 +325,7 @@ def _bake_tiles(sampler: Sampler, maps: Maps, quality, seed: int, timer: Timer, 
                         made[i] = texels, located
         s = sampler.at_located(located, timer)
         values = maps.values(s, timer)
-        texel = texels[s.index // quality.samples]
+        texel = texels[s.index // samples]
         with timer.stage("accumulate"):
             maps.accumulate(tile_list[i], texel, values)
         progress(next(finished) / len(tile_list))
@@ -272,7 +338,7 @@ def _bake_tiles(sampler: Sampler, maps: Maps, quality, seed: int, timer: Timer, 
     return counts, known is not None
 
 
-def _estimate(sampler: Sampler, maps: Maps, mapping: TextureMapping, covered, quality, seed: int) -> dict:
+def _estimate(sampler: Sampler, maps: Maps, mapping: TextureMapping, covered: np.ndarray, settings: BakeSettings) -> dict:
     """The error estimate of the colour map (``texbake.maps.estimate``): a probe that sends UV
     points through the same chain, point-sampled in float64."""
     spec = maps.colours[maps.colour_name]
@@ -283,9 +349,9 @@ def _estimate(sampler: Sampler, maps: Maps, mapping: TextureMapping, covered, qu
         hit[s.index] = True
         return hit, mapping.evaluate(spec, s.points, None, None, exact=True)
 
-    grid = estimate_stage.probe_grid(quality.samples)
-    edge_grid = grid if quality.samples == 1 else min(16, 2 * grid)
-    estimate = estimate_stage.probe_estimate(reference_at, maps.images[maps.colour_name], covered, seed=seed, grid=grid,
+    grid = estimate_stage.probe_grid(settings.samples)
+    edge_grid = grid if settings.samples == 1 else min(16, 2 * grid)
+    estimate = estimate_stage.probe_estimate(reference_at, maps.images[maps.colour_name], covered, seed=settings.seed, grid=grid,
                                              edge_grid=edge_grid)
     estimate["map"] = maps.colour_name
     return estimate

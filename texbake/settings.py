@@ -5,12 +5,15 @@ the command line has one option per field, the service's ``settings`` form field
 and a batch manifest line is one (plus its ``mesh``). The limits are written here once;
 the service may only tighten them (``texbake.service.core.config``).
 
-Quality presets: ``quality`` names a preset of ``samples``, ``filtering``, ``precision``
-and ``max_octaves`` (``texbake.quality.PRESETS``); those of them set explicitly override the
-preset (pydantic's ``model_fields_set`` tells which were set). :meth:`BakeSettings.quality_settings`
-gives the resolved four. ``samples`` above 1 given explicitly means point samples unless
-``filtering=True`` is given too (a filtered sample is already blurred by a whole texel:
-averaging several of them blurs twice, and their error stays that of one filtered sample).
+The settings hold what the bake uses: ``quality`` names a preset (:data:`PRESETS`) of
+``samples``, ``filtering``, ``precision`` and ``max_octaves``, resolved when the settings
+are validated, so ``BakeSettings(quality="final").samples == 16``. Those of the four given
+explicitly override the preset. ``samples`` above 1 given without ``filtering`` means
+point samples: a filtered sample is already blurred by a whole texel, so averaging
+several of them blurs twice, and their error stays that of one filtered sample. Being
+resolved, ``model_dump()`` (``mode="json"`` for JSON) is the one serialisation: it
+validates back to equal settings, and it is what the report, the service's job and its
+dedup key hold.
 """
 
 from __future__ import annotations
@@ -33,7 +36,6 @@ from pydantic import (
 
 from .errors import ParameterError, TextureError
 from .output.images import bits_problem, format_name
-from .quality import PRESETS, Quality
 from .textures.spec import TEXTURES, TextureSpec, parse_spec
 
 
@@ -60,16 +62,61 @@ Texture = Annotated[
 Finite = Annotated[float, AfterValidator(_finite)]
 Texels = Annotated[int, Field(ge=1, le=65536)]
 
+# The quality presets: the values they give the fields they fix. Chosen from the error
+# against run time of ``texbake report`` (``texbake.checks.sweep``; figures: README,
+# Quality). ``final`` point-samples: point samples converge to the texel mean, while
+# filtered ones would blur each sample by a whole texel. There is no cheaper preset: an
+# octave cap raised the error many times over and saved no measurable time, since at one
+# sample a texel the lookup, the surface and fixed costs take most of it.
+PRESETS: dict[str, dict[str, Any]] = {
+    "default": {"samples": 1, "filtering": True, "precision": "float64", "max_octaves": None},  # bake_mesh's defaults
+    "final": {"samples": 16, "filtering": False, "precision": "float64", "max_octaves": None},  # 16 stratified point samples
+}
+
 
 class BakeSettings(BaseModel):
-    """What to bake and how (see ``bake_mesh`` for what each setting does)."""
+    """What to bake and how: every setting of a bake, preset resolved (see the module).
+
+    Frozen; build it with keywords (``BakeSettings(texture="marble", size=2048)``), from a
+    dict or JSON (``model_validate``, ``model_validate_json``), or with :meth:`build`,
+    which raises :class:`~texbake.errors.ParameterError` naming the bad field. Each
+    field's ``description`` says what it does (the command line's help and the service's
+    JSON Schema show the same text).
+
+    Attributes
+    ----------
+    texture : TextureSpec
+        The texture baked into the albedo map (given as a name, JSON text or a dict).
+    size : int or (int, int)
+        Image width and height in texels, 1 to 65536 (one number: square).
+    quality : {"default", "final"}
+        The preset the four fields below started from; ``None`` given means "default".
+    samples : int
+        Stratified samples a texel, 1 to 1024.
+    filtering : bool
+        Whether each sample is antialiased over its texel's footprint.
+    precision : {"float64", "float32"}
+        The dtype texture-space points are held in before the texture sees them.
+    max_octaves : int or None
+        Cap on the octaves of noise-based textures (None: the spec's own count).
+    margin, uv, charting, texture_space : int, str, str, str
+        How the atlas is made and filled: margin texels, UV policy, chart cutting, and
+        the space the texture is evaluated in.
+    shading, light, bump, bump_strength, frames : str, (3,) float, TextureSpec or None, float, list of float or None
+        Which maps are made besides the albedo: a lit map, a normal map, animation frames.
+    cage, seed, max_faces, unwrap_deadline : float or None, int, int, float
+        Transfer ray length, the seed of the sample jitter, the face limit, the seconds
+        xatlas may take.
+    format, bits, obj : {"png", "exr", "tif"}, int or None, bool
+        How :meth:`texbake.pipeline.BakeResult.save` writes the maps (and an OBJ).
+    """
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     texture: Texture = Field("checker", validate_default=True, description="texture: a name or a spec object (see `texbake textures`)")
     size: Texels | tuple[Texels, Texels] = Field(1024, description="image size in texels: one number (square), or width and height")
-    quality: Literal["default", "final"] | None = Field(
-        None, description="preset of samples, filtering, precision and octave cap (none: 'default'); those set explicitly override it")
+    quality: Literal["default", "final"] = Field(
+        "default", description="preset of samples, filtering, precision and octave cap; those set explicitly override it")
     samples: int = Field(1, ge=1, le=1024, description="samples per texel, stratified (default: the preset's)")
     filtering: StrictBool = Field(True, description="antialias by the texel footprint (default: the preset's; off when samples > 1 is given without it)")
     precision: Literal["float64", "float32"] = Field("float64", description="texture-space points as float64 or rounded to float32 (default: the preset's)")
@@ -94,6 +141,22 @@ class BakeSettings(BaseModel):
     bits: Literal[8, 16, 32] | None = Field(None, description="png 8 or 16; exr 16 (half) or 32; tif 8, 16 or 32 (default: png 8, exr 16, tif 16)")
     obj: StrictBool = Field(False, description="also write OBJ + MTL")
 
+    @model_validator(mode="before")
+    @classmethod
+    def _resolve_preset(cls, data: Any) -> Any:
+        """The preset's values for those of its fields not given (a bad preset name is
+        left to the field's own check, which names it)."""
+        if not isinstance(data, dict):
+            return data
+        name = "default" if data.get("quality") is None else data["quality"]
+        preset = PRESETS.get(name) if isinstance(name, str) else None
+        if preset is None:
+            return data
+        resolved = {**preset, **data, "quality": name}
+        if "samples" in data and "filtering" not in data and _above_one(data["samples"]):
+            resolved["filtering"] = False  # several samples converge to the texel mean; filtering each would blur it twice
+        return resolved
+
     @field_validator("format", mode="before")
     @classmethod
     def _format_name(cls, value):
@@ -109,30 +172,45 @@ class BakeSettings(BaseModel):
 
     @property
     def width_height(self) -> tuple[int, int]:
+        """``(width, height)`` in texels."""
         return (self.size, self.size) if isinstance(self.size, int) else self.size
-
-    def quality_settings(self) -> Quality:
-        """The preset's samples, filtering, precision and octave cap, overridden by those set here."""
-        preset = PRESETS[self.quality or "default"]
-        given = self.model_fields_set
-        chosen = {name: getattr(self if name in given else preset, name) for name in Quality.__dataclass_fields__}
-        if "samples" in given and self.samples > 1 and "filtering" not in given:
-            chosen["filtering"] = False  # several samples converge to the texel mean; filtering each would blur it twice
-        return Quality(**chosen)
 
     @classmethod
     def build(cls, settings: BakeSettings | dict | None = None, **options) -> BakeSettings:
         """Settings from a model or a dict, with keyword ``options`` on top; a bad one
-        raises :class:`ParameterError` naming it."""
+        raises :class:`ParameterError` naming it.
+
+        On a model, ``options`` replace what it was built from: its fields that its preset
+        and the defaults would not give (:meth:`_overrides`), so a new ``quality`` brings
+        its preset's values for the rest.
+        """
         data = {} if settings is None else settings
         if isinstance(data, BakeSettings):
             if not options:
                 return data
-            data = data.model_dump(exclude_unset=True)
+            data = data._overrides()
         try:
             return cls.model_validate({**data, **options})
         except ValidationError as exc:
             raise parameter_error(exc) from None
+
+    def _overrides(self) -> dict[str, Any]:
+        """The preset's name and the fields whose values it and the defaults would not
+        give: ``samples`` if not the preset's, and the rest where they differ from what the
+        preset gives beside that ``samples`` (an implied ``filtering=False`` is not one)."""
+        samples = {} if self.samples == PRESETS[self.quality]["samples"] else {"samples": self.samples}
+        plain = type(self)(quality=self.quality, **samples).model_dump()
+        given = {name: value for name, value in self.model_dump().items() if value != plain[name]}
+        return {**given, **samples, "quality": self.quality}
+
+
+def _above_one(samples: Any) -> bool:
+    """Whether a ``samples`` value as given (before validation) is above 1; False for a
+    value that is not a number (the field's own check reports it)."""
+    try:
+        return float(samples) > 1
+    except (TypeError, ValueError):
+        return False
 
 
 def parameter_error(error: ValidationError) -> ParameterError:

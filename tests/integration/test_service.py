@@ -67,7 +67,8 @@ def test_a_normal_map_and_a_flame_sequence_over_http(server, meshes):
     job = wait(url, r.json()["id"])
     assert job["state"] == "done", job["error"]
     assert {"albedo_0000.png", "albedo_0001.png", "flipbook.png", "lit.png", "normal.png", "suzanne.glb"} <= set(job["files"])
-    assert job["report"]["parameters"]["frames"] == [0, 0.5] and job["report"]["parameters"]["light"] == [0, 1, 0]
+    assert job["report"]["settings"] == job["settings"]  # the worker baked what the job holds
+    assert job["settings"]["frames"] == [0, 0.5] and job["settings"]["light"] == [0, 1, 0]
     assert job["warnings"] == []
     duck = wait(url, upload(url, meshes / "Duck.glb", {"uv": "keep", "size": 64}).json()["id"])
     assert duck["state"] == "done" and len(duck["warnings"]) == 1 and "overlap" in duck["warnings"][0], duck

@@ -44,7 +44,7 @@ def test_batch_keeps_going_and_exits_1_on_a_failure(meshes, tmp_path):
     assert r.returncode == 1, r.stderr
     assert "broken.obj" in r.stdout and "failed" in r.stdout and r.stdout.count("done") == 2
     assert (tmp_path / "o" / "suzanne" / "report.json").exists()
-    assert json.loads((tmp_path / "o" / "BoxTextured" / "report.json").read_text())["parameters"]["size"] == [32, 32]
+    assert json.loads((tmp_path / "o" / "BoxTextured" / "report.json").read_text())["settings"]["size"] == 32
 
 
 def test_batch_summary_as_json_with_atlas_warnings_and_whole_paths(meshes, tmp_path):
@@ -99,7 +99,7 @@ def test_spec_file_and_overrides(meshes, tmp_path):
     r = run_cli("bake", meshes / "suzanne.ply", "--texture", spec, "--set", "wobble=0.1", "--set", "colormap.knots=[0, 1]",
                 "--size", 64, "--out", tmp_path / "o")
     assert r.returncode == 0, r.stderr
-    texture = json.loads((tmp_path / "o" / "report.json").read_text())["parameters"]["texture"]
+    texture = json.loads((tmp_path / "o" / "report.json").read_text())["settings"]["texture"]
     assert texture["ring_width"] == 0.08 and texture["wobble"] == 0.1 and texture["tilt"] == [0, 90, 0]
     bad = run_cli("bake", meshes / "suzanne.ply", "--texture", "marble", "--set", "turbulence.octavs=6", "--out", tmp_path / "p")
     assert bad.returncode == 2 and "octavs" in bad.stderr and len(bad.stderr.strip().splitlines()) == 1
@@ -137,5 +137,5 @@ def test_bake_quality_preset_and_override(meshes, tmp_path):
     r = run_cli("bake", meshes / "suzanne.ply", "--texture", "marble", "--quality", "final", "--samples", 4, "--size", 32,
                 "--out", tmp_path / "o")
     assert r.returncode == 0, r.stderr
-    p = json.loads((tmp_path / "o" / "report.json").read_text())["parameters"]
+    p = json.loads((tmp_path / "o" / "report.json").read_text())["settings"]
     assert (p["quality"], p["samples"], p["filtering"]) == ("final", 4, False)

@@ -10,7 +10,6 @@ import trimesh
 
 import texbake
 from texbake.errors import ParameterError
-from texbake.settings import BakeSettings
 
 
 def exact_points_at_texels(mesh, uv, faces, rows, cols, size):
@@ -160,19 +159,16 @@ def test_lit_normal_and_frames(meshes, tmp_path):
 
 
 def test_quality_presets_and_explicit_overrides(meshes):
-    from texbake.quality import PRESETS
-
     mesh = meshes / "suzanne.ply"
     final = texbake.bake_mesh(mesh, "marble", size=32, quality="final")
-    p = final.report["parameters"]
-    assert (p["samples"], p["filtering"], p["precision"], p["max_octaves"]) == tuple(vars(PRESETS["final"]).values())
+    p = final.report["settings"]
+    assert (p["samples"], p["filtering"], p["precision"], p["max_octaves"]) == (16, False, "float64", None)
+    assert final.report["rays"]["texel_samples"] == 32 * 32 * 16  # the bake took the preset's samples
     mixed = texbake.bake_mesh(mesh, "marble", size=32, quality="final", samples=4, max_octaves=3)
-    p = mixed.report["parameters"]
+    p = mixed.report["settings"]
     assert (p["quality"], p["samples"], p["filtering"], p["max_octaves"]) == ("final", 4, False, 3)
-    assert BakeSettings(samples=16).quality_settings().filtering is False  # explicit samples: point samples
-    assert BakeSettings(samples=16, filtering=True).quality_settings().filtering is True  # unless asked for
-    assert BakeSettings(samples=1).quality_settings().filtering is True
-    assert BakeSettings(quality="default", samples=4).quality_settings().filtering is False
+    assert mixed.report["rays"]["texel_samples"] == 32 * 32 * 4
+    assert p == mixed.settings.model_dump(mode="json")
     default = texbake.bake_mesh(mesh, "marble", size=32, margin=2)
     named = texbake.bake_mesh(mesh, "marble", size=32, margin=2, quality="default")
     assert np.array_equal(default.images["albedo"], named.images["albedo"])  # "default" is bake_mesh's defaults
@@ -194,7 +190,7 @@ def test_filtering_precision_and_octave_cap_change_only_what_they_should(meshes)
     capped = texbake.bake_mesh(mesh, "marble", size=48, margin=0, filtering=False, max_octaves=2)
     assert not np.allclose(point.images["albedo"][cov], base.images["albedo"][cov])
     assert not np.allclose(capped.images["albedo"][cov], point.images["albedo"][cov])
-    assert capped.report["parameters"]["max_octaves"] == 2
+    assert capped.report["settings"]["max_octaves"] == 2
 
 
 def test_report_carries_an_error_estimate(meshes):

@@ -7,7 +7,7 @@ whose texel density falls off with the cosine of the angle to its projection dir
 at most ``ANGLE_LIMIT``. The charts are laid out side by side, apart, one UV mesh for
 xatlas' packer (``texbake.atlas.packworker.pack``), which places them all at one density.
 
-numpy, numba (:mod:`texbake.mesh.components`, :mod:`texbake.atlas.uvcheck`) and SciPy's ``DisjointSet``.
+numpy and numba (:mod:`texbake.mesh.components`, :mod:`texbake.atlas.uvcheck`).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..mesh.components import connected_components
+from ..mesh.components import DisjointSets, connected_components
 from ..mesh.uvgeometry import areas
 
 ANGLE_LIMIT = 66.0  # degrees between a face's normal and its chart's direction, at most (Blender's default)
@@ -224,8 +224,6 @@ def _merge_cuts(vertices, faces, island, group, dirs, scale, grid):
     where the overlap is not, so without this a part keeps a fifth more charts than it
     needs (featuretype.STL: 146 against 103). The faces rasterised are bounded by
     ``MERGE_WORK`` times the mesh's."""
-    from scipy.cluster.hierarchy import DisjointSet
-
     from .uvcheck import overlapping_faces
 
     a, b = _edge_pairs(faces)
@@ -237,10 +235,10 @@ def _merge_cuts(vertices, faces, island, group, dirs, scale, grid):
     direction = np.zeros(n, dtype=np.int64)
     direction[island] = group
     count = np.bincount(island, minlength=n)
-    sets = DisjointSet(range(n))
+    sets = DisjointSets(n)
     budget = MERGE_WORK * len(faces)
     for x, y in pairs[np.argsort(count[pairs].sum(axis=1), kind="stable")]:
-        rx, ry = sets[int(x)], sets[int(y)]
+        rx, ry = sets.find(int(x)), sets.find(int(y))
         union = np.concatenate([members[rx], members[ry]])
         if rx == ry or len(union) > budget:
             continue
@@ -250,10 +248,8 @@ def _merge_cuts(vertices, faces, island, group, dirs, scale, grid):
         side = int(np.ceil(p.max())) + 2
         if overlapping_faces(p / side, np.arange(len(p)).reshape(-1, 3), side).any():
             continue
-        sets.merge(rx, ry)
-        members[sets[rx]] = union
-    _, joined = np.unique([sets[i] for i in range(n)], return_inverse=True)
-    return joined[island]
+        members[sets.join(rx, ry)] = union
+    return sets.labels()[island]
 
 
 def _project(vertices, faces, island, group, dirs):

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import functools
 import importlib.util
 import io
 import math
@@ -35,24 +36,28 @@ import statistics
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TypedDict
 
 import numpy as np
 
 from ..errors import ParameterError
 from ..mesh.load import LoadedMesh
 from ..output.atomic import write_bytes
-from ..quality import Quality
 from ..textures import parse_spec
 
 COLUMNS = ("setting", "seconds", "rmse", "max_abs", "estimate", "ratio", "method", "samples", "filtering", "precision",
            "max_octaves", "size", "tiles_seconds", "pareto")
+Images = dict[int, tuple[np.ndarray, np.ndarray]]  # size -> (image, coverage) of a reference bake
 
 
 @dataclass(frozen=True)
-class Setting(Quality):
-    """One point of the sweep: the ``bake_mesh`` arguments it varies (a quality and a size)."""
+class Setting:
+    """One point of the sweep: the ``bake_mesh`` settings it varies (those a quality
+    preset fixes, and the size)."""
 
+    samples: int = 1
+    filtering: bool = True
+    precision: str = "float64"
+    max_octaves: int | None = None
     size: int = 512
 
     @property
@@ -64,16 +69,8 @@ class Setting(Quality):
         return " ".join(parts + [str(self.size)])
 
     def kwargs(self) -> dict:
-        """The quality settings, as ``bake_mesh`` keywords."""
-        return {f.name: getattr(self, f.name) for f in dataclasses.fields(Quality)}
-
-
-class _Common(TypedDict):
-    """The ``bake_mesh`` keywords every bake of a sweep shares."""
-
-    uv: str
-    margin: int
-    workers: int
+        """The setting, as ``bake_mesh`` keywords."""
+        return dataclasses.asdict(self)
 
 
 @dataclass
@@ -163,12 +160,7 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
     "seconds", "texels"}``: ``check_rmse`` is the RMSE between the reference and the same
     bake with a quarter of the samples; ``texels`` how many texels every setting of that
     size is scored on (covered by the reference and by every setting's bake).
-
-    Long because the timed runs take turns over all settings (so that a slow moment of a
-    shared machine spreads over every setting rather than one), which keeps the loop whole.
     """
-    from ..pipeline import bake_mesh
-
     if not isinstance(repeats, int) or not 1 <= repeats <= 100:
         raise ParameterError("repeats", f"expected a whole number from 1 to 100, got {repeats!r}")
     if not isinstance(reference_samples, int) or not 16 <= reference_samples <= 1024:
@@ -179,32 +171,13 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
         raise ParameterError("settings", "expected at least one setting")
     say = progress or (lambda line: None)
     base = prepare_mesh(mesh, size=max(s.size for s in settings), uv=uv, workers=workers)
-    common: _Common = {"uv": "keep", "margin": 0, "workers": workers}
+    bake = functools.partial(_bake, base, spec, workers)
 
-    references: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-    checks: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-    info: dict[int, dict] = {}
-    largest = max(s.size for s in settings)
-    for sz in sorted({s.size for s in settings}):
-        # smaller sizes get more samples a texel (same total, at most 1024): their texels
-        # on chart edges cover more of the surface and converge more slowly
-        n = min(1024, reference_samples * max(1, (largest // sz) ** 2))
-        start = time.perf_counter()
-        ref = bake_mesh(base, spec, size=sz, samples=n, filtering=False, **common)
-        seconds = time.perf_counter() - start
-        check = bake_mesh(base, spec, size=sz, samples=n // 4, filtering=False, **common)
-        references[sz] = (ref.images[next(iter(ref.images))], ref.coverage)
-        checks[sz] = (check.images[next(iter(check.images))], check.coverage)
-        check_rmse, _ = compare(*checks[sz], *references[sz])
-        info[sz] = {"samples": n, "check_samples": n // 4, "check_rmse": check_rmse, "seconds": seconds}
-        say(f"reference {sz}: {n} samples, {seconds:.1f} s; {n // 4} samples differ by RMSE {check_rmse:.2e}")
-
-    # The first bake of each setting (untimed: it also warms numba's kernels) gives the
-    # errors; then the timed runs go round the settings, so that a change in the load of
-    # a shared machine spreads over all settings instead of falling on one.
+    references, checks, info = _references(bake, sorted({s.size for s in settings}), reference_samples, say)
+    # The first bake of each setting (untimed: it also warms numba's kernels) gives the errors.
     baked = {}
     for setting in settings:
-        result = bake_mesh(base, spec, **common, **setting.kwargs(), size=setting.size)
+        result = bake(**setting.kwargs())
         baked[setting] = (result.images[next(iter(result.images))], result.coverage, result.report["error_estimate"])
     # every setting of a size is scored on the same texels: those all its bakes cover
     scored = {sz: np.logical_and.reduce([ref_cov, *(baked[s][1] for s in settings if s.size == sz)])
@@ -217,14 +190,7 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
     for sz, mask in scored.items():
         info[sz]["texels"] = int(mask.sum())
         info[sz]["check_rmse"] = compare(*checks[sz], *references[sz], mask)[0]
-    times: dict[Setting, list[float]] = {s: [] for s in settings}
-    tile_times: dict[Setting, list[float]] = {s: [] for s in settings}
-    for _ in range(repeats):
-        for setting in settings:
-            start = time.perf_counter()
-            result = bake_mesh(base, spec, **common, **setting.kwargs(), size=setting.size)
-            times[setting].append(time.perf_counter() - start)
-            tile_times[setting].append(result.report["seconds"]["tiles (wall)"])
+    times, tile_times = _timed(bake, settings, repeats)
     rows = []
     for setting in settings:
         rmse, max_abs, est = results[setting]
@@ -233,6 +199,50 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
         say(f"{setting.name}: {rows[-1].seconds:.3f} s, RMSE {rmse:.2e}, estimate {est['rmse']:.2e} ({est['method']})")
     pareto_front(rows)
     return rows, info
+
+
+def _bake(mesh: LoadedMesh, spec, workers: int, **settings):
+    """One bake of the sweep: ``mesh``'s own atlas, no margin."""
+    from ..pipeline import bake_mesh
+
+    return bake_mesh(mesh, spec, uv="keep", margin=0, workers=workers, **settings)
+
+
+def _references(bake, sizes: list[int], reference_samples: int, say) -> tuple[Images, Images, dict[int, dict]]:
+    """``(references, checks, info)`` per size: the converged reference's ``(image,
+    coverage)``, the same bake with a quarter of the samples, and what they took."""
+    references: Images = {}
+    checks: Images = {}
+    info: dict[int, dict] = {}
+    for sz in sizes:
+        # smaller sizes get more samples a texel (same total, at most 1024): their texels
+        # on chart edges cover more of the surface and converge more slowly
+        n = min(1024, reference_samples * max(1, (sizes[-1] // sz) ** 2))
+        start = time.perf_counter()
+        ref = bake(size=sz, samples=n, filtering=False)
+        seconds = time.perf_counter() - start
+        check = bake(size=sz, samples=n // 4, filtering=False)
+        references[sz] = (ref.images[next(iter(ref.images))], ref.coverage)
+        checks[sz] = (check.images[next(iter(check.images))], check.coverage)
+        check_rmse, _ = compare(*checks[sz], *references[sz])
+        info[sz] = {"samples": n, "check_samples": n // 4, "check_rmse": check_rmse, "seconds": seconds}
+        say(f"reference {sz}: {n} samples, {seconds:.1f} s; {n // 4} samples differ by RMSE {check_rmse:.2e}")
+    return references, checks, info
+
+
+def _timed(bake, settings: list[Setting], repeats: int) -> tuple[dict, dict]:
+    """``(whole-bake seconds, tile-loop seconds)`` of each setting, ``repeats`` of each.
+    The runs go round the settings, so that a change in the load of a shared machine
+    spreads over all of them instead of falling on one."""
+    times: dict[Setting, list[float]] = {s: [] for s in settings}
+    tile_times: dict[Setting, list[float]] = {s: [] for s in settings}
+    for _ in range(repeats):
+        for setting in settings:
+            start = time.perf_counter()
+            result = bake(**setting.kwargs())
+            times[setting].append(time.perf_counter() - start)
+            tile_times[setting].append(result.report["seconds"]["tiles (wall)"])
+    return times, tile_times
 
 
 def write_csv(rows: list[Row], path) -> Path:
@@ -265,7 +275,7 @@ def markdown(rows: list[Row], info: dict | None = None) -> str:
         "RMSE and max abs: linear colour, three channels, the same texels for every setting of a size: those "
         "covered by the reference and by every setting's bake at that size. "
         "Estimate: the bake's own `report.json` `error_estimate` (a point-sampled probe of up to 4096 covered "
-        "texels, stratified into chart edges and inside, less its own noise; see `bake/estimate.py`).",
+        "texels, stratified into chart edges and inside, less its own noise; see `texbake/maps/estimate.py`).",
     ]
     for sz, ref in sorted((info or {}).items()):
         lines.append("")

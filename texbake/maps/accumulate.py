@@ -20,11 +20,9 @@ import numba as nb
 import numpy as np
 
 from ..output.images import DEFAULT_BITS
-from ..quality import Quality
 from ..sampling.lookup import Tile
 from ..sampling.sampler import Samples
 from ..settings import BakeSettings
-from ..textures import evaluate
 from ..textures.mapping import TextureMapping
 from .bump import LUMINANCE, normal_map
 from .shading import lit
@@ -35,15 +33,15 @@ HALF_TEXELS = 8192 * 8192  # larger images written as 8 bits are held as float16
 class Maps:
     """The maps of one bake of ``width x height`` texels."""
 
-    def __init__(self, settings: BakeSettings, quality: Quality, width: int, height: int, mapping: TextureMapping):
-        spec = settings.texture
+    def __init__(self, settings: BakeSettings, mapping: TextureMapping):
+        spec, (width, height) = settings.texture, settings.width_height
         if settings.frames is None:
             self.colours = {"albedo": spec}
         else:
             self.colours = {f"albedo_{i:04d}": spec.model_copy(update={"time": t}) for i, t in enumerate(settings.frames)}
         self.colour_name = next(iter(self.colours))  # the map the error estimate and the GLB use
-        self.settings, self.quality, self.mapping = settings, quality, mapping
-        self.width, self.height, self.samples = width, height, quality.samples
+        self.settings, self.mapping = settings, mapping
+        self.width, self.height, self.samples = width, height, settings.samples
         names = [*self.colours, *(["lit"] if settings.shading != "decal" else []), *(["normal"] if settings.bump is not None else [])]
         eight_bit = (settings.bits or DEFAULT_BITS[settings.format]) == 8
         dtype = np.float16 if eight_bit and width * height > HALF_TEXELS else np.float32
@@ -57,18 +55,17 @@ class Maps:
     def values(self, s: Samples, timer=None) -> dict[str, np.ndarray]:
         """``(n, 3)`` float64 values of every map at the samples ``s``."""
         stage = timer.stage if timer is not None else (lambda name: nullcontext())
-        settings, quality, mapping = self.settings, self.quality, self.mapping
+        settings, mapping, octaves = self.settings, self.mapping, self.settings.max_octaves
         with stage("texture"):
-            dpdx, dpdy = (s.dpdx, s.dpdy) if quality.filtering else (None, None)
-            values = {name: mapping.evaluate(spec, s.points, dpdx, dpdy, max_octaves=quality.max_octaves)
-                      for name, spec in self.colours.items()}
+            dpdx, dpdy = (s.dpdx, s.dpdy) if settings.filtering else (None, None)
+            values = {name: mapping.evaluate(spec, s.points, dpdx, dpdy, max_octaves=octaves) for name, spec in self.colours.items()}
         if settings.shading != "decal":
             with stage("shading"):
                 values["lit"] = lit(values[self.colour_name], s.normals, mode=settings.shading, light=settings.light)
         if settings.bump is not None:
             with stage("bump"):
                 q, dqdx, dqdy = mapping.to_space(s.points, s.dpdx, s.dpdy)
-                height_of = lambda x: evaluate(settings.bump, x, bounds=mapping.bounds, max_octaves=quality.max_octaves) @ LUMINANCE
+                height_of = lambda x: mapping.evaluate_in_space(settings.bump, x, max_octaves=octaves) @ LUMINANCE
                 values["normal"] = normal_map(height_of, q, dqdx, dqdy, s.normals, settings.bump_strength, frame=s.frame)
         return values
 

@@ -4,12 +4,19 @@ from __future__ import annotations
 
 import json
 import platform
+from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .atomic import write_bytes
+
+if TYPE_CHECKING:  # for the annotations only: the report reads these objects, it does not make them
+    from ..atlas.decide import Atlas
+    from ..mesh.load import LoadedMesh
+    from ..settings import BakeSettings
 
 _LIBRARIES = ("texbake", "numpy", "scipy", "trimesh", "xatlas", "embreex", "OpenImageIO", "numba", "pydantic")
 
@@ -30,17 +37,106 @@ def write_json(path: Path, data: dict) -> None:
     write_bytes(path, (json.dumps(data, indent=2) + "\n").encode())
 
 
-def bake_report(mesh, bounds, source: dict | None, settings, quality, atlas, covered: np.ndarray, filled: np.ndarray,
-                counts: dict, error_estimate: dict, seconds: dict) -> dict:
+@dataclass(frozen=True)
+class BakeTally:
+    """What a bake's stages counted and measured, for its report.
+
+    Attributes
+    ----------
+    covered, filled : (h, w) bool ndarray
+        Texels covered by the atlas (some sample hit them), and those the margin filled.
+    cast : int
+        Texel samples looked up (those of texels that some face's UV box touches).
+    rays : int
+        Lookup rays cast: a texel's first sample, and those off its face.
+    transfer_missed : int
+        Samples whose transfer ray found no source.
+    hits : int
+        Samples that reached a face.
+    lookup_reused : bool
+        Whether the lookups were an earlier bake's, kept in memory (then no ray was cast).
+    error_estimate : dict
+        The colour map's error estimate (``texbake.maps.estimate``).
+    seconds : dict of str to float
+        Seconds per stage, summed over the tiles that ran it.
+    """
+
+    covered: np.ndarray
+    filled: np.ndarray
+    cast: int
+    rays: int
+    transfer_missed: int
+    hits: int
+    lookup_reused: bool = False
+    error_estimate: dict = field(default_factory=dict)
+    seconds: dict = field(default_factory=dict)
+
+
+def bake_report(settings: BakeSettings, mesh: LoadedMesh, atlas: Atlas, tally: BakeTally, *,
+                source: LoadedMesh | None = None, cage: float | None = None) -> dict:
     """The report of one bake (``report.json``).
 
-    ``mesh``: the ``LoadedMesh``; ``bounds``: its ``(lo, hi)``; ``source``: what was
-    transferred from, or None; ``settings``: the ``BakeSettings``; ``quality``: their
-    resolved ``Quality``; ``atlas``: the ``Atlas``; ``covered``, ``filled``: ``(h, w)``
-    bool texels covered by the atlas and by the margin; ``counts``: samples ``cast``
-    (looked up), lookup ``rays``, ``transfer_missed`` and sample ``hits``; ``seconds``: per stage.
+    Parameters
+    ----------
+    settings : BakeSettings
+        What was baked; ``report["settings"]`` is ``settings.model_dump(mode="json")``.
+    mesh : LoadedMesh
+        The mesh baked.
+    atlas : Atlas
+        Its atlas, and how it was made.
+    tally : BakeTally
+        What the stages counted and measured.
+    source, cage : LoadedMesh and float, optional
+        The mesh transferred from and the transfer rays' reach, or None.
+
+    Returns
+    -------
+    dict
+        JSON-ready: ``mesh``, ``source``, ``settings``, ``atlas``, ``texels``, ``rays``,
+        ``error_estimate``, ``warnings``, ``skipped``, ``seconds``, ``versions``.
     """
     width, height = settings.width_height
+    covered, filled = int(tally.covered.sum()), int(tally.filled.sum())
+    return {
+        "mesh": _mesh(mesh),
+        "source": None if source is None else {"path": source.path, "sha256": source.sha256, "faces": int(len(source.faces)),
+                                               "cage": cage},
+        "settings": settings.model_dump(mode="json"),
+        "atlas": {"method": atlas.method, "reason": atlas.reason, "cached": atlas.cached, **atlas.stats},
+        "texels": {"total": width * height, "covered": covered, "margin": filled, "empty": width * height - covered - filled},
+        "rays": {
+            "texel_samples": width * height * settings.samples,
+            "cast": tally.cast,  # samples of texels that some face's UV box touches, looked up
+            "lookup_reused": tally.lookup_reused,
+            "lookup_rays": tally.rays,  # of them: a texel's first sample, and those off its face
+            "missed": tally.cast - tally.hits - tally.transfer_missed,
+            "missed_inside_atlas": _cracks(tally.covered),
+            "transfer_missed": tally.transfer_missed,
+        },
+        "error_estimate": tally.error_estimate,
+        "warnings": list(atlas.warnings) + _transfer_warning(tally),
+        "skipped": _skipped(source, atlas, tally),
+        "seconds": {k: round(v, 4) for k, v in tally.seconds.items()},
+        "versions": library_versions(),
+    }
+
+
+def _mesh(mesh: LoadedMesh) -> dict:
+    """The report's ``mesh``: where it came from, its counts and its bounds."""
+    return {
+        "name": mesh.name,
+        "path": mesh.path,
+        "sha256": mesh.sha256,
+        "vertices": int(len(mesh.vertices)),
+        "faces": int(len(mesh.faces)),
+        "degenerate_faces_removed": int(mesh.removed_degenerate),
+        "duplicate_faces_removed": int(mesh.removed_duplicate),
+        "bounds": [mesh.vertices.min(axis=0).tolist(), mesh.vertices.max(axis=0).tolist()],
+    }
+
+
+def _skipped(source: LoadedMesh | None, atlas: Atlas, tally: BakeTally) -> list[dict]:
+    """The stages a bake left out, and why."""
     skipped = []
     if source is None:
         skipped.append({"stage": "transfer", "why": "no source mesh given"})
@@ -48,66 +144,14 @@ def bake_report(mesh, bounds, source: dict | None, settings, quality, atlas, cov
         skipped.append({"stage": "unwrap", "why": f"the atlas of an earlier bake of this mesh, from the cache ({atlas.reason})"})
     elif atlas.method == "kept":
         skipped.append({"stage": "unwrap", "why": atlas.reason})
-    if counts.get("lookup_reused"):
+    if tally.lookup_reused:
         skipped.append({"stage": "lookup", "why": "the texel lookup of an earlier bake of this atlas at this size, kept in memory"})
-    cracks = _cracks(covered)
-    lo, hi = bounds
-    return {
-        "mesh": {
-            "name": mesh.name,
-            "path": mesh.path,
-            "sha256": mesh.sha256,
-            "vertices": int(len(mesh.vertices)),
-            "faces": int(len(mesh.faces)),
-            "degenerate_faces_removed": int(mesh.removed_degenerate),
-            "duplicate_faces_removed": int(mesh.removed_duplicate),
-            "bounds": [lo.tolist(), hi.tolist()],
-        },
-        "source": source,
-        "parameters": {
-            "texture": settings.texture.model_dump(mode="json"),
-            "size": [width, height],
-            "samples": quality.samples,
-            "quality": settings.quality,
-            "filtering": quality.filtering,
-            "precision": quality.precision,
-            "max_octaves": quality.max_octaves,
-            "margin": settings.margin,
-            "uv": settings.uv,
-            "texture_space": settings.texture_space,
-            "seed": settings.seed,
-            "shading": settings.shading,
-            "light": list(settings.light) if settings.shading != "decal" else None,
-            "bump": None if settings.bump is None else {"texture": settings.bump.model_dump(mode="json"), "strength": settings.bump_strength},
-            "frames": settings.frames,
-        },
-        "atlas": {"method": atlas.method, "reason": atlas.reason, "cached": atlas.cached, **atlas.stats},
-        "texels": {
-            "total": width * height,
-            "covered": int(covered.sum()),
-            "margin": int(filled.sum()),
-            "empty": int(width * height - covered.sum() - filled.sum()),
-        },
-        "rays": {
-            "texel_samples": width * height * quality.samples,
-            "cast": counts["cast"],  # samples of texels that some face's UV box touches, looked up
-            "lookup_reused": bool(counts.get("lookup_reused", False)),
-            "lookup_rays": counts["rays"],  # of them: a texel's first sample, and those off its face
-            "missed": counts["cast"] - counts["hits"] - counts["transfer_missed"],
-            "missed_inside_atlas": cracks,
-            "transfer_missed": counts["transfer_missed"],
-        },
-        "error_estimate": error_estimate,
-        "warnings": list(atlas.warnings) + _transfer_warning(counts),
-        "skipped": skipped,
-        "seconds": {k: round(v, 4) for k, v in seconds.items()},
-        "versions": library_versions(),
-    }
+    return skipped
 
 
-def _transfer_warning(counts: dict) -> list[str]:
+def _transfer_warning(tally: BakeTally) -> list[str]:
     """A warning when more than 1 % of the transfer rays found no source."""
-    cast, missed = counts["cast"], counts["transfer_missed"]
+    cast, missed = tally.cast, tally.transfer_missed
     if cast and missed > 0.01 * cast:
         return [f"transfer: {missed} of {cast} texel samples found no source within the cage; they keep the margin's colour"]
     return []

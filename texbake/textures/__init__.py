@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from .context import EvalContext, Placement
+from .mapping import place_and_evaluate
 from .spec import TEXTURES, TextureSpec, Transform, parse_spec
 
 __all__ = ["TEXTURES", "EvalContext", "Placement", "TextureSpec", "Transform", "evaluate", "parse_spec"]
@@ -60,5 +61,5 @@ def evaluate(spec, points, footprint=None, *, bounds=None, max_octaves=None) -> 
     spec = parse_spec(spec)
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     f = None if footprint is None else np.asarray(footprint, dtype=np.float64).reshape(-1, 2, 3)
-    q, dqdx, dqdy = spec.placement()(p, None if f is None else f[:, 0], None if f is None else f[:, 1])
-    return spec(q, EvalContext(dqdx, dqdy, bounds, max_octaves))
+    return place_and_evaluate(spec, p, None if f is None else f[:, 0], None if f is None else f[:, 1], bounds=bounds,
+                              max_octaves=max_octaves)

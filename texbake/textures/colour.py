@@ -95,18 +95,16 @@ def marble_colours(points, width, knots, colour_list, *, axis=0, frequency=6.0, 
     (None: point sampling) the mean colour over the phase's spread (:func:`wave_colours`).
     Those functions in turn, without their temporaries.
     """
-    from .noise import BASES, INTERPOLATIONS, _derived_tables, announce_compile, basis_mean, capped_mean, tables
+    from .noise import BASES, INTERPOLATIONS, _derived_tables, announce_compile, basis_mean, octave_count, tables
 
     p = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
     w = np.zeros(len(p)) if width is None else np.ascontiguousarray(width, dtype=np.float64).reshape(-1)
     key = (tuple(knots), tuple(tuple(c) for c in colour_list))
     sines, waves = sine_table(*key), wave_table(*key)
-    count = int(octaves) if max_octaves is None else min(int(octaves), int(max_octaves))
-    capped = capped_mean(basis, gain, count, octaves, seed) if count < octaves else 0.0
-    norm = sum(gain**k for k in range(octaves))
+    cap = octave_count(octaves, gain, max_octaves, basis=basis, seed=seed)
     args = (int(axis), float(frequency), float(amplitude), float(scale), float(offset), *tables(seed), *_derived_tables(seed),
-            BASES.index(basis), INTERPOLATIONS.index(interpolation), count, float(lacunarity), float(gain),
-            basis_mean(basis, seed), float(capped), float(norm), sines, waves, MAX_SPREAD)
+            BASES.index(basis), INTERPOLATIONS.index(interpolation), cap.evaluated, float(lacunarity), float(gain),
+            basis_mean(basis, seed), float(cap.capped), float(cap.norm), sines, waves, MAX_SPREAD)
     out = np.empty((len(p), 3))
     announce_compile(kernels.marble_kernel)
     kernels.in_pieces(len(p), lambda a, b: kernels.marble_kernel(p[a:b], w[a:b], *args, out[a:b]))

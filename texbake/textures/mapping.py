@@ -6,6 +6,8 @@ computed in that order so that a mesh far from the origin keeps its precision, w
 bounding box then starting at 0 and its longest side 1; "object": as it is); rounding to
 float32 where the bake asks for it (as a float32 pipeline would hold the points); then the
 spec's own placement (``model`` in world space, ``transform``, the wood's ``tilt``).
+Every evaluation of a texture, the bake's maps, the bump's heights, the error probe and
+``texbake.textures.evaluate``, takes these steps here.
 """
 
 from __future__ import annotations
@@ -43,18 +45,34 @@ class TextureMapping:
 
     def evaluate(self, spec, points: np.ndarray, dpdx: np.ndarray | None, dpdy: np.ndarray | None, *,
                  max_octaves: int | None = None, exact: bool = False) -> np.ndarray:
-        """``(n, channels)`` float64 values of ``spec`` at ``(n, 3)`` object-space points.
+        """``(n, channels)`` float64 values of ``spec`` at ``(n, 3)`` float64 object-space points.
 
-        ``dpdx``, ``dpdy``: ``(n, 3)`` footprints, or None to point-sample. ``exact``: in
-        float64 whatever the bake's precision (the error probe's reference).
+        ``dpdx``, ``dpdy``: ``(n, 3)`` float64 footprints, or None to point-sample.
+        ``exact``: in float64 whatever the bake's precision (the error probe's reference).
         """
         q, dqdx, dqdy = self.to_space(points, dpdx, dpdy)
+        return self.evaluate_in_space(spec, q, dqdx, dqdy, max_octaves=max_octaves, exact=exact)
+
+    def evaluate_in_space(self, spec, q: np.ndarray, dqdx: np.ndarray | None = None, dqdy: np.ndarray | None = None, *,
+                          max_octaves: int | None = None, exact: bool = False) -> np.ndarray:
+        """:meth:`evaluate` at ``(n, 3)`` float64 points ``q`` (and footprints) already in
+        the bake's texture space, as the bump's offset points are: rounded to the bake's
+        precision, then through the spec's placement."""
         if self.precision == "float32" and not exact:
             q = q.astype(np.float32).astype(np.float64)
             if dqdx is not None and dqdy is not None:
                 dqdx, dqdy = dqdx.astype(np.float32).astype(np.float64), dqdy.astype(np.float32).astype(np.float64)
-        q, dqdx, dqdy = spec.placement()(q, dqdx, dqdy)
-        return spec(q, EvalContext(dqdx, dqdy, self.bounds, max_octaves))
+        return place_and_evaluate(spec, q, dqdx, dqdy, bounds=self.bounds, max_octaves=max_octaves)
+
+
+def place_and_evaluate(spec, points: np.ndarray, dpdx: np.ndarray | None, dpdy: np.ndarray | None, *,
+                       bounds: np.ndarray | None = None, max_octaves: int | None = None) -> np.ndarray:
+    """``(n, channels)`` float64 values of the texture ``spec`` (a spec object) at
+    ``(n, 3)`` float64 points: the points and their ``(n, 3)`` footprints (None: point
+    sampling) through the spec's placement into its own space, where it evaluates itself
+    with an :class:`EvalContext` of ``bounds`` ``(2, 3)`` and ``max_octaves``."""
+    q, dqdx, dqdy = spec.placement()(points, dpdx, dpdy)
+    return spec(q, EvalContext(dqdx, dqdy, bounds, max_octaves))
 
 
 def _affine(points: np.ndarray, origin: np.ndarray, scale: float) -> np.ndarray:

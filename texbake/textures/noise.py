@@ -26,13 +26,15 @@ from __future__ import annotations
 
 import functools
 import logging
+from typing import NamedTuple
 
 import numpy as np
 
 from . import kernels
 from .kernels import DROP_CELLS, box_keep, fade_factor
 
-__all__ = ["BASES", "DROP_CELLS", "INTERPOLATIONS", "basis_mean", "box_keep", "fade_factor", "noise", "octave_sum", "tables"]
+__all__ = ["BASES", "DROP_CELLS", "INTERPOLATIONS", "OctaveCount", "basis_mean", "box_keep", "fade_factor", "noise", "octave_count",
+           "octave_sum", "tables"]
 
 logger = logging.getLogger(__name__)
 
@@ -97,20 +99,33 @@ def octave_sum(
     noise_table, index_table = tables(seed)
     noise2, hash4 = _derived_tables(seed)
     out = np.empty(len(p))
-    count = int(octaves) if max_octaves is None else min(int(octaves), int(max_octaves))
+    cap = octave_count(octaves, gain, max_octaves, basis=basis, seed=seed)
     mean = basis_mean(basis, seed)
     args = (float(scale), float(offset), noise_table, index_table, noise2, hash4, BASES.index(basis),
-            INTERPOLATIONS.index(interpolation), count, float(lacunarity), float(gain), bool(signed), mean)
+            INTERPOLATIONS.index(interpolation), cap.evaluated, float(lacunarity), float(gain), bool(signed), mean)
     announce_compile(kernels.octave_kernel)
     kernels.in_pieces(len(p), lambda lo, hi: kernels.octave_kernel(p[lo:hi], w[lo:hi], *args, out[lo:hi]))
-    if count < octaves and not signed:  # the capped octaves add their mean
-        out += capped_mean(basis, gain, count, octaves, seed)
+    if cap.evaluated < octaves and not signed:  # the capped octaves add their mean (signed octaves have mean 0)
+        out += cap.capped
     return out
 
 
-def capped_mean(basis: str, gain: float, count: int, octaves: int, seed: int = 0) -> float:
-    """What octaves ``count`` to ``octaves - 1`` add when left out: their (unsigned) mean."""
-    return basis_mean(basis, seed) * sum(gain**k for k in range(count, int(octaves)))
+class OctaveCount(NamedTuple):
+    """How an octave sum is evaluated under a cap on its octaves (``max_octaves``)."""
+
+    evaluated: int  # the octaves evaluated
+    capped: float  # what the octaves left out add: their unsigned mean (0.0 when none is left out)
+    norm: float  # the weights of every octave summed, capped or not: the sum divided by it lies in [0, 1]
+
+
+def octave_count(octaves: int, gain: float, max_octaves: int | None = None, *, basis: str = "value", seed: int = 0) -> OctaveCount:
+    """The octave cap: of ``octaves`` (weights ``gain^k``), ``max_octaves`` at most are
+    evaluated (None: all), and those left out add their mean (:func:`basis_mean`), so the
+    brightness does not shift; the normalisation stays that of all ``octaves``."""
+    octaves = int(octaves)
+    count = octaves if max_octaves is None else min(octaves, int(max_octaves))
+    capped = basis_mean(basis, seed) * sum(gain**k for k in range(count, octaves)) if count < octaves else 0.0
+    return OctaveCount(count, capped, sum(gain**k for k in range(octaves)))
 
 
 def noise(points: np.ndarray, *, basis: str = "value", interpolation: str = "linear", seed: int = 0) -> np.ndarray:

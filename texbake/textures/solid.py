@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from .basic import _sign, _triangle
-from .noise import octave_sum
+from .noise import octave_count, octave_sum
 
 
 def spline(t: np.ndarray, knots: np.ndarray, values: np.ndarray) -> np.ndarray:
@@ -44,8 +44,7 @@ def turbulence(points, width, *, scale=1.0, offset=0.0, octaves=8, lacunarity=2.
     """
     total = octave_sum(points, width, octaves=octaves, basis=basis, interpolation=interpolation, lacunarity=lacunarity,
                        gain=gain, signed=signed, seed=seed, max_octaves=max_octaves, scale=scale, offset=offset)
-    norm = sum(gain**k for k in range(octaves))
-    return total / norm
+    return total / octave_count(octaves, gain).norm
 
 
 def marble_phase(points, width, *, axis=0, frequency=6.0, amplitude=4.0, **turbulence_args):

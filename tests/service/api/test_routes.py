@@ -9,6 +9,9 @@ import json
 import pytest
 from fastapi.testclient import TestClient
 
+from texbake.service.core.config import get_settings
+from texbake.settings import BakeSettings
+
 
 @pytest.fixture
 def client(tmp_path_factory, monkeypatch):
@@ -41,7 +44,12 @@ def test_upload_is_queued_once(client, meshes):
     assert post(client, meshes / "suzanne.ply", {"texture": "wood", "size": 256}).json()["id"] == job["id"]
     assert post(client, meshes / "suzanne.ply", {"texture": "wood", "size": 128}).json()["id"] != job["id"]
     final = post(client, meshes / "suzanne.ply", {"texture": "wood", "size": 128, "quality": "final"}).json()
-    assert final["settings"]["quality"] == "final" and "samples" not in final["settings"]
+    assert (final["settings"]["quality"], final["settings"]["samples"], final["settings"]["filtering"]) == ("final", 16, False)
+    limit = get_settings().max_faces  # a face limit the client does not set is this server's
+    assert final["settings"] == BakeSettings(texture="wood", size=128, quality="final", max_faces=limit).model_dump(mode="json")
+    # the same bake however it is written: the preset's values spelt out are the same job
+    spelt = {"texture": "wood", "size": 128, "samples": 16, "filtering": False, "quality": "final"}
+    assert post(client, meshes / "suzanne.ply", spelt).json()["id"] == final["id"]
     page = client.get("/v1/jobs", params={"limit": 1}).json()
     assert page["total"] == 3 and len(page["jobs"]) == 1
     assert client.get(f"/v1/jobs/{job['id']}/files/albedo.png").status_code == 409  # not baked yet
@@ -137,14 +145,14 @@ def test_openapi_documents_the_settings_and_the_bearer_scheme(client):
 
 def test_every_library_feature_can_be_asked_for(client, meshes):
     """A normal map, lit shading with a light, a flame sequence and a quality preset are
-    settings like any other: queued as given."""
+    settings like any other: queued as given, preset resolved."""
     settings = {"texture": {"name": "flame", "half_width": 0.4}, "frames": [0, 0.25, 0.5], "bump": "noise", "bump_strength": 2,
                 "shading": "full", "light": [0, 1, 0], "quality": "final", "size": [256, 128], "format": "exr", "bits": 32}
     r = post(client, meshes / "suzanne.ply", settings)
     assert r.status_code == 202, r.text
     job = r.json()["settings"]
     assert job["frames"] == [0, 0.25, 0.5] and job["bump"]["name"] == "noise" and job["light"] == [0, 1, 0]
-    assert job["texture"]["half_width"] == 0.4 and job["size"] == [256, 128] and "samples" not in job
+    assert job["texture"]["half_width"] == 0.4 and job["size"] == [256, 128] and (job["samples"], job["filtering"]) == (16, False)
     r = post(client, meshes / "suzanne.ply", {"texture": "marble", "frames": [0, 1]})
     assert r.status_code == 422 and "has no time to animate" in r.json()["detail"]
     r = post(client, meshes / "suzanne.ply", {"frames": list(range(100)), "texture": "flame"})

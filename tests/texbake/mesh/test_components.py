@@ -1,11 +1,11 @@
-"""Connected components (bake/components.py): SciPy's labels, exactly."""
+"""Connected components (texbake/mesh/components.py): SciPy's labels, exactly, of edges at once or joined one by one."""
 
 import numpy as np
 import pytest
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components as scipy_components
 
-from texbake.mesh.components import connected_components
+from texbake.mesh.components import DisjointSets, connected_components
 
 
 def scipy_labels(n, a, b):
@@ -41,3 +41,23 @@ def test_bad_edges():
     with pytest.raises(ValueError, match=r"outside \[0, 3\)"):
         connected_components(3, np.array([0]), np.array([3]))
     assert connected_components(0, np.array([], int), np.array([], int)).shape == (0,)
+
+
+def test_sets_joined_one_at_a_time_are_labelled_as_the_edges_at_once():
+    rng = np.random.default_rng(11)
+    n = 300
+    sets = DisjointSets(n)
+    joined_a, joined_b = [], []
+    for x, y in rng.integers(0, n, (400, 2)):
+        rx, ry = sets.find(int(x)), sets.find(int(y))
+        if (rx + ry) % 3 == 0:  # a join decided on the sets so far, as the planar charts decide theirs
+            continue
+        root = sets.join(rx, ry)
+        joined_a.append(x)
+        joined_b.append(y)
+        assert root == min(rx, ry) == sets.find(int(x)) == sets.find(int(y))  # the smaller root stays the root
+    labels = sets.labels()
+    assert labels.dtype == np.int64 and 1 < labels.max() < n - 1
+    assert np.array_equal(labels, scipy_labels(n, np.array(joined_a), np.array(joined_b)))
+    members = np.flatnonzero(labels == labels[17])
+    assert sets.find(17) == members.min()  # a set's root is its smallest node

@@ -597,10 +597,10 @@ function zoom(factor) {
 
 function figures(report) {
   const seconds = Object.entries(report.seconds || {}).filter(([k]) => !["lookup", "surface", "texture", "accumulate"].includes(k));
-  const size = report.parameters?.size;
+  const size = [report.settings?.size].flat(); // one number: square
   const rows = [
     ["Mesh", `${report.mesh.name}: ${report.mesh.faces.toLocaleString()} faces, ${report.mesh.vertices.toLocaleString()} vertices`],
-    ["Maps", `${size?.join(" × ")} texels, texture ${report.parameters?.texture?.name}`],
+    ["Maps", `${(size.length === 1 ? [size[0], size[0]] : size).join(" × ")} texels, texture ${report.settings?.texture?.name}`],
     ["UV atlas", `${report.atlas.method}, ${report.atlas.charts} charts, ${Math.round(100 * report.atlas.utilisation)} % of the texture used — ${report.atlas.reason}`],
     ["Texels covered", `${report.texels.covered.toLocaleString()} of ${report.texels.total.toLocaleString()}`],
     report.error_estimate && ["Error estimate", `RMSE ${report.error_estimate.rmse.toExponential(2)} (${report.error_estimate.method})`],

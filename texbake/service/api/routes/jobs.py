@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import hashlib
 import json
@@ -54,19 +53,19 @@ def _safe_stem(filename: str | None) -> str:
     return "".join(c if c.isalnum() or c in "-_" else "_" for c in stem)[:64] or "mesh"
 
 
-def _bake_options(parsed: BakeSettings | None, settings) -> dict:
-    """The job's settings within this server's limits (which only tighten the bake's own),
-    as set by the client: what is left out comes from the preset or the defaults."""
+def _bake_settings(parsed: BakeSettings | None, settings) -> BakeSettings:
+    """The job's settings within this server's limits (which only tighten the bake's own);
+    the face limit, when the client sets none, is this server's."""
     parsed = parsed or BakeSettings()
-    limits = {"size": (max(parsed.width_height), settings.max_size), "samples": (parsed.quality_settings().samples, settings.max_samples),
+    limits = {"size": (max(parsed.width_height), settings.max_size), "samples": (parsed.samples, settings.max_samples),
               "max_faces": (parsed.max_faces if "max_faces" in parsed.model_fields_set else 0, settings.max_faces),
               "frames": (len(parsed.frames or ()), settings.max_frames)}
     for name, (value, limit) in limits.items():
         if value > limit:
             raise HTTPException(422, detail=f"settings.{name}: {value} is over this server's limit of {limit}")
-    out = parsed.model_dump(mode="json", exclude_unset=True)
-    out.setdefault("max_faces", settings.max_faces)
-    return out
+    if "max_faces" in parsed.model_fields_set:
+        return parsed
+    return BakeSettings.build(parsed, max_faces=settings.max_faces)
 
 
 def _receive(mesh: UploadFile, suffix: str, settings) -> tuple[Path, hashlib._Hash]:
@@ -92,13 +91,6 @@ def _receive(mesh: UploadFile, suffix: str, settings) -> tuple[Path, hashlib._Ha
         tmp.unlink(missing_ok=True)
         raise
     return tmp, digest
-
-
-def _resolved(options: dict) -> dict:
-    """Every setting of the bake, quality preset resolved: two uploads that bake the same
-    are the same job, however their settings were written."""
-    settings = BakeSettings.build(options)
-    return {**settings.model_dump(mode="json"), **dataclasses.asdict(settings.quality_settings())}
 
 
 def _check_unfinished(session, client: str, settings) -> None:
@@ -149,11 +141,12 @@ def create_job(
     suffix = Path(mesh.filename or "").suffix.lower()
     if suffix not in UPLOAD_FORMATS:
         raise HTTPException(422, detail=f"mesh: {mesh.filename!r} is not a single-file mesh ({' '.join(UPLOAD_FORMATS)})")
-    options = _bake_options(bake_settings, settings)
+    # one serialisation of the resolved settings: the job's, the worker's and the dedup key's
+    options = _bake_settings(bake_settings, settings).model_dump(mode="json")
     _check_unfinished(session, client, settings)
     tmp, digest = _receive(mesh, suffix, settings)
     try:
-        digest.update(json.dumps(_resolved(options), sort_keys=True).encode())
+        digest.update(json.dumps(options, sort_keys=True).encode())
         if settings.api_keys:  # with keys, each client has its own jobs
             digest.update(client.encode())
         return _make_job(request, response, session, settings, storage, client, upload=tmp, name=_safe_stem(mesh.filename) + suffix,
