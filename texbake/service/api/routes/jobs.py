@@ -14,7 +14,7 @@ from typing import Annotated
 
 from fastapi import APIRouter, File, Form, HTTPException, Query, Request, Response, UploadFile
 from fastapi.responses import StreamingResponse
-from pydantic import Json
+from pydantic import BeforeValidator, Json
 from sqlalchemy import func, select, true
 
 from texbake.errors import MeshError
@@ -25,6 +25,7 @@ from ...core.config import get_settings
 from ...storage import Storage, StorageMissing, get_storage, zip_stream
 from ...worker.tasks import enqueue_bake, state_changed
 from ..deps import ClientDep, JobDep, SessionDep, SettingsDep, StorageDep
+from ..jsondepth import shallow
 from ..schemas import BakeSettings, JobOut, JobPage
 
 router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
@@ -136,7 +137,8 @@ def _make_job(request: Request, response: Response, session, settings, storage: 
 def create_job(
     request: Request, response: Response, session: SessionDep, settings: SettingsDep, client: ClientDep, storage: StorageDep,
     mesh: Annotated[UploadFile, File(description="OBJ, PLY, STL, OFF, glTF or GLB")],
-    bake_settings: Annotated[Json[BakeSettings] | None, Form(alias="settings", description="BakeSettings as JSON (default: all defaults)")] = None,
+    bake_settings: Annotated[Json[BakeSettings] | None, BeforeValidator(shallow),
+                             Form(alias="settings", description="BakeSettings as JSON (default: all defaults)")] = None,
 ):
     """Upload a mesh and its bake settings; the bake is queued (202). The same upload with
     the same settings returns the existing job (200) instead of baking twice.
