@@ -33,7 +33,7 @@ from .uvgeometry import areas
 FORMATS = {".obj": "obj", ".ply": "ply", ".stl": "stl", ".off": "off", ".gltf": "gltf", ".glb": "glb"}
 FLOAT32_MAX = float(np.finfo(np.float32).max)
 # A glTF's node tree: a file of a few MB may hold 100,000 nodes, nested as deep; these
-# bound the time a load takes (each mesh node's transform is the product of its path)
+# bound the time a load takes (each mesh node's transform is the product of its path),
 # far above what modelling tools write.
 MAX_GLTF_NODES = 100_000
 MAX_GLTF_DEPTH = 64
@@ -300,7 +300,7 @@ def _buffer_bytes(buffer: dict, path: Path, binary: int | None) -> int:
 
 def _check_gltf_buffers(doc: dict, path: Path, binary: int | None) -> None:
     """Every buffer must hold the bytes it claims, every buffer view lie inside its buffer
-    (a claim of 2^40 bytes made trimesh fail an assertion)."""
+    (trimesh trusts the claims: past the data it fails an assertion, with no reason)."""
     where = str(path)
     sizes = []
     for i, buffer in enumerate(doc.get("buffers") or []):
@@ -422,8 +422,8 @@ def _world_transform(graph, node) -> np.ndarray:
     1e-8 of the identity (on a path of two edges or more), multiplies the rest with
     ``np.linalg.multi_dot`` and repairs a nearly rigid result (``fix_rigid``). For square
     matrices of one size multi_dot multiplies from the right, ``A @ (B @ (C @ ...))``, but
-    first searches for that order in time cubic in their number: minutes for a path of a
-    few hundred nodes. Here the same products, in that order, without the search.
+    first searches for that order in time cubic in their number. Here the same products,
+    in that order, without the search.
     """
     from trimesh.transformations import fix_rigid
 
