@@ -1,13 +1,19 @@
 """Worker processes: the one supervisor of every child process texbake runs work in
 (the xatlas unwrap here, the service's bakes).
 
-A worker is a fresh interpreter, ``python -m MODULE ARG...``: not a fork and not
-multiprocessing, so the caller's ``__main__`` is never re-imported, it works from pool
-processes too, and a hang or a crash in native code (xatlas, a bake) takes down only the
-worker, which the parent then sees die or kills at its deadline. A worker dies with its
-parent (:func:`die_with_parent`): Linux kills it when the parent thread that started it
-ends, and it watches its parent's pid besides, which covers a parent that died while the
-worker started and a parent thread that is not the one that lives longest.
+A worker is a fresh interpreter running a module of the package as ``__main__``: not a
+fork and not multiprocessing, so the caller's ``__main__`` is never re-imported, it works
+from pool processes too, and a hang or a crash in native code (xatlas, a bake) takes down
+only the worker, which the parent then sees die or kills at its deadline. A worker dies
+with its parent (:func:`die_with_parent`): Linux kills it when the parent thread that
+started it ends, and it watches its parent's pid besides, which covers a parent that died
+while the worker started and a parent thread that is not the one that lives longest.
+
+Every such interpreter is isolated (:func:`isolated`: ``python -I``), so nothing in the
+working directory, the user's site-packages or ``PYTHON*`` variables is imported or obeyed
+in place of the package: a ``texbake.py`` beside the command line would otherwise be the
+worker. The package's own folder is put first on its path explicitly, so a source
+checkout works as an installed package does.
 
 Protocol: the parent writes one line per job to the worker's stdin, the path of a file
 holding a pickled ``(kind, args)``; the worker answers on stdout with an 8-byte
@@ -35,21 +41,52 @@ _ROOT = str(Path(__file__).resolve().parents[1])  # the folder that holds the pa
 _PARENTS_SIGNALS = {signal.SIGINT, signal.SIGTERM}  # a worker leaves them to its parent
 
 
-_PARENT_ENV = "TEXBAKE_WORKER_PARENT"  # the pid of the process that started this worker
+PARENT_ENV = "TEXBAKE_WORKER_PARENT"  # the pid of the process that started this worker
 PARENT_POLL_SECONDS = 0.5
+
+# Run by ``python -I -c``: argv is PATHS MODULE ARG...; the PATHS (os.pathsep-separated)
+# not on sys.path already go first on it (one that is, site-packages say, stays behind the
+# standard library), then MODULE runs as ``__main__`` as ``-m`` would run it.
+_BOOTSTRAP = ("import os, runpy, sys; _, paths, module, *args = sys.argv; "
+              "sys.path[:0] = [p for p in paths.split(os.pathsep) if p and p not in sys.path]; sys.argv = [module, *args]; "
+              "runpy.run_module(module, run_name='__main__', alter_sys=True)")
+
+
+def isolated(command: Sequence[str]) -> list[str]:
+    """``command`` as a child process is started with it: ``[PYTHON, "-m", MODULE, ARG...]``
+    becomes ``PYTHON -I -c BOOTSTRAP PATHS MODULE ARG...``; any other command is left as it is.
+
+    ``-I`` keeps the working directory, the user's site-packages and every ``PYTHON*``
+    variable out of the child. ``PATHS`` puts back what it needs: the folder holding this
+    package (a source checkout, not installed), then the absolute entries of this process's
+    ``PYTHONPATH`` (a relative one would name the working directory).
+    """
+    command = list(command)
+    if len(command) < 3 or command[1] != "-m":
+        return command
+    extra = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if os.path.isabs(p)]
+    paths = os.pathsep.join(dict.fromkeys([_ROOT, *extra]))
+    return [command[0], "-I", "-c", _BOOTSTRAP, paths, *command[2:]]
+
+
+def child_env(env: dict[str, str] | None = None) -> dict[str, str]:
+    """The environment for a child that is to die with this process (``env`` or this
+    process's own, plus ``TEXBAKE_WORKER_PARENT``: see :func:`die_with_parent`)."""
+    return {**(os.environ if env is None else env), PARENT_ENV: str(os.getpid())}
 
 
 def die_with_parent() -> None:
     """End this process when its parent dies (a hung job never returns, and an orphaned
     bake must not keep baking): ``PR_SET_PDEATHSIG``, then a thread that checks every
-    ``PARENT_POLL_SECONDS`` that the parent is still the one named in ``TEXBAKE_WORKER_PARENT``."""
+    ``PARENT_POLL_SECONDS`` that the parent is still the one named in ``TEXBAKE_WORKER_PARENT``
+    (set by :func:`child_env`)."""
     try:
         import ctypes
 
         ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG
     except (OSError, AttributeError):  # not Linux: the poll below, and the parent kills it at the deadline
         pass
-    parent = int(os.environ.get(_PARENT_ENV) or 0)
+    parent = int(os.environ.get(PARENT_ENV) or 0)
     if not parent:
         return
 
@@ -92,20 +129,19 @@ def serve(jobs: dict[str, Callable[..., object]]) -> None:
 
 
 class Worker:
-    """One worker process running ``command`` (``[sys.executable, "-m", MODULE, ...]``);
-    jobs one at a time. ``folder``: where job files go (and the worker's working folder)."""
+    """One worker process running ``command`` (``[sys.executable, "-m", MODULE, ...]``,
+    started :func:`isolated`); jobs one at a time. ``folder``: where job files go (and the
+    worker's working folder)."""
 
     def __init__(self, command: Sequence[str], folder: str, *, stderr=subprocess.DEVNULL):
-        env = dict(os.environ)
-        env["PYTHONPATH"] = os.pathsep.join(p for p in (_ROOT, env.get("PYTHONPATH")) if p)
-        env[_PARENT_ENV] = str(os.getpid())
+        env = child_env()
         self.folder = folder
         # The child starts with SIGINT and SIGTERM blocked (a thread's signal mask survives
         # fork and exec) until serve() ignores them: a group signal during its imports waits
         # and is then dropped, instead of killing it. The parent thread's mask is restored.
         mask = signal.pthread_sigmask(signal.SIG_BLOCK, _PARENTS_SIGNALS)
         try:
-            self.process = subprocess.Popen(list(command), stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=stderr,
+            self.process = subprocess.Popen(isolated(command), stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=stderr,
                                             bufsize=0, env=env, cwd=folder)
         finally:
             signal.pthread_sigmask(signal.SIG_SETMASK, mask)

@@ -464,3 +464,25 @@ def test_schemathesis_finds_no_server_error_on_postgresql(tmp_path, postgres_url
         assert r.returncode == 0, r.stdout[-4000:] + r.stderr[-2000:]
     finally:
         stop(api)
+
+
+def test_a_done_job_whose_outputs_are_gone_says_so_and_is_baked_again(server, meshes):
+    """Its outputs deleted from the data folder: the job reads failed with the reason (not
+    done with files that answer 409); a retry and the same upload bake it again."""
+    import shutil
+
+    url, data, _ = server
+    settings = {"size": 64, "texture": "checker", "bits": 16}
+    job = wait(url, upload(url, meshes / "suzanne.ply", settings).json()["id"])
+    assert job["state"] == "done" and job["files"], job
+    shutil.rmtree(data / "jobs" / job["id"] / "out")
+    lost = httpx.get(f"{url}/v1/jobs/{job['id']}", timeout=10).json()
+    assert lost["state"] == "failed" and lost["error"] == "its outputs are gone from the store: retry the job to bake them again" and lost["files"] == []
+    r = httpx.get(f"{url}/v1/jobs/{job['id']}/result.zip", timeout=10)
+    assert r.status_code == 409 and r.json()["detail"] == f"job {job['id']} is failed: {lost['error']}", r.text
+    retried = httpx.post(f"{url}/v1/jobs/{job['id']}/retry", timeout=30)
+    assert retried.status_code == 202 and retried.json()["id"] != job["id"], retried.text
+    assert wait(url, retried.json()["id"])["state"] == "done"
+    again = upload(url, meshes / "suzanne.ply", settings)  # the same upload: the retry's job, done
+    assert again.status_code == 200 and again.json()["id"] == retried.json()["id"] and again.json()["files"]
+    assert httpx.get(f"{url}/v1/jobs/{retried.json()['id']}/result.zip", timeout=30).status_code == 200

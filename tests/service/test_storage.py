@@ -286,3 +286,31 @@ def test_retry_takes_the_upload_from_the_store(own_s3, tmp_path, meshes):
         assert not list((tmp_path / "uploads").iterdir()) and not list((tmp_path / "work").glob("*"))  # no copy left behind
     finally:
         stop(api)
+
+
+def test_a_store_that_lost_its_objects_fails_its_done_jobs_with_the_reason(own_s3, tmp_path, meshes):
+    """The S3 server restarted empty: a done job reads failed with the reason, its
+    result.zip says why; its upload is gone too, so retry asks for the mesh again, and
+    the same upload makes a new job (the lost one let go of its key) that bakes."""
+    own_s3.client().create_bucket(Bucket=BUCKET)
+    port = free_port()
+    api = start(["serve", "--port", str(port), "--workers", "1"], tmp_path, {**own_s3.env, "BAKE_STORAGE_URL": f"s3://{BUCKET}/lost"}, port=port)
+    url = f"http://127.0.0.1:{port}"
+    try:
+        first = wait(url, upload(url, meshes / "suzanne.ply", {"size": 64}).json()["id"], timeout=120)
+        assert first["state"] == "done" and first["files"], first
+        own_s3.stop()
+        own_s3.start()  # on the same port, empty
+        own_s3.client().create_bucket(Bucket=BUCKET)
+        lost = httpx.get(f"{url}/v1/jobs/{first['id']}", timeout=30).json()
+        assert lost["state"] == "failed" and lost["error"].startswith("its outputs are gone from the store") and lost["files"] == [], lost
+        r = httpx.get(f"{url}/v1/jobs/{first['id']}/result.zip", timeout=30)
+        assert r.status_code == 409 and "its outputs are gone from the store" in r.json()["detail"], r.text
+        r = httpx.post(f"{url}/v1/jobs/{first['id']}/retry", timeout=30)
+        assert r.status_code == 409 and r.json()["detail"].endswith("its upload is no longer kept; upload the mesh again"), r.text
+        again = upload(url, meshes / "suzanne.ply", {"size": 64})
+        assert again.status_code == 202 and again.json()["id"] != first["id"], again.text
+        assert wait(url, again.json()["id"], timeout=120)["state"] == "done"
+        assert httpx.get(f"{url}/v1/jobs/{again.json()['id']}/result.zip", timeout=30).status_code == 200
+    finally:
+        stop(api)

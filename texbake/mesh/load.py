@@ -3,7 +3,9 @@
 Formats: OBJ (+MTL, read by :mod:`texbake.mesh.objfile`), PLY, STL (ASCII and binary), OFF, glTF
 and GLB (read with trimesh).
 A scene is flattened, node transforms applied, into one mesh. The file is checked before
-and after parsing: archives, references that leave the mesh's folder, non-finite or
+and after parsing: archives, references that leave the mesh's folder, a glTF's buffers,
+views and accessors that claim more bytes than there are, its node tree past
+``MAX_GLTF_NODES`` nodes or ``MAX_GLTF_DEPTH`` levels (or not a tree), non-finite or
 out-of-range coordinates, out-of-range face indices and too many faces are rejected with
 a :class:`~texbake.errors.MeshError` naming the file; zero-area faces are removed and counted.
 
@@ -15,6 +17,7 @@ from __future__ import annotations
 
 import hashlib
 import io
+import itertools
 import json
 import re
 import struct
@@ -29,6 +32,11 @@ from .uvgeometry import areas
 
 FORMATS = {".obj": "obj", ".ply": "ply", ".stl": "stl", ".off": "off", ".gltf": "gltf", ".glb": "glb"}
 FLOAT32_MAX = float(np.finfo(np.float32).max)
+# A glTF's node tree: a file of a few MB may hold 100,000 nodes, nested as deep; these
+# bound the time a load takes (each mesh node's transform is the product of its path),
+# far above what modelling tools write.
+MAX_GLTF_NODES = 100_000
+MAX_GLTF_DEPTH = 64
 
 # Leading bytes of archive and compressed formats (which trimesh would open).
 _ARCHIVES = {
@@ -158,9 +166,11 @@ def check_file(path) -> str:
     if kind == "stl":
         _check_stl_header(head, size, where)
     elif kind in ("gltf", "glb"):
-        doc = _gltf_json(path, kind, where)
+        doc, binary = _gltf_json(path, kind, where)
         _check_gltf_uris(doc, path)
+        _check_gltf_buffers(doc, path, binary)
         _check_gltf_accessors(doc, where)
+        _check_gltf_nodes(doc, where)
     return kind
 
 
@@ -249,8 +259,10 @@ def _check_mtl(mtl: Path, path: Path) -> None:
             _check_reference(words[-1], path, f"texture in {mtl.name}")
 
 
-def _gltf_json(path: Path, kind: str, where: str) -> dict:
-    """The JSON of a glTF file, or of a GLB's first chunk (read alone)."""
+def _gltf_json(path: Path, kind: str, where: str) -> tuple[dict, int | None]:
+    """The JSON of a glTF file, or of a GLB's first chunk (read alone), and the length of a
+    GLB's binary chunk (None: a glTF, or a GLB without one)."""
+    binary = None
     try:
         with open(path, "rb") as f:
             if kind == "glb":
@@ -259,13 +271,16 @@ def _gltf_json(path: Path, kind: str, where: str) -> dict:
                 if magic != b"glTF" or chunk_type != b"JSON" or chunk_length > path.stat().st_size - 20:
                     raise ValueError("not a GLB file")
                 doc = json.loads(f.read(chunk_length))
+                header = f.read(8)
+                if len(header) == 8 and header[4:] == b"BIN\x00":
+                    binary = min(struct.unpack_from("<I", header)[0], path.stat().st_size - 28 - chunk_length)
             else:
                 doc = json.loads(f.read())
     except (ValueError, struct.error, RecursionError) as exc:
         raise MeshError(where, f"cannot parse {kind.upper()} header: {_short(exc)}") from None
     if not isinstance(doc, dict):
         raise MeshError(where, f"cannot parse {kind.upper()} header: the JSON is a {type(doc).__name__}, not an object")
-    return doc
+    return doc, binary
 
 
 def _check_gltf_uris(doc: dict, path: Path) -> None:
@@ -279,6 +294,84 @@ def _check_gltf_uris(doc: dict, path: Path) -> None:
                 from urllib.parse import unquote
 
                 _check_reference(unquote(uri), path, f"{section[:-1]} uri")
+
+
+def _buffer_bytes(buffer: dict, path: Path, binary: int | None) -> int:
+    """How many bytes a glTF buffer has: a GLB's binary chunk (no ``uri``), a data URI's
+    payload (base64 decoded, counted without decoding) or the file beside the mesh."""
+    from urllib.parse import unquote
+
+    uri = buffer.get("uri")
+    if uri is None:
+        return binary or 0
+    if not isinstance(uri, str):
+        raise TypeError(uri)
+    if uri.startswith("data:"):
+        header, _, payload = uri.partition(",")
+        if header.endswith(";base64"):
+            payload = "".join(payload.split())
+            return len(payload) * 3 // 4 - (len(payload) - len(payload.rstrip("=")))  # less the padding
+        return len(unquote(payload).encode())
+    try:
+        return (path.parent / unquote(uri)).stat().st_size
+    except OSError:
+        raise MeshError(str(path), f"glTF buffer file {uri!r} is missing") from None
+
+
+def _check_gltf_buffers(doc: dict, path: Path, binary: int | None) -> None:
+    """Every buffer must hold the bytes it claims, every buffer view lie inside its buffer
+    (trimesh trusts the claims: past the data it fails an assertion, with no reason)."""
+    where = str(path)
+    sizes = []
+    for i, buffer in enumerate(doc.get("buffers") or []):
+        try:
+            claimed, held = int(buffer["byteLength"]), _buffer_bytes(buffer, path, binary)
+        except (KeyError, TypeError, ValueError, AttributeError):
+            raise MeshError(where, f"glTF buffer {i} is malformed") from None
+        if claimed < 0 or claimed > held:
+            raise MeshError(where, f"glTF buffer {i} claims {claimed:,} bytes but the file holds {held:,}")
+        sizes.append(claimed)
+    views = doc.get("bufferViews") or []
+    if not isinstance(views, list):
+        raise MeshError(where, f"glTF 'bufferViews' must be a list, got {type(views).__name__}")
+    for i, view in enumerate(views):
+        try:
+            start, length, size = int(view.get("byteOffset", 0)), int(view["byteLength"]), sizes[view["buffer"]]
+        except (KeyError, IndexError, TypeError, ValueError, AttributeError):
+            raise MeshError(where, f"glTF buffer view {i} is malformed") from None
+        if start < 0 or length < 0 or start + length > size:
+            raise MeshError(where, f"glTF buffer view {i} (bytes {start:,} to {start + length:,}) lies outside its buffer of {size:,} bytes")
+
+
+def _check_gltf_nodes(doc: dict, where: str) -> None:
+    """The nodes must form trees (every child in range, one parent each, no cycle), at most
+    ``MAX_GLTF_NODES`` of them, nested at most ``MAX_GLTF_DEPTH`` deep (a root: 1)."""
+    nodes = doc.get("nodes") or []
+    if not isinstance(nodes, list):
+        raise MeshError(where, f"glTF 'nodes' must be a list, got {type(nodes).__name__}")
+    if len(nodes) > MAX_GLTF_NODES:
+        raise MeshError(where, f"glTF has {len(nodes):,} nodes: the limit is {MAX_GLTF_NODES:,}")
+    children: list[list[int]] = []
+    parent: dict[int, int] = {}
+    for i, node in enumerate(nodes):
+        listed = node.get("children") or [] if isinstance(node, dict) else None
+        if not isinstance(listed, list) or not all(type(c) is int and 0 <= c < len(nodes) for c in listed):
+            raise MeshError(where, f"glTF node {i} has malformed children")
+        for child in listed:
+            if parent.get(child) == i:
+                raise MeshError(where, f"glTF node {i} lists its child {child} twice")
+            if child in parent:
+                raise MeshError(where, f"glTF node {child} has two parents (nodes {parent[child]} and {i}): the nodes must form trees")
+            parent[child] = i
+        children.append(listed)
+    level, deepest, reached = [i for i in range(len(nodes)) if i not in parent], 0, 0
+    while level:  # breadth first from the roots, each node once (one parent each)
+        deepest, reached = deepest + 1, reached + len(level)
+        level = [c for i in level for c in children[i]]
+    if reached < len(nodes):  # the others hang from a cycle
+        raise MeshError(where, "glTF nodes form a cycle (a node is its own ancestor): the nodes must form trees")
+    if deepest > MAX_GLTF_DEPTH:
+        raise MeshError(where, f"glTF nodes nest {deepest:,} deep: the limit is {MAX_GLTF_DEPTH}")
 
 
 _COMPONENT_BYTES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
@@ -326,7 +419,7 @@ def _parts(loaded):
         return []
     parts = []
     for node in loaded.graph.nodes_geometry:
-        transform, name = loaded.graph[node]
+        transform, name = _world_transform(loaded.graph, node), loaded.graph.transforms.node_data[node]["geometry"]
         g = loaded.geometry[name]
         if isinstance(g, trimesh.Trimesh):
             v = np.asarray(g.vertices, dtype=np.float64)
@@ -336,6 +429,37 @@ def _parts(loaded):
                 f = f[:, ::-1]
             parts.append((v, f, _uv(g)))
     return parts
+
+
+_IDENTITY = np.eye(4)
+
+
+def _world_transform(graph, node) -> np.ndarray:
+    """``graph[node]``'s transform (trimesh's scene graph: from its base frame to ``node``),
+    the same bits, in time linear in the node's depth.
+
+    trimesh takes the matrices along the path from the base frame, leaves out those within
+    1e-8 of the identity (on a path of two edges or more), multiplies the rest with
+    ``np.linalg.multi_dot`` and repairs a nearly rigid result (``fix_rigid``). For square
+    matrices of one size multi_dot multiplies from the right, ``A @ (B @ (C @ ...))``, but
+    first searches for that order in time cubic in their number. Here the same products,
+    in that order, without the search.
+    """
+    from trimesh.transformations import fix_rigid
+
+    forest = graph.transforms
+    path = [node]
+    while path[-1] != graph.base_frame:
+        path.append(forest.parents[path[-1]])
+    edges = [forest.edge_data[(u, v)] for v, u in itertools.pairwise(path)]  # leaf first
+    if len(edges) == 1:
+        matrix = edges[0]["matrix"]
+    else:
+        matrices = [e["matrix"] for e in edges if "matrix" in e and np.abs(e["matrix"] - _IDENTITY).max() > 1e-8]
+        matrix = matrices[0] if matrices else _IDENTITY
+        for m in matrices[1:]:  # leaf first: each next one multiplies from the left
+            matrix = np.dot(m, matrix)
+    return matrix if graph.repair_rigid is None else fix_rigid(matrix, max_deviance=graph.repair_rigid)
 
 
 def _uv(mesh):

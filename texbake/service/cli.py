@@ -36,7 +36,7 @@ def serve(
         from .core import logs
         from .core.config import get_settings
         from .main import create_app
-        from .worker.supervise import Supervisor
+        from .worker.supervise import Supervisor, worker_environment
     except ImportError as exc:
         _need_service_extra(exc)
 
@@ -47,7 +47,7 @@ def serve(
     supervisor = None
     if workers != 0:
         command = [sys.executable, "-m", "texbake.cli", "worker"] + ([] if workers is None else ["--workers", str(workers)])
-        supervisor = Supervisor(command, settings.stop_seconds)
+        supervisor = Supervisor(command, settings.stop_seconds, folder=settings.data_dir.resolve(), env=worker_environment(settings))
         supervisor.start()
     # uvicorn stops on SIGTERM/SIGINT, then raises the signal again with the handlers it
     # found: these, which let this function go on to stop the worker (the default ones
@@ -56,11 +56,33 @@ def serve(
     for signum in (signal.SIGTERM, signal.SIGINT):
         signal.signal(signum, lambda *_: None)
     try:
-        # log_config=None: uvicorn's loggers go through ours (text or JSON)
-        uvicorn.run(app, host=host, port=port, log_level="warning", log_config=None)
+        if not _listen(uvicorn, app, host, port):
+            raise typer.Exit(1)  # uvicorn said why (the address in use, say)
     finally:
         if supervisor is not None:
             supervisor.stop()
+
+
+def _listen(uvicorn, app, host: str, port: int) -> bool:
+    """Serve ``app`` until stopped, saying on which URL once it listens (the port, for
+    ``--port 0``, is the one given to it); False if it never started."""
+    import logging
+
+    class Server(uvicorn.Server):
+        async def startup(self, sockets=None):
+            await super().startup(sockets)
+            if self.started:
+                bound = self.servers[0].sockets[0].getsockname()[1]
+                url = f"http://{f'[{host}]' if ':' in host else host}:{bound}"
+                logging.getLogger("texbake.service").info("serving on %s", url, extra={"url": url})
+
+    # log_config=None: uvicorn's loggers go through ours (text or JSON)
+    server = Server(uvicorn.Config(app, host=host, port=port, log_level="warning", log_config=None))
+    try:
+        server.run()
+    except KeyboardInterrupt:  # as uvicorn.run: a Ctrl-C during the start
+        pass
+    return server.started
 
 
 def worker(workers: int | None = typer.Option(None, help="bakes at a time (default BAKE_WORKERS, 2)")):
@@ -71,8 +93,13 @@ def worker(workers: int | None = typer.Option(None, help="bakes at a time (defau
     it hands them back at once.
     """
     import logging
+    import os
     import threading
 
+    from texbake.workers import PARENT_ENV, die_with_parent
+
+    if os.environ.get(PARENT_ENV):  # started by ``texbake serve``: it must not outlive it
+        die_with_parent()
     try:
         from .core import logs
         from .core.config import get_settings

@@ -18,6 +18,7 @@ from sqlalchemy.exc import DataError, DBAPIError
 from texbake.errors import BakeError
 from texbake.version import __version__
 
+from .api import jsondepth
 from .api.routes import jobs, meta, swatch
 from .api.routes.page import add_page
 from .api.schemas import Problem
@@ -60,6 +61,75 @@ class BodyLimit:
             return message
 
         await self.app(scope, limited, send)
+
+
+class JsonLimit:
+    """Refuse a JSON request body (``application/json`` or ``application/*+json``: what
+    FastAPI parses as JSON) over ``jsondepth.MAX_BYTES`` (413) or nested deeper than
+    ``jsondepth.MAX_DEPTH`` (422), before FastAPI parses it; both with a JSON reason."""
+
+    def __init__(self, app):
+        self.app = app
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http" or not _json_body(dict(scope["headers"]).get(b"content-type", b"")):
+            return await self.app(scope, receive, send)
+        chunks, size, more = [], 0, True
+        try:
+            while more:
+                message = await receive()
+                if message["type"] != "http.request":  # the client went away: let the app see it
+                    return await self.app(scope, _replay([message], receive), send)
+                chunks.append(message.get("body", b""))
+                size += len(chunks[-1])
+                more = message.get("more_body", False)
+                if size > jsondepth.MAX_BYTES:
+                    raise HTTPException(413, detail=f"request body: JSON larger than the limit of {jsondepth.MAX_BYTES} bytes")
+            body = b"".join(chunks)
+            if why := jsondepth.too_deep(body):
+                raise HTTPException(422, detail=f"request body: {why}")
+        except HTTPException as exc:  # (BodyLimit's too: raised from receive)
+            return await JSONResponse({"detail": exc.detail}, status_code=exc.status_code)(scope, receive, send)
+        await self.app(scope, _replay([{"type": "http.request", "body": body, "more_body": False}], receive), send)
+
+
+def _json_body(content_type: bytes) -> bool:
+    media = content_type.split(b";")[0].strip().lower()
+    return media == b"application/json" or (media.startswith(b"application/") and media.endswith(b"+json"))
+
+
+def _replay(messages: list, receive):
+    """``receive`` that gives ``messages`` first, then what ``receive`` gives."""
+    async def replayed():
+        return messages.pop(0) if messages else await receive()
+
+    return replayed
+
+
+# Sent with every answer: no content sniffing (a PNG or a zip is never run as a script or
+# a page), no framing by other sites, no Referer carrying a job's URL elsewhere. The page's
+# own Content-Security-Policy is set by its route.
+SECURITY_HEADERS = {"X-Content-Type-Options": "nosniff", "X-Frame-Options": "DENY", "Referrer-Policy": "no-referrer"}
+
+
+class SecurityHeaders:
+    """Add :data:`SECURITY_HEADERS` to every response (those a route set itself stay)."""
+
+    def __init__(self, app):
+        self.app = app
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http":
+            return await self.app(scope, receive, send)
+
+        async def sending(message):
+            if message["type"] == "http.response.start":
+                present = {name.lower() for name, _ in message.get("headers", [])}
+                extra = [(k.lower().encode(), v.encode()) for k, v in SECURITY_HEADERS.items() if k.lower().encode() not in present]
+                message = {**message, "headers": [*message.get("headers", []), *extra]}
+            await send(message)
+
+        await self.app(scope, receive, sending)
 
 
 RETRY_AFTER_SECONDS = 10
@@ -116,7 +186,9 @@ def create_app() -> FastAPI:
     app = FastAPIOffline(title="texbake", version=__version__, lifespan=lifespan,
                          description="Upload a mesh and a texture spec; get baked maps and a textured GLB.",
                          responses={"4XX": {"model": Problem, "description": "what is wrong, naming the field or the file"}})
+    app.add_middleware(JsonLimit)  # inside BodyLimit: a declared length over the limit is refused unread
     app.add_middleware(BodyLimit, limit=get_settings().max_upload_bytes + 1024 * 1024)  # room for the form
+    app.add_middleware(SecurityHeaders)
     app.add_middleware(AccessLog)  # outermost: sees the 413s too
     app.include_router(jobs.router)
     app.include_router(meta.router)
@@ -159,7 +231,9 @@ def create_app() -> FastAPI:
     async def server_error(request: Request, exc: Exception):
         """A bug: JSON like every other answer; the trace goes to the log."""
         logger.error("%s %s: internal error", request.method, request.url.path, exc_info=exc)
-        return JSONResponse(status_code=500, content={"detail": f"internal error ({type(exc).__name__}); the server's log has the details"})
+        # (answered outside every middleware, SecurityHeaders' included: its headers are set here)
+        return JSONResponse(status_code=500, headers=SECURITY_HEADERS,
+                            content={"detail": f"internal error ({type(exc).__name__}); the server's log has the details"})
 
     @app.exception_handler(RequestValidationError)
     async def invalid_request(request: Request, exc: RequestValidationError):

@@ -82,3 +82,47 @@ def test_sigterm_to_serve_alone_leaves_no_process(tmp_path, meshes):
         assert httpx.get(f"{url}/healthz", timeout=5).status_code == 200
     finally:
         stop(api)
+
+
+def test_kill_9_of_serve_leaves_no_process_and_a_restart_counts_one_worker(tmp_path, meshes):
+    """The worker was re-parented to PID 1 and went on baking from the queue (its bake
+    processes with it): a restarted serve then counted two workers."""
+    api, url, port, job_id = serve_a_long_bake(tmp_path, meshes)
+    try:
+        tree = session_processes(api.pid)
+        assert len(tree) >= 3, tree  # serve, its worker, a bake process
+        os.kill(api.pid, signal.SIGKILL)
+        api.wait()
+        until(lambda: not session_processes(api.pid), 5, lambda: f"left after kill -9 of serve: {session_processes(api.pid)}")
+        api.log.close()
+        api = start(["serve", "--port", str(port), "--workers", "1"], tmp_path, port=port)
+        job = wait(url, job_id, timeout=180)  # the reaper re-queues it: baked by the new worker alone
+        assert job["state"] == "done" and job["attempts"] == 2, job
+        ready = httpx.get(f"{url}/readyz", timeout=10).json()
+        assert (ready["workers"], ready["slots"]) == (1, 1), ready
+    finally:
+        stop(api)
+
+
+def test_the_worker_gets_the_settings_of_serve_with_absolute_paths(tmp_path, monkeypatch):
+    """serve starts its worker in the data folder: a relative path, or a setting read from
+    a ``.env`` beside serve, must mean the same there."""
+    from texbake.service.core.config import Settings
+    from texbake.service.worker.supervise import worker_environment
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / ".env").write_text("BAKE_JOB_SECONDS=123\n")
+    monkeypatch.delenv("BAKE_JOB_SECONDS", raising=False)
+    monkeypatch.setenv("BAKE_DATA_DIR", "data")
+    monkeypatch.setenv("BAKE_DATABASE_URL", "sqlite:///jobs/x.db")
+    monkeypatch.setenv("BAKE_API_KEYS", '["k1", "k2"]')
+    here = Settings()
+    env = worker_environment(here)
+    assert env["BAKE_DATA_DIR"] == str(tmp_path / "data") and env["BAKE_DATABASE_URL"] == f"sqlite:///{tmp_path}/jobs/x.db"
+    assert env["BAKE_JOB_SECONDS"] == "123.0" and "BAKE_REDIS_URL" not in env
+    monkeypatch.chdir(tmp_path.parent)  # elsewhere, from that environment alone
+    for name, value in env.items():
+        monkeypatch.setenv(name, value)
+    there = Settings()
+    assert there.job_seconds == 123 and there.api_keys == ["k1", "k2"]
+    assert there.model_dump() == {**here.model_dump(), "data_dir": tmp_path / "data", "database_url": f"sqlite:///{tmp_path}/jobs/x.db"}

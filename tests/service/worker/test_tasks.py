@@ -109,3 +109,24 @@ def test_postgresql_down_40_s_mid_load_every_job_done_once(tmp_path, meshes, own
         assert not list(tmp_path.glob("jobs/*/out.tmp.*"))
     finally:
         stop(api)
+
+
+def test_outputs_are_checked_in_the_store_before_the_job_reads_done(tmp_path):
+    """What the bake wrote must be in the store, each file at its size, after publishing;
+    a store that drops one (here: loses it right away) fails the job, naming it."""
+    from texbake.service.storage import LocalStorage
+    from texbake.service.worker.tasks import _publish
+
+    class Losing(LocalStorage):
+        def publish(self, job_id, lease, outputs):
+            super().publish(job_id, lease, outputs)
+            (self.jobs / job_id / "out" / "albedo.png").unlink()
+
+    for storage, reason in [(LocalStorage(tmp_path), None),
+                            (Losing(tmp_path), "its outputs could not be stored: the store does not hold albedo.png as written")]:
+        baked = tmp_path / "jobs" / "a" / "out.tmp.1"
+        baked.mkdir(parents=True)
+        (baked / "albedo.png").write_bytes(b"\x89PNG")
+        (baked / "report.json").write_text("{}")
+        assert _publish(storage, "a", 1, baked) == reason
+        assert set(storage.outputs("a", 1)) == ({"albedo.png", "report.json"} if reason is None else {"report.json"})

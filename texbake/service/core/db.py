@@ -2,7 +2,8 @@
 
 SQLite by default, PostgreSQL (or any SQLAlchemy URL) when ``BAKE_DATABASE_URL`` is set.
 States: queued -> running -> done | failed | cancelled; a running job whose heartbeat goes
-stale is re-queued (a bounded number of times) by :func:`reap`.
+stale is re-queued (a bounded number of times) by :func:`reap`; a done job whose outputs
+the store lost is failed (:func:`lose_outputs`).
 
 Deduplication: a live (queued, running) or done job holds its key in ``live_key``, which
 is unique; :func:`create_job` inserts, and on a clash returns the job that holds the key,
@@ -195,6 +196,15 @@ def finish(db: Session, job_id: str, token: int, state: str, *, error: str | Non
     if report is not None:
         values["report"] = json.dumps(report)
     done = db.execute(update(Job).where(Job.id == job_id, Job.state == "running", Job.lease == token).values(**values))
+    db.commit()
+    return _rowcount(done) == 1
+
+
+def lose_outputs(db: Session, job_id: str, token: int, error: str) -> bool:
+    """Fail a job done under ``token`` whose outputs the store no longer holds (``error``
+    says so); it lets go of its key. False if it was not done so any more."""
+    done = db.execute(update(Job).where(Job.id == job_id, Job.state == "done", Job.lease == token)
+                      .values(state="failed", error=error, live_key=None))
     db.commit()
     return _rowcount(done) == 1
 

@@ -42,7 +42,7 @@ from texbake.workers import Worker
 
 from ..core import db
 from ..core.config import Settings, get_settings
-from ..storage import StorageMissing, StorageUnavailable, get_storage
+from ..storage import Storage, StorageMissing, StorageUnavailable, get_storage
 from .queue import make_huey
 
 logger = logging.getLogger("texbake.service")
@@ -254,7 +254,7 @@ def _supervise(job_id: str, token: int, folder: Path, tmp: str, worker: Worker) 
                 return "taken"
             report = json.loads((folder / tmp / "report.json").read_text())
             try:
-                _patiently(f"job {job_id}", lambda: _beating(job_id, token, lambda: get_storage(s).publish(job_id, token, folder / tmp)), wait)
+                error = _patiently(f"job {job_id}", lambda: _beating(job_id, token, lambda: _publish(get_storage(s), job_id, token, folder / tmp)), wait)
             except StorageUnavailable as exc:
                 error = f"its outputs could not be stored: {exc}"
             if error is None:
@@ -267,6 +267,16 @@ def _supervise(job_id: str, token: int, folder: Path, tmp: str, worker: Worker) 
             state_changed(job_id, "failed", error or "")
             return "failed"
     return "taken"
+
+
+def _publish(storage: Storage, job_id: str, token: int, outputs: Path) -> str | None:
+    """Publish the bake's files in ``outputs``, then check that the store holds each of them
+    at its size (the job reads done only then): None, or why the job fails."""
+    files = {p.name: p.stat().st_size for p in outputs.iterdir() if p.is_file()}
+    storage.publish(job_id, token, outputs)
+    held = storage.outputs(job_id, token)
+    missing = sorted(name for name, size in files.items() if held.get(name) != size)
+    return f"its outputs could not be stored: the store does not hold {', '.join(missing)} as written" if missing else None
 
 
 def hand_back() -> list[str]:

@@ -14,7 +14,7 @@ from urllib.parse import quote
 
 from fastapi import APIRouter, File, Form, HTTPException, Query, Request, Response, UploadFile
 from fastapi.responses import StreamingResponse
-from pydantic import Json
+from pydantic import BeforeValidator, Json
 from sqlalchemy import func, select, true
 
 from texbake.errors import MeshError
@@ -25,6 +25,7 @@ from ...core.config import get_settings
 from ...storage import Storage, StorageMissing, get_storage, zip_stream
 from ...worker.tasks import enqueue_bake, state_changed
 from ..deps import ClientDep, JobDep, SessionDep, SettingsDep, StorageDep
+from ..jsondepth import shallow
 from ..schemas import BakeSettings, JobOut, JobPage
 
 router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
@@ -40,8 +41,30 @@ def job_url(job_id: str, request: Request) -> str:
     return f"{base.rstrip('/')}/v1/jobs/{job_id}" if base else str(request.url_for("get_job", job_id=job_id))
 
 
-def _out(job: db.Job, request: Request) -> JobOut:
-    files = sorted(get_storage().outputs(job.id, job.lease)) if job.state == "done" else []
+OUTPUTS_LOST = "its outputs are gone from the store: retry the job to bake them again"
+
+
+def _checked(session, job: db.Job, storage: Storage) -> dict[str, int]:
+    """A done job's outputs as the store holds them (name -> size; {} for a job not done).
+
+    A done job whose store lacks an output its report lists, or holds none (the store lost
+    its objects), is failed here with :data:`OUTPUTS_LOST` first: it lets go of its key, so
+    a retry or the same upload bakes it again, and no one is told to download what is gone.
+    """
+    if job.state != "done":
+        return {}
+    files = storage.outputs(job.id, job.lease)
+    listed = {o.get("path") for o in ((job.as_dict()["report"] or {}).get("outputs") or {}).values() if isinstance(o, dict)} - {None}
+    if files and listed <= set(files):
+        return files
+    if db.lose_outputs(session, job.id, job.lease, OUTPUTS_LOST):
+        state_changed(job.id, "failed", OUTPUTS_LOST)
+    session.refresh(job)
+    return {}
+
+
+def _out(job: db.Job, request: Request, session) -> JobOut:
+    files = sorted(_checked(session, job, get_storage()))
     data = job.as_dict()
     warnings = (data["report"] or {}).get("warnings", [])
     return JobOut(url=job_url(job.id, request), files=files, warnings=warnings, **data)
@@ -108,6 +131,8 @@ def _make_job(request: Request, response: Response, session, settings, storage: 
     storage.save_input(job_id, upload, name, {"mesh": name, "settings": options})  # outputs are named after it
     try:
         job, created = db.create_job(session, job_id=job_id, key=key, client=client, mesh_name=mesh_name, settings=options)
+        if not created and job.state == "done" and not _checked(session, job, storage):  # its outputs are gone: so is its key
+            job, created = db.create_job(session, job_id=job_id, key=key, client=client, mesh_name=mesh_name, settings=options)
     except BaseException:
         storage.delete(job_id)
         raise
@@ -122,14 +147,15 @@ def _make_job(request: Request, response: Response, session, settings, storage: 
         storage.delete(job_id)
         response.status_code = 200
     response.headers["Location"] = job_url(job.id, request)
-    return _out(job, request)
+    return _out(job, request, session)
 
 
 @router.post("", status_code=202, response_model=JobOut)
 def create_job(
     request: Request, response: Response, session: SessionDep, settings: SettingsDep, client: ClientDep, storage: StorageDep,
     mesh: Annotated[UploadFile, File(description="OBJ, PLY, STL, OFF, glTF or GLB")],
-    bake_settings: Annotated[Json[BakeSettings] | None, Form(alias="settings", description="BakeSettings as JSON (default: all defaults)")] = None,
+    bake_settings: Annotated[Json[BakeSettings] | None, BeforeValidator(shallow),
+                             Form(alias="settings", description="BakeSettings as JSON (default: all defaults)")] = None,
 ):
     """Upload a mesh and its bake settings; the bake is queued (202). The same upload with
     the same settings returns the existing job (200) instead of baking twice.
@@ -189,12 +215,12 @@ def list_jobs(request: Request, session: SessionDep, settings: SettingsDep, clie
     mine = db.Job.client == client if settings.api_keys else true()
     total = session.scalar(select(func.count()).select_from(db.Job).where(mine))
     jobs = session.scalars(select(db.Job).where(mine).order_by(db.Job.created.desc()).offset(offset).limit(limit)).all()
-    return JobPage(jobs=[_out(j, request) for j in jobs], total=total, offset=offset, limit=limit)
+    return JobPage(jobs=[_out(j, request, session) for j in jobs], total=total, offset=offset, limit=limit)
 
 
 @router.get("/{job_id}", response_model=JobOut, name="get_job")
-def get_job(job: JobDep, request: Request):
-    return _out(job, request)
+def get_job(job: JobDep, request: Request, session: SessionDep):
+    return _out(job, request, session)
 
 
 @router.delete("/{job_id}", response_model=JobOut)
@@ -203,28 +229,28 @@ def cancel_job(job: JobDep, session: SessionDep, request: Request):
     if not db.cancel(session, job.id):
         raise HTTPException(409, detail=f"job {job.id} is {job.state}: nothing to cancel")
     session.refresh(job)
-    return _out(job, request)
+    return _out(job, request, session)
 
 
-def _outputs(job: db.Job, storage: Storage) -> dict[str, int]:
-    files = storage.outputs(job.id, job.lease) if job.state == "done" else {}
+def _outputs(session, job: db.Job, storage: Storage) -> dict[str, int]:
+    files = _checked(session, job, storage)
     if not files:
-        raise HTTPException(409, detail=f"job {job.id} is {job.state}: no outputs yet")
+        raise HTTPException(409, detail=f"job {job.id} is {job.state}: " + (OUTPUTS_LOST if job.error == OUTPUTS_LOST else "no outputs yet"))
     return files
 
 
 @router.get("/{job_id}/files/{name}")
-def get_file(job: JobDep, name: str, storage: StorageDep):
-    files = _outputs(job, storage)
+def get_file(job: JobDep, name: str, storage: StorageDep, session: SessionDep):
+    files = _outputs(session, job, storage)
     if name not in files:  # names are matched, never joined: no path traversal
         raise HTTPException(404, detail=f"job {job.id} has no file {name!r} (has: {', '.join(sorted(files))})")
     return storage.file_response(job.id, job.lease, name, files[name])
 
 
 @router.get("/{job_id}/result.zip")
-def get_zip(job: JobDep, storage: StorageDep):
+def get_zip(job: JobDep, storage: StorageDep, session: SessionDep):
     """Every output in one zip, written as it is sent (constant memory, any size)."""
-    members = [(name, size, functools.partial(storage.read, job.id, job.lease, name)) for name, size in sorted(_outputs(job, storage).items())]
+    members = [(name, size, functools.partial(storage.read, job.id, job.lease, name)) for name, size in sorted(_outputs(session, job, storage).items())]
     return StreamingResponse(zip_stream(members), media_type="application/zip", headers={"Content-Disposition": _attachment(_zip_name(job))})
 
 
