@@ -247,7 +247,7 @@ def _expand(inputs: list[str]) -> list[tuple[str, dict]]:
                     mesh = str(Path(arg).parent / mesh)
                 items.append((mesh, entry))
         elif any(c in arg for c in "*?["):  # only the mesh files a glob matches (not an OBJ's .mtl or .jpg)
-            from .mesh.load import FORMATS
+            from .mesh import FORMATS
 
             matches = sorted(m for m in glob.glob(arg, recursive=True) if Path(m).suffix.lower() in FORMATS)
             if not matches:

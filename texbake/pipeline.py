@@ -26,15 +26,12 @@ import numpy as np
 
 from .atlas import Atlas, AtlasCache, atlas_key, make_atlas
 from .errors import ParameterError
+from .maps import Maps
 from .maps import estimate as estimate_stage
 from .maps import margin as margin_stage
-from .maps.accumulate import Maps
-from .mesh.load import LoadedMesh, load_mesh, mesh_from_trimesh
-from .mesh.normals import split_normals
-from .mesh.tangents import vertex_tangents
-from .output.report import BakeTally, bake_report
-from .sampling.lookup import sample_offsets, sample_uv, tiles
-from .sampling.sampler import Sampler
+from .mesh import LoadedMesh, load_mesh, mesh_from_trimesh, split_normals, vertex_tangents
+from .output import BakeTally, bake_report
+from .sampling import Sampler, sample_offsets, sample_uv, tiles
 from .settings import BakeSettings
 from .textures.mapping import TextureMapping
 from .version import __version__
@@ -86,7 +83,7 @@ class BakeResult:
     def save(self, folder, *, fmt: str | None = None, bits: int | None = None, obj: bool | None = None):
         """Write the maps, ``<name>.glb`` (and OBJ+MTL if ``obj``) and ``report.json``;
         format, bits and OBJ default to the bake's settings."""
-        from .output.save import save_result
+        from .output import save_result
 
         s = self.settings
         return save_result(self, Path(folder), fmt=s.format if fmt is None else fmt, bits=s.bits if bits is None else bits,

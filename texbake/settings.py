@@ -35,7 +35,7 @@ from pydantic import (
 )
 
 from .errors import ParameterError, TextureError
-from .output.images import bits_problem, format_name
+from .output import bits_problem, format_name
 from .textures.spec import TEXTURES, TextureSpec, parse_spec
 
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import ParameterError
-from .maps.shading import lit
+from .maps import lit
 from .textures import parse_spec
 from .textures.mapping import TextureMapping
 

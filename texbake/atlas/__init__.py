@@ -17,8 +17,9 @@ package too, and a worker needs numpy and xatlas only.
 
 from __future__ import annotations
 
-import importlib
 from typing import TYPE_CHECKING
+
+from .._lazy import lazy_names
 
 if TYPE_CHECKING:
     from .cache import AtlasCache, atlas_key
@@ -34,11 +35,4 @@ _HOMES = {
 }
 
 __all__ = ["Atlas", "make_atlas", "AtlasCache", "atlas_key", "uv_problem", "atlas_stats", "overlap", "run_xatlas_in_child"]
-
-
-def __getattr__(name: str):
-    """A name of ``__all__``, imported from its module when first asked for."""
-    home = _HOMES.get(name)
-    if home is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    return getattr(importlib.import_module(f"{__name__}.{home}"), name)
+__getattr__ = lazy_names(__name__, _HOMES)

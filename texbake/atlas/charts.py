@@ -16,8 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..mesh.components import DisjointSets, connected_components
-from ..mesh.uvgeometry import areas
+from ..mesh import DisjointSets, areas, connected_components
 
 ANGLE_LIMIT = 66.0  # degrees between a face's normal and its chart's direction, at most (Blender's default)
 FLAT_COS = np.cos(np.radians(2.0))  # a face this close to its chart's direction counts as flat
@@ -302,7 +301,7 @@ def density_spread(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray, uv_f
     sum 3D area)``. 1.0 is a uniform density; faces of zero area on either side are
     left out.
     """
-    from ..mesh.uvgeometry import uv_areas
+    from ..mesh import uv_areas
 
     a3, auv = areas(vertices, faces), uv_areas(uv, uv_faces)
     ok = (a3 > 0) & (auv > 0)
@@ -404,7 +403,7 @@ def outline_triangles(uv: np.ndarray, faces: np.ndarray, tolerance: float = 0.0)
         p = uv[loop]
         return 0.5 * float(np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1]))
     loops.sort(key=signed, reverse=True)  # the outer one (counter-clockwise, largest) first
-    from ..mesh.uvgeometry import uv_areas
+    from ..mesh import uv_areas
 
     want = uv_areas(uv, faces).sum()
     perimeter = sum(float(np.linalg.norm(uv[loop] - uv[np.roll(loop, -1)], axis=1).sum()) for loop in loops)

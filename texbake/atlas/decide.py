@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import AtlasError, ParameterError
-from ..mesh.uvgeometry import uv_areas
+from ..mesh import uv_areas
 from ..workers import Pool
 from .charts import prefer_planar
 from .fallback import grid_atlas

@@ -27,7 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..mesh.uvgeometry import areas, uv_areas
+from ..mesh import areas, uv_areas
 from ..workers import Pool
 from .charts import outline_triangles, planar_charts
 from .fallback import flat_triangles, normalised

@@ -11,7 +11,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..mesh.uvgeometry import uv_areas
+from ..mesh import uv_areas
 from ..workers import serve
 
 

@@ -12,8 +12,7 @@ from __future__ import annotations
 import numba as nb  # pip install numba
 import numpy as np
 
-from ..mesh.components import connected_components
-from ..mesh.uvgeometry import areas, uv_areas, uv_jacobian
+from ..mesh import areas, connected_components, uv_areas, uv_jacobian
 
 UV_EPS = 1e-6  # tolerance of the unit-square test of UVs
 OVERLAP_GRID = 2048  # overlap is measured on the bake's texel grid, at most this fine

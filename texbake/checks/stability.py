@@ -507,7 +507,7 @@ def _() -> Figure:
 # -- meshes ----------------------------------------------------------------------------
 
 def _loaded(vertices, faces, uv=None, name="case"):
-    from ..mesh.load import LoadedMesh
+    from ..mesh import LoadedMesh
 
     return LoadedMesh(np.asarray(vertices, np.float64), np.asarray(faces, np.int64),
                       None if uv is None else np.asarray(uv, np.float64), name, f"<{name}>", 0, "")
@@ -553,7 +553,7 @@ _scale_case("mesh-far-from-origin", 1.0, 1e8, "2 units across, 1e8 from the orig
 
 @case("sliver-triangles", "sliver triangles (aspect ratio 1e6) bake to finite texels with finite footprints")
 def _() -> Figure:
-    from ..sampling.surface import SurfaceMap
+    from ..sampling import SurfaceMap
 
     v, f = _sphere(2)
     # a strip of 20 slivers 1 long and 1e-6 wide beside the sphere

@@ -40,8 +40,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ParameterError
-from ..mesh.load import LoadedMesh
-from ..output.atomic import write_bytes
+from ..mesh import LoadedMesh
+from ..output import write_bytes
 from ..textures import parse_spec
 
 COLUMNS = ("setting", "seconds", "rmse", "max_abs", "estimate", "ratio", "method", "samples", "filtering", "precision",

@@ -19,9 +19,8 @@ from contextlib import nullcontext
 import numba as nb
 import numpy as np
 
-from ..output.images import DEFAULT_BITS
-from ..sampling.lookup import Tile
-from ..sampling.sampler import Samples
+from ..output import DEFAULT_BITS
+from ..sampling import Samples, Tile
 from ..settings import BakeSettings
 from ..textures.mapping import TextureMapping
 from .bump import LUMINANCE, normal_map

@@ -37,7 +37,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..sampling.lookup import Tile, sample_offsets, sample_uv
+from ..sampling import Tile, sample_offsets, sample_uv
 
 PROBE_TEXELS = 4096  # texels probed (at most; all of them when there are up to 4 times as many)
 PROBE_GRID = 4  # the probe samples a jittered PROBE_GRID x PROBE_GRID grid per texel

@@ -14,8 +14,8 @@ import numpy as np
 from .atomic import write_bytes
 
 if TYPE_CHECKING:  # for the annotations only: the report reads these objects, it does not make them
-    from ..atlas.decide import Atlas
-    from ..mesh.load import LoadedMesh
+    from ..atlas import Atlas
+    from ..mesh import LoadedMesh
     from ..settings import BakeSettings
 
 _LIBRARIES = ("texbake", "numpy", "scipy", "trimesh", "xatlas", "embreex", "OpenImageIO", "numba", "pydantic")

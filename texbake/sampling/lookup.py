@@ -20,7 +20,7 @@ import numba as nb
 import numpy as np
 
 from ..errors import ParameterError
-from ..mesh.uvgeometry import uv_inverse
+from ..mesh import uv_inverse
 from .rays import Scene
 
 _DOWN = np.array([0.0, 0.0, -1.0], dtype=np.float32)  # the direction of every lookup ray

@@ -16,8 +16,7 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
-from ..mesh.tangents import sample_frames
-from ..mesh.uvgeometry import edges, uv_jacobian
+from ..mesh import edges, sample_frames, uv_jacobian
 
 # Footprints are clamped to this many object-space units per texel (finite, never NaN).
 _MAX_FOOTPRINT = 1e30

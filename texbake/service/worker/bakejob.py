@@ -20,7 +20,7 @@ import traceback
 from pathlib import Path
 
 from texbake import BakeError, bake_mesh
-from texbake.atlas.cache import AtlasCache
+from texbake.atlas import AtlasCache
 from texbake.settings import BakeSettings
 from texbake.workers import serve
 

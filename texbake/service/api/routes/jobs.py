@@ -18,7 +18,7 @@ from pydantic import BeforeValidator, Json
 from sqlalchemy import func, select, true
 
 from texbake.errors import MeshError
-from texbake.mesh.load import FORMATS, check_file
+from texbake.mesh import FORMATS, check_file
 
 from ...core import db
 from ...core.config import get_settings

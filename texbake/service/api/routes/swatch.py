@@ -18,7 +18,7 @@ from typing import Annotated, Any, Literal
 from fastapi import APIRouter, Depends, Header, Query, Response
 from pydantic import BaseModel, ConfigDict, Field
 
-from texbake.output.images import encode_png_bytes
+from texbake.output import encode_png_bytes
 from texbake.settings import Texture
 from texbake.swatch import swatch
 from texbake.textures import parse_spec
