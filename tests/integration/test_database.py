@@ -51,9 +51,9 @@ def burst(url, mesh: bytes, settings_of) -> list[tuple[int, float, httpx.Respons
 
 
 def test_a_burst_of_identical_uploads_makes_one_job_and_answers_every_request(api, meshes):
-    """The pool (5 + 10 connections) was held from a request's first query until its answer
-    was sent, and the answer waited for a thread that requests waiting for the pool held:
-    1 job, 120 x 500 and 79 answers over 120 s. Queries now give their connection back."""
+    """One job, and every request answered in time: a request that held its pooled
+    connection until its answer was sent, while the answer waited for a thread that
+    requests waiting for the pool held, ran the pool dry (500s, answers after minutes)."""
     answers = burst(api, (meshes / MESH).read_bytes(), lambda i: {"size": 64, "texture": "wood"})
     codes = Counter(code for code, _, _ in answers)
     assert codes == {200: BURST - 1, 202: 1}, (codes, [r.text[:200] for c, _, r in answers if c >= 300][:5])
@@ -64,9 +64,9 @@ def test_a_burst_of_identical_uploads_makes_one_job_and_answers_every_request(ap
 
 
 def test_a_burst_of_distinct_uploads_stops_exactly_at_the_limit(api, meshes):
-    """200 distinct uploads of one client with 50 unfinished jobs allowed: a count before
-    the insert let 64 through; counted in the inserting transaction, 50, and the other
-    150 get 429 with Retry-After."""
+    """200 distinct uploads of one client with 50 unfinished jobs allowed: counted in the
+    transaction that inserts (a count before it lets concurrent uploads through), exactly
+    50 are taken, and the other 150 get 429 with Retry-After."""
     answers = burst(api, (meshes / MESH).read_bytes(), lambda i: {"size": 64 + i, "texture": "wood"})
     codes = Counter(code for code, _, _ in answers)
     assert codes == {202: LIMIT, 429: BURST - LIMIT}, (codes, [r.text[:200] for c, _, r in answers if c >= 500][:5])

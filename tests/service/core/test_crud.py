@@ -120,9 +120,9 @@ def test_stranded_lists_queued_jobs_older_than_the_grace(url):
 
 
 def test_the_limit_is_exact_under_concurrent_creates(url):
-    """40 concurrent distinct creates of one client with 10 allowed: a count before the
-    insert let more through (64 of 200 with 50 allowed); counted under the client's lock
-    in the inserting transaction, exactly 10. Another client has its own 10."""
+    """40 concurrent distinct creates of one client with 10 allowed: counted under the
+    client's lock in the inserting transaction (a count before the insert lets more
+    through), exactly 10. Another client's creates are not counted against it."""
     start = threading.Barrier(48)
     answers: list[tuple[str, str]] = []
 
