@@ -10,6 +10,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from datetime import datetime, timedelta, timezone
 from pathlib import Path
 
 import httpx
@@ -219,6 +220,74 @@ def own_postgres():
             server._ctl("-m", "immediate", "stop")
     finally:
         shutil.rmtree(folder, ignore_errors=True)
+
+
+# --- the jobs database as texbake made it before migrations ----------------------------
+
+# The schema as texbake made it before migrations (its SQLAlchemy metadata's create_all),
+# written out: what the first migration must take as it is.
+BEFORE_MIGRATIONS = {
+    "sqlite": [
+        """CREATE TABLE jobs (id VARCHAR(32) NOT NULL, "key" VARCHAR(64) NOT NULL, live_key VARCHAR(64), client VARCHAR(128) NOT NULL,
+           state VARCHAR(16) NOT NULL, mesh_name VARCHAR(255) NOT NULL, settings TEXT NOT NULL, progress DOUBLE NOT NULL, error TEXT,
+           report TEXT, attempts INTEGER NOT NULL, lease INTEGER NOT NULL, created DATETIME NOT NULL, updated DATETIME NOT NULL,
+           heartbeat DATETIME, PRIMARY KEY (id), UNIQUE (live_key))""",
+        'CREATE INDEX ix_jobs_key ON jobs ("key")',
+        "CREATE INDEX ix_jobs_state ON jobs (state)",
+        "CREATE TABLE workers (id VARCHAR(128) NOT NULL, slots INTEGER NOT NULL, seen DATETIME NOT NULL, PRIMARY KEY (id))",
+    ],
+    "postgresql": [
+        """CREATE TABLE jobs (id VARCHAR(32) NOT NULL, key VARCHAR(64) NOT NULL, live_key VARCHAR(64), client VARCHAR(128) NOT NULL,
+           state VARCHAR(16) NOT NULL, mesh_name VARCHAR(255) NOT NULL, settings TEXT NOT NULL, progress DOUBLE PRECISION NOT NULL, error TEXT,
+           report TEXT, attempts INTEGER NOT NULL, lease INTEGER NOT NULL, created TIMESTAMP WITH TIME ZONE NOT NULL,
+           updated TIMESTAMP WITH TIME ZONE NOT NULL, heartbeat TIMESTAMP WITH TIME ZONE, PRIMARY KEY (id), UNIQUE (live_key))""",
+        "CREATE INDEX ix_jobs_key ON jobs (key)",
+        "CREATE INDEX ix_jobs_state ON jobs (state)",
+        "CREATE TABLE workers (id VARCHAR(128) NOT NULL, slots INTEGER NOT NULL, seen TIMESTAMP WITH TIME ZONE NOT NULL, PRIMARY KEY (id))",
+    ],
+}
+
+
+def execute(url, *statements, **values):
+    """Run SQL as written (datetimes bound as the models bind them, so stored as they were)."""
+    from sqlalchemy import DateTime, bindparam, create_engine, text
+
+    engine = create_engine(url)
+    try:
+        with engine.begin() as conn:
+            for statement in statements:
+                clause = text(statement)
+                dates = [name for name, value in values.items() if isinstance(value, datetime) and f":{name}" in statement]
+                conn.execute(clause.bindparams(*(bindparam(name, type_=DateTime(timezone=True)) for name in dates)), values)
+    finally:
+        engine.dispose()
+
+
+def old_jobs(n=30):
+    """``n`` jobs in every state, as the code before migrations wrote them, of the last
+    hour (retention keeps them)."""
+    states = ("queued", "running", "done", "failed", "cancelled")
+    hour_ago = datetime.now(timezone.utc).replace(microsecond=0) - timedelta(hours=1)
+    for i in range(n):
+        state = states[i % 5]
+        yield {"id": f"{i:032x}", "key": f"k{i}", "live_key": f"k{i}" if state in ("queued", "running", "done") else None,
+               "client": f"10.0.0.{i % 3}", "state": state, "mesh_name": f"mesh {i}.ply",
+               "settings": json.dumps({"size": 64 + i, "texture": {"name": "wood"}}), "progress": 1.0 if state == "done" else i / n,
+               "error": "the bake failed" if state == "failed" else None, "report": json.dumps({"seconds": i}) if state == "done" else None,
+               "attempts": i % 3, "lease": i % 4, "created": hour_ago + timedelta(seconds=i),
+               "updated": hour_ago + timedelta(seconds=60 + i), "heartbeat": hour_ago if state == "running" else None}
+
+
+INSERT = ("INSERT INTO jobs (id, key, live_key, client, state, mesh_name, settings, progress, error, report, attempts, lease, created, "
+          "updated, heartbeat) VALUES (:id, :key, :live_key, :client, :state, :mesh_name, :settings, :progress, :error, :report, "
+          ":attempts, :lease, :created, :updated, :heartbeat)")
+
+
+def make_old_database(url: str, jobs) -> None:
+    """The tables as the code before migrations made them, holding ``jobs`` (see old_jobs)."""
+    execute(url, *BEFORE_MIGRATIONS[url.split(":")[0].split("+")[0]])
+    for job in jobs:
+        execute(url, INSERT, **job)
 
 
 # --- the service as real processes ------------------------------------------------------

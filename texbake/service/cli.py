@@ -1,4 +1,5 @@
-"""The service's commands, ``texbake serve`` and ``texbake worker``.
+"""The service's commands, ``texbake serve``, ``texbake worker``, ``texbake gc`` and
+``texbake db``.
 
 The core's command line finds them through the ``texbake.commands`` entry points, so the
 core never imports the service. Both need the ``service`` extra
@@ -7,7 +8,9 @@ core never imports the service. Both need the ``service`` extra
 
 from __future__ import annotations
 
+import logging
 import sys
+from enum import Enum
 
 import typer
 
@@ -15,6 +18,27 @@ import typer
 def _need_service_extra(exc: ImportError):
     typer.echo(f"texbake: error: this command needs the service extra (pip install 'texbake[service]'): {exc}", err=True)
     raise typer.Exit(2)
+
+
+def _upgrade_database(command: str, url: str) -> tuple[str | None, str | None]:
+    """Migrate the jobs database (every process that uses it does, as it starts: the lock
+    in ``db.upgrade`` lets one at a time); a database out of reach ends the command."""
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import SQLAlchemyError
+
+    from .core import db
+
+    shown = make_url(url).render_as_string(hide_password=True)
+    try:
+        before, after = db.upgrade(url)
+    except SQLAlchemyError as exc:
+        reason = getattr(exc, "orig", None) or exc  # the driver's own words, without SQLAlchemy's SQL and links
+        line = (str(reason).strip().splitlines() or [""])[0]
+        typer.echo(f"texbake {command}: error: cannot migrate the jobs database {shown}: {type(reason).__name__}: {line}", err=True)
+        raise typer.Exit(1) from None
+    if before != after:
+        logging.getLogger("texbake.service").info("the jobs database %s: migrated from %s to %s", shown, before or "no revision", after)
+    return before, after
 
 
 def serve(
@@ -42,6 +66,7 @@ def serve(
 
     settings = get_settings()
     logs.setup(settings.log_format)
+    _upgrade_database("serve", settings.database)
     if host not in ("127.0.0.1", "localhost", "::1") and not settings.api_keys:
         print(f"texbake serve: listening on {host} with no API keys: anyone who can reach it can bake (set BAKE_API_KEYS)", file=sys.stderr)
     supervisor = None
@@ -92,7 +117,6 @@ def worker(workers: int | None = typer.Option(None, help="bakes at a time (defau
     finish, then hands the rest back to the queue for another worker; on SIGINT (Ctrl-C)
     it hands them back at once.
     """
-    import logging
     import os
     import threading
 
@@ -109,6 +133,7 @@ def worker(workers: int | None = typer.Option(None, help="bakes at a time (defau
 
     settings = get_settings()
     logs.setup(settings.log_format)
+    _upgrade_database("worker", settings.database)
     count = workers or settings.workers
     prestart(count)  # the first jobs find their bake processes warm
     stop = threading.Event()
@@ -132,7 +157,32 @@ def gc():
         from .worker.retention import collect
     except ImportError as exc:
         _need_service_extra(exc)
+    _upgrade_database("gc", get_settings().database)
     collected = collect(get_settings())
     typer.echo(f"expired {len(collected.jobs)} jobs; removed {len(collected.leftovers)} left-overs")
     for path in collected.leftovers:
         typer.echo(f"  {path}")
+
+
+class DatabaseAction(str, Enum):
+    upgrade = "upgrade"
+    current = "current"
+
+
+def db(action: DatabaseAction = typer.Argument(..., help="upgrade: migrate to the latest schema; current: print the revision")):
+    """The jobs database (BAKE_DATABASE_URL, or the data folder's SQLite): migrate it to the
+    latest schema, as `serve` and `worker` do when they start, or print its revision."""
+    try:
+        from sqlalchemy.engine import make_url
+
+        from .core import db as database
+        from .core.config import get_settings
+    except ImportError as exc:
+        _need_service_extra(exc)
+    url = get_settings().database
+    shown = make_url(url).render_as_string(hide_password=True)
+    if action is DatabaseAction.current:
+        typer.echo(f"{shown}: at {database.revision(url) or 'no revision (empty, or made before migrations)'}")
+        return
+    before, after = _upgrade_database("db upgrade", url)
+    typer.echo(f"{shown}: at {after} already" if before == after else f"{shown}: upgraded from {before or 'no revision'} to {after}")

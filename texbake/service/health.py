@@ -22,9 +22,7 @@ def ready() -> dict:
     to the log, never to the client), the queue's length, live workers and their bake
     slots, free disk in the data folder; ``ok`` when all are up, a worker is alive and the
     disk has ``BAKE_MIN_FREE_MB``."""
-    from sqlalchemy import text
-
-    from .core import db
+    from .core import crud, db
     from .core.config import get_settings
     from .storage import get_storage
     from .worker.tasks import queue
@@ -33,8 +31,7 @@ def ready() -> dict:
     answer: dict = {"database": "ok", "queue": "ok", "storage": "ok", "queued": None, "workers": None, "slots": None}
     try:
         with db.sessions(s.database)() as session:
-            session.execute(text("SELECT 1"))
-            answer["workers"], answer["slots"] = db.live_workers(session, s.stale_seconds)
+            answer["workers"], answer["slots"] = crud.live_workers(session, s.stale_seconds)
     except Exception as exc:  # any reason: the check's answer
         logger.warning("readiness: the jobs database: %s: %s", type(exc).__name__, exc)
         answer["database"] = "unavailable"

@@ -14,6 +14,7 @@ from fastapi.responses import JSONResponse
 from fastapi_offline import FastAPIOffline
 from redis.exceptions import RedisError
 from sqlalchemy.exc import DataError, DBAPIError
+from sqlalchemy.exc import TimeoutError as PoolTimeout
 
 from texbake.errors import BakeError
 from texbake.version import __version__
@@ -135,10 +136,10 @@ class SecurityHeaders:
 RETRY_AFTER_SECONDS = 10
 
 
-def unavailable(what: str) -> JSONResponse:
-    """503 with ``Retry-After``: a dependency is down, the request may be sent again."""
+def unavailable(what: str, state: str = "unavailable") -> JSONResponse:
+    """503 with ``Retry-After``: a dependency is down (or busy), the request may be sent again."""
     return JSONResponse(status_code=503, headers={"Retry-After": str(RETRY_AFTER_SECONDS)},
-                        content={"detail": f"{what} is unavailable: try again in {RETRY_AFTER_SECONDS} s"})
+                        content={"detail": f"{what} is {state}: try again in {RETRY_AFTER_SECONDS} s"})
 
 
 class AccessLog:
@@ -206,6 +207,12 @@ def create_app() -> FastAPI:
             return JSONResponse(status_code=422, content={"detail": "a value in the request is not valid for the jobs table"})
         logger.warning("%s %s: the jobs table is unavailable: %s", request.method, request.url.path, type(exc.orig).__name__)
         return unavailable("the jobs database")
+
+    @app.exception_handler(PoolTimeout)
+    async def database_busy(request: Request, exc: PoolTimeout):
+        """No pooled connection within BAKE_DATABASE_WAIT_SECONDS: 503, try again (never a request left waiting)."""
+        logger.warning("%s %s: no database connection free in time", request.method, request.url.path)
+        return unavailable("the jobs database", "busy")
 
     @app.exception_handler(RedisError)
     async def queue_error(request: Request, exc: RedisError):

@@ -16,6 +16,7 @@ from texbake.settings import BakeSettings
 @pytest.fixture
 def client(tmp_path_factory, monkeypatch):
     from texbake.service.core import config as settings
+    from texbake.service.core import db
     from texbake.service.main import create_app
     from texbake.service.worker import tasks
 
@@ -23,6 +24,7 @@ def client(tmp_path_factory, monkeypatch):
     monkeypatch.setenv("BAKE_MAX_SIZE", "2048")
     settings.get_settings.cache_clear()
     tasks.queue.cache_clear()  # its huey queue lives in this data folder
+    db.upgrade(settings.get_settings().database)  # as `texbake serve` does first
     try:
         with TestClient(create_app()) as c:
             yield c
@@ -85,14 +87,14 @@ def test_not_json_settings_and_unknown_routes(client, meshes):
 def test_readiness_checks_queue_database_workers_and_disk(client, meshes, monkeypatch):
     import shutil
 
-    from texbake.service.core import config, db
+    from texbake.service.core import config, crud, db
     from texbake.service.core.config import get_settings
 
     r = client.get("/readyz")  # a new data folder, no worker
     assert r.status_code == 503 and r.json()["detail"] == "not ready: no worker is alive", r.json()
     assert r.json()["database"] == r.json()["queue"] == "ok" and r.json()["queued"] == 0
     with db.sessions(get_settings().database)() as session:
-        db.worker_seen(session, "host:1", 2)
+        crud.worker_seen(session, "host:1", 2)
     assert post(client, meshes / "suzanne.ply", {"texture": "wood"}).status_code == 202
     answer = client.get("/readyz").json()
     assert answer["ok"] and answer["queued"] == 1 and (answer["workers"], answer["slots"]) == (1, 2), answer
@@ -198,6 +200,48 @@ def test_database_down_is_a_503_with_retry_after(tmp_path, monkeypatch, meshes):
     finally:
         settings.get_settings.cache_clear()
         tasks.queue.cache_clear()
+
+
+def test_a_client_at_its_limit_gets_429_with_retry_after(client, meshes, monkeypatch):
+    from texbake.service.core import config as settings
+
+    monkeypatch.setenv("BAKE_JOBS_PER_CLIENT", "2")
+    settings.get_settings.cache_clear()
+    answers = [post(client, meshes / "suzanne.ply", {"texture": "wood", "size": 64 + i}) for i in range(3)]
+    assert [r.status_code for r in answers] == [202, 202, 429], [r.text for r in answers]
+    assert answers[2].headers["Retry-After"] == "30" and answers[2].json()["detail"] == "2 unfinished jobs: the limit per client is 2"
+    client.delete(f"/v1/jobs/{answers[0].json()['id']}")  # one finished: one more taken
+    assert post(client, meshes / "suzanne.ply", {"texture": "wood", "size": 99}).status_code == 202
+    retried = client.post(f"/v1/jobs/{answers[0].json()['id']}/retry")  # a retry counts too
+    assert retried.status_code == 429 and retried.headers["Retry-After"] == "30", retried.text
+
+
+def test_no_free_database_connection_is_a_503_within_the_wait(client, meshes, monkeypatch):
+    """Every pooled connection taken (as a burst takes them): a request gives up after
+    BAKE_DATABASE_WAIT_SECONDS with 503 and Retry-After, not 500 after 30 s."""
+    import time
+
+    from texbake.service.core import config as settings
+    from texbake.service.core import db
+
+    monkeypatch.setenv("BAKE_DATABASE_WAIT_SECONDS", "0.5")
+    settings.get_settings.cache_clear()
+    db.sessions.cache_clear()  # an engine made with the new wait
+    engine = db.sessions(settings.get_settings().database).kw["bind"]
+    held = [engine.connect() for _ in range(engine.pool.size() + engine.pool._max_overflow)]
+    try:
+        for call in (lambda: client.get(f"/v1/jobs/{'0' * 32}"), lambda: client.get("/v1/jobs"),
+                     lambda: post(client, meshes / "suzanne.ply", {"texture": "wood"})):
+            began = time.monotonic()
+            r = call()
+            assert r.status_code == 503 and r.headers["Retry-After"] == "10", r.text
+            assert r.json()["detail"] == "the jobs database is busy: try again in 10 s" and time.monotonic() - began < 3
+    finally:
+        for conn in held:
+            conn.close()
+    assert client.get("/v1/jobs").status_code == 200
+    engine.dispose()
+    db.sessions.cache_clear()
 
 
 def test_job_urls_use_the_configured_base_url_not_the_host_header(client, meshes, monkeypatch):

@@ -7,14 +7,15 @@ from datetime import timedelta
 
 from sqlalchemy import update
 
-from texbake.service.core import db
+from texbake.service.core import crud, db
 from texbake.service.core.config import Settings
+from texbake.service.core.models import Job, now
 from texbake.service.worker.retention import LEFTOVER_SECONDS, collect
 
 
 def job(session, settings, key, state, hours_ago):
-    made, _ = db.create_job(session, key=key, client="c", mesh_name="m.obj", settings={})
-    session.execute(update(db.Job).where(db.Job.id == made.id).values(state=state, updated=db.now() - timedelta(hours=hours_ago)))
+    made, _ = crud.create_job(session, key=key, client="c", mesh_name="m.obj", settings={})
+    session.execute(update(Job).where(Job.id == made.id).values(state=state, updated=now() - timedelta(hours=hours_ago)))
     session.commit()
     folder = settings.data_dir / "jobs" / made.id
     (folder / "out").mkdir(parents=True)
@@ -29,6 +30,7 @@ def age(path, seconds):
 
 def test_collect_expires_old_jobs_and_left_overs_only(tmp_path):
     settings = Settings(data_dir=tmp_path, keep_hours=48, keep_failed_hours=2)
+    db.upgrade(settings.database)
     with db.sessions(settings.database)() as session:
         old_done = job(session, settings, "a", "done", 50)
         new_done = job(session, settings, "b", "done", 10)
@@ -53,7 +55,7 @@ def test_collect_expires_old_jobs_and_left_overs_only(tmp_path):
     assert sorted(p.name for p in (tmp_path / "jobs").iterdir()) == sorted([new_done, queued, fresh_orphan.name])
     assert fresh_upload.exists() and (settings.data_dir / "jobs" / new_done / "out" / "albedo.png").exists()
     with db.sessions(settings.database)() as session:
-        assert session.get(db.Job, old_done) is None and session.get(db.Job, new_done) is not None
+        assert crud.get_job(session, old_done) is None and crud.get_job(session, new_done) is not None
         # an expired done job no longer answers for its key: the same upload bakes again
-        assert db.create_job(session, key="a", client="c", mesh_name="m.obj", settings={})[1]
+        assert crud.create_job(session, key="a", client="c", mesh_name="m.obj", settings={})[1]
     assert collect(settings).jobs == []  # nothing more to do

@@ -11,8 +11,9 @@ from fastapi import Depends, HTTPException, Request
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from sqlalchemy.orm import Session
 
-from ..core import db
+from ..core import crud, db
 from ..core.config import Settings, get_settings
+from ..core.models import Job
 from ..storage import Storage, get_storage
 
 JOB_ID = re.compile(r"[0-9a-f]{32}")  # uuid4().hex
@@ -27,6 +28,8 @@ StorageDep = Annotated[Storage, Depends(storage_of)]
 
 
 def get_session(settings: SettingsDep):
+    """A session for the request; it holds a pooled connection only inside each
+    :mod:`~texbake.service.core.crud` call, never between them."""
     with db.sessions(settings.database)() as session:
         yield session
 
@@ -52,15 +55,15 @@ def client_id(request: Request, settings: SettingsDep,
 ClientDep = Annotated[str, Depends(client_id)]
 
 
-def get_job_or_404(job_id: str, session: SessionDep, client: ClientDep, settings: SettingsDep) -> db.Job:
+def get_job_or_404(job_id: str, session: SessionDep, client: ClientDep, settings: SettingsDep) -> Job:
     """The job; with API keys, only the key that created it sees it. An id that is not
     32 hex digits is no job, asked of no database (a NUL, say, which PostgreSQL refuses)."""
     if not JOB_ID.fullmatch(job_id):
         raise HTTPException(404, detail=f"no job {job_id[:64]!r}")
-    job = session.get(db.Job, job_id)
+    job = crud.get_job(session, job_id)
     if job is None or (settings.api_keys and job.client != client):
         raise HTTPException(404, detail=f"no job {job_id!r}")
     return job
 
 
-JobDep = Annotated[db.Job, Depends(get_job_or_404)]
+JobDep = Annotated[Job, Depends(get_job_or_404)]

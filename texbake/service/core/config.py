@@ -30,6 +30,7 @@ class Settings(BaseSettings):
     max_samples: int = 64
     max_frames: int = 64  # frames of an animated bake
     jobs_per_client: int = 50  # unfinished jobs a client may have
+    database_wait_seconds: float = Field(3.0, gt=0, description="longest wait for a database connection (or SQLite's write lock); then 503")
     workers: int = 2
     job_seconds: float = 900.0  # deadline of one bake
     job_memory_mb: int = 6144  # address-space limit of one bake

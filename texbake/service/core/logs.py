@@ -29,3 +29,6 @@ def setup(log_format: str) -> None:
     handler = logging.StreamHandler()
     handler.setFormatter(JsonFormatter() if log_format == "json" else logging.Formatter(TEXT))
     logging.basicConfig(level=logging.INFO, handlers=[handler], force=True)
+    # Alembic's INFO lines are its set-up, repeated by every process at every start; what a
+    # start migrated is logged by texbake.service itself
+    logging.getLogger("alembic").setLevel(logging.WARNING)

@@ -17,9 +17,7 @@ import time
 from dataclasses import dataclass, field
 from datetime import timedelta
 
-from sqlalchemy import delete, select
-
-from ..core import db
+from ..core import crud, db, models
 from ..core.config import Settings
 from ..storage import get_storage
 
@@ -35,18 +33,13 @@ class Collected:
 
 def collect(settings: Settings) -> Collected:
     out = Collected()
-    now = db.now()
+    now = models.now()
     storage = get_storage(settings)
     rules = ((("done",), settings.keep_hours), (("failed", "cancelled"), settings.keep_failed_hours))
     with db.sessions(settings.database)() as session:
         for states, hours in rules:
-            cutoff = now - timedelta(hours=hours)
-            expired = list(session.scalars(select(db.Job.id).where(db.Job.state.in_(states), db.Job.updated < cutoff)))
-            if expired:  # the same conditions again: a job re-queued meanwhile is not deleted
-                session.execute(delete(db.Job).where(db.Job.id.in_(expired), db.Job.state.in_(states), db.Job.updated < cutoff))
-                session.commit()
-            out.jobs += expired
-        jobs = {row.id: row.lease if row.state in db.FINISHED else None for row in session.execute(select(db.Job.id, db.Job.state, db.Job.lease))}
+            out.jobs += crud.expire(session, states, now - timedelta(hours=hours))
+        jobs = crud.leases(session, models.FINISHED)
     for job_id in out.jobs:
         storage.delete(job_id)
     old = time.time() - LEFTOVER_SECONDS

@@ -40,7 +40,7 @@ from sqlalchemy.exc import DBAPIError
 
 from texbake.workers import Worker
 
-from ..core import db
+from ..core import crud, db
 from ..core.config import Settings, get_settings
 from ..storage import Storage, StorageMissing, StorageUnavailable, get_storage
 from .queue import make_huey
@@ -138,7 +138,7 @@ def run_bake(job_id: str) -> str:
     Session = db.sessions(s.database)
     try:
         with Session() as session:
-            job = db.claim(session, job_id)
+            job = crud.claim(session, job_id)
     except DBAPIError as exc:  # the jobs table is out of reach: try again later, never drop the job
         logger.warning("job %s: cannot claim it (%s): trying again in %g s", job_id, type(exc.orig).__name__, CLAIM_RETRY_SECONDS)
         raise RetryTask(delay=CLAIM_RETRY_SECONDS) from None
@@ -151,7 +151,7 @@ def run_bake(job_id: str) -> str:
     except StorageUnavailable as exc:  # hand the job back, uncounted, and try again later
         logger.warning("job %s: cannot fetch its upload (%s): trying again in %g s", job_id, exc, STORE_RETRY_SECONDS)
         with Session() as session:
-            released = _patiently(f"job {job_id}", lambda: db.release(session, job_id, job.lease), s.job_seconds)
+            released = _patiently(f"job {job_id}", lambda: crud.release(session, job_id, job.lease), s.job_seconds)
         if released:
             state_changed(job_id, "queued", "handed back: its upload could not be fetched")
             raise RetryTask(delay=STORE_RETRY_SECONDS) from None
@@ -159,7 +159,7 @@ def run_bake(job_id: str) -> str:
     except StorageMissing as exc:
         reason = f"its upload is gone: {exc}"
         with Session() as session:
-            if _patiently(f"job {job_id}", lambda: db.finish(session, job_id, job.lease, "failed", error=reason), s.job_seconds):
+            if _patiently(f"job {job_id}", lambda: crud.finish(session, job_id, job.lease, "failed", error=reason), s.job_seconds):
                 state_changed(job_id, "failed", reason)
         return "failed"
     tmp = f"out.tmp.{job.lease}"  # this lease's own: two bakes of one job never share a folder
@@ -189,7 +189,7 @@ def _beating(job_id: str, token: int, call):
             except TimeoutError:
                 try:
                     with db.sessions(s.database)() as session:
-                        db.beat(session, job_id, token)
+                        crud.beat(session, job_id, token)
                 except DBAPIError:
                     pass  # the jobs table is out of reach: the bake's own loop says so
 
@@ -224,7 +224,7 @@ def _supervise(job_id: str, token: int, folder: Path, tmp: str, worker: Worker) 
         if reply is None:
             try:
                 with Session() as session:
-                    state = db.beat(session, job_id, token, progress=_progress(folder / f"progress.{token}"))
+                    state = crud.beat(session, job_id, token, progress=_progress(folder / f"progress.{token}"))
                 if unreachable:
                     logger.info("job %s: the jobs table answers again", job_id)
                 unreachable = False
@@ -249,7 +249,7 @@ def _supervise(job_id: str, token: int, folder: Path, tmp: str, worker: Worker) 
     wait = s.job_seconds  # a finished bake waits out an outage as long as a bake may take
     if error is None:
         with Session() as session:
-            if not _patiently(f"job {job_id}", lambda: db.holds(session, job_id, token), wait):
+            if not _patiently(f"job {job_id}", lambda: crud.holds(session, job_id, token), wait):
                 logger.info("job %s: lease %d lost before publishing: outputs discarded", job_id, token)
                 return "taken"
             report = json.loads((folder / tmp / "report.json").read_text())
@@ -258,12 +258,12 @@ def _supervise(job_id: str, token: int, folder: Path, tmp: str, worker: Worker) 
             except StorageUnavailable as exc:
                 error = f"its outputs could not be stored: {exc}"
             if error is None:
-                if _patiently(f"job {job_id}", lambda: db.finish(session, job_id, token, "done", report=report), wait):
+                if _patiently(f"job {job_id}", lambda: crud.finish(session, job_id, token, "done", report=report), wait):
                     state_changed(job_id, "done")
                     return "done"
                 return "taken"
     with Session() as session:
-        if _patiently(f"job {job_id}", lambda: db.finish(session, job_id, token, "failed", error=error), wait):
+        if _patiently(f"job {job_id}", lambda: crud.finish(session, job_id, token, "failed", error=error), wait):
             state_changed(job_id, "failed", error or "")
             return "failed"
     return "taken"
@@ -294,7 +294,7 @@ def hand_back() -> list[str]:
         except ProcessLookupError:
             pass
         with db.sessions(s.database)() as session:
-            if db.release(session, job_id, token):
+            if crud.release(session, job_id, token):
                 returned.append(job_id)
                 state_changed(job_id, "queued", "handed back by a stopping worker")
     for job_id in returned:
@@ -317,7 +317,7 @@ def reap_forever(stop, worker_slots: int | None = None) -> None:
         try:
             if worker_slots is not None:
                 with db.sessions(get_settings().database)() as session:
-                    db.worker_seen(session, me, worker_slots)
+                    crud.worker_seen(session, me, worker_slots)
             reap_once()
             if time.monotonic() - last_gc >= GC_SECONDS:
                 last_gc = time.monotonic()
@@ -336,8 +336,8 @@ def reap_once() -> tuple[list[str], list[str]]:
     a queue write that failed, a flushed Redis, a task dropped). Returns (re-queued, failed)."""
     s = get_settings()
     with db.sessions(s.database)() as session:
-        requeued, failed = db.reap(session, s.stale_seconds, s.max_attempts)
-        candidates = db.stranded(session, s.requeue_seconds)
+        requeued, failed = crud.reap(session, s.stale_seconds, s.max_attempts)
+        candidates = crud.stranded(session, s.requeue_seconds)
     for job_id in requeued:
         state_changed(job_id, "queued", "its worker stopped answering")
     for job_id in failed:

@@ -15,13 +15,13 @@ from urllib.parse import quote
 from fastapi import APIRouter, File, Form, HTTPException, Query, Request, Response, UploadFile
 from fastapi.responses import StreamingResponse
 from pydantic import BeforeValidator, Json
-from sqlalchemy import func, select, true
 
 from texbake.errors import MeshError
 from texbake.mesh import FORMATS, check_file
 
-from ...core import db
+from ...core import crud
 from ...core.config import get_settings
+from ...core.models import Job
 from ...storage import Storage, StorageMissing, get_storage, zip_stream
 from ...worker.tasks import enqueue_bake, state_changed
 from ..deps import ClientDep, JobDep, SessionDep, SettingsDep, StorageDep
@@ -32,6 +32,7 @@ router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
 logger = logging.getLogger("texbake.service")
 _CHUNK = 1 << 20
 UPLOAD_FORMATS = tuple(suffix for suffix in FORMATS if suffix != ".gltf")  # a glTF's buffers would be separate files
+LIMIT_RETRY_SECONDS = 30  # a client at its limit waits for a bake to finish: seconds, not milliseconds
 
 
 def job_url(job_id: str, request: Request) -> str:
@@ -44,7 +45,7 @@ def job_url(job_id: str, request: Request) -> str:
 OUTPUTS_LOST = "its outputs are gone from the store: retry the job to bake them again"
 
 
-def _checked(session, job: db.Job, storage: Storage) -> dict[str, int]:
+def _checked(session, job: Job, storage: Storage) -> dict[str, int]:
     """A done job's outputs as the store holds them (name -> size; {} for a job not done).
 
     A done job whose store lacks an output its report lists, or holds none (the store lost
@@ -57,13 +58,13 @@ def _checked(session, job: db.Job, storage: Storage) -> dict[str, int]:
     listed = {o.get("path") for o in ((job.as_dict()["report"] or {}).get("outputs") or {}).values() if isinstance(o, dict)} - {None}
     if files and listed <= set(files):
         return files
-    if db.lose_outputs(session, job.id, job.lease, OUTPUTS_LOST):
+    if crud.lose_outputs(session, job.id, job.lease, OUTPUTS_LOST):
         state_changed(job.id, "failed", OUTPUTS_LOST)
     session.refresh(job)
     return {}
 
 
-def _out(job: db.Job, request: Request, session) -> JobOut:
+def _out(job: Job, request: Request, session) -> JobOut:
     files = sorted(_checked(session, job, get_storage()))
     data = job.as_dict()
     warnings = (data["report"] or {}).get("warnings", [])
@@ -116,23 +117,40 @@ def _receive(mesh: UploadFile, suffix: str, settings) -> tuple[Path, hashlib._Ha
     return tmp, digest
 
 
+def _too_many(unfinished: int, limit: int) -> HTTPException:
+    return HTTPException(429, detail=f"{unfinished} unfinished jobs: the limit per client is {limit}",
+                         headers={"Retry-After": str(LIMIT_RETRY_SECONDS)})
+
+
 def _check_unfinished(session, client: str, settings) -> None:
-    unfinished = session.scalar(select(func.count()).select_from(db.Job).where(db.Job.client == client, db.Job.state.in_(("queued", "running")))) or 0
+    """Refuse a client at its limit before its upload is copied (the exact count is
+    :func:`crud.create_job`'s, in the transaction that inserts)."""
+    unfinished = crud.unfinished(session, client)
     if unfinished >= settings.jobs_per_client:
-        raise HTTPException(429, detail=f"{unfinished} unfinished jobs: the limit per client is {settings.jobs_per_client}")
+        raise _too_many(unfinished, settings.jobs_per_client)
 
 
 def _make_job(request: Request, response: Response, session, settings, storage: Storage, client: str, *,
               upload: Path, name: str, mesh_name: str, options: dict, key: str) -> JobOut:
     """The job of the mesh in ``upload`` (stored as ``name``) with bake ``options``, queued;
     or the queued, running or done job with the same ``key`` (the answer's status then 200)."""
+    job = crud.live_job(session, key)  # the same upload again: answered without storing it once more
+    if job is not None and not (job.state == "done" and not _checked(session, job, storage)):
+        response.status_code = 200
+        response.headers["Location"] = job_url(job.id, request)
+        return _out(job, request, session)
     # the upload first, the row second: a job in the table always has its upload
     job_id = uuid.uuid4().hex
     storage.save_input(job_id, upload, name, {"mesh": name, "settings": options})  # outputs are named after it
     try:
-        job, created = db.create_job(session, job_id=job_id, key=key, client=client, mesh_name=mesh_name, settings=options)
+        job, created = crud.create_job(session, job_id=job_id, key=key, client=client, mesh_name=mesh_name, settings=options,
+                                       limit=settings.jobs_per_client)
         if not created and job.state == "done" and not _checked(session, job, storage):  # its outputs are gone: so is its key
-            job, created = db.create_job(session, job_id=job_id, key=key, client=client, mesh_name=mesh_name, settings=options)
+            job, created = crud.create_job(session, job_id=job_id, key=key, client=client, mesh_name=mesh_name, settings=options,
+                                           limit=settings.jobs_per_client)
+    except crud.LimitReached as exc:
+        storage.delete(job_id)
+        raise _too_many(exc.unfinished, exc.limit) from None
     except BaseException:
         storage.delete(job_id)
         raise
@@ -212,9 +230,7 @@ def retry_job(job: JobDep, request: Request, response: Response, session: Sessio
 def list_jobs(request: Request, session: SessionDep, settings: SettingsDep, client: ClientDep,
               offset: Annotated[int, Query(ge=0, le=2**31 - 1)] = 0, limit: Annotated[int, Query(ge=1, le=200)] = 50):
     """A page of jobs, newest first (with API keys: the caller's own)."""
-    mine = db.Job.client == client if settings.api_keys else true()
-    total = session.scalar(select(func.count()).select_from(db.Job).where(mine))
-    jobs = session.scalars(select(db.Job).where(mine).order_by(db.Job.created.desc()).offset(offset).limit(limit)).all()
+    total, jobs = crud.list_jobs(session, client if settings.api_keys else None, offset, limit)
     return JobPage(jobs=[_out(j, request, session) for j in jobs], total=total, offset=offset, limit=limit)
 
 
@@ -226,13 +242,12 @@ def get_job(job: JobDep, request: Request, session: SessionDep):
 @router.delete("/{job_id}", response_model=JobOut)
 def cancel_job(job: JobDep, session: SessionDep, request: Request):
     """Cancel a queued or running job (a running bake is stopped within a heartbeat)."""
-    if not db.cancel(session, job.id):
+    if not crud.cancel(session, job.id):
         raise HTTPException(409, detail=f"job {job.id} is {job.state}: nothing to cancel")
-    session.refresh(job)
-    return _out(job, request, session)
+    return _out(crud.get_job(session, job.id) or job, request, session)
 
 
-def _outputs(session, job: db.Job, storage: Storage) -> dict[str, int]:
+def _outputs(session, job: Job, storage: Storage) -> dict[str, int]:
     files = _checked(session, job, storage)
     if not files:
         raise HTTPException(409, detail=f"job {job.id} is {job.state}: " + (OUTPUTS_LOST if job.error == OUTPUTS_LOST else "no outputs yet"))
@@ -254,7 +269,7 @@ def get_zip(job: JobDep, storage: StorageDep, session: SessionDep):
     return StreamingResponse(zip_stream(members), media_type="application/zip", headers={"Content-Disposition": _attachment(_zip_name(job))})
 
 
-def _zip_name(job: db.Job) -> str:
+def _zip_name(job: Job) -> str:
     """``<mesh stem>-<texture>.zip``: results downloaded side by side are told apart by what they are."""
     texture = json.loads(job.settings).get("texture") or BakeSettings.model_fields["texture"].default
     name = texture.get("name", "texture") if isinstance(texture, dict) else str(texture)

@@ -1,0 +1,1 @@
+"""One module a migration, oldest first (``r0001_...``)."""
