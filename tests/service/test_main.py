@@ -8,23 +8,6 @@ import pytest
 from fastapi.testclient import TestClient
 
 
-@pytest.fixture
-def client(tmp_path, monkeypatch):
-    from texbake.service.core import config as settings
-    from texbake.service.main import create_app
-    from texbake.service.worker import tasks
-
-    monkeypatch.setenv("BAKE_DATA_DIR", str(tmp_path))
-    settings.get_settings.cache_clear()
-    tasks.queue.cache_clear()  # its huey queue lives in this data folder
-    try:
-        with TestClient(create_app()) as c:
-            yield c
-    finally:
-        settings.get_settings.cache_clear()
-        tasks.queue.cache_clear()
-
-
 def nested(depth: int) -> str:
     """A swatch body whose JSON nests ``depth`` deep (its outer object counted)."""
     return '{"texture": {"name": "checker", "scale": ' + "[" * (depth - 2) + "1" + "]" * (depth - 2) + "}}"

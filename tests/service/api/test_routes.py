@@ -13,26 +13,6 @@ from texbake.service.core.config import get_settings
 from texbake.settings import BakeSettings
 
 
-@pytest.fixture
-def client(tmp_path_factory, monkeypatch):
-    from texbake.service.core import config as settings
-    from texbake.service.core import db
-    from texbake.service.main import create_app
-    from texbake.service.worker import tasks
-
-    monkeypatch.setenv("BAKE_DATA_DIR", str(tmp_path_factory.mktemp("data")))
-    monkeypatch.setenv("BAKE_MAX_SIZE", "2048")
-    settings.get_settings.cache_clear()
-    tasks.queue.cache_clear()  # its huey queue lives in this data folder
-    db.upgrade(settings.get_settings().database)  # as `texbake serve` does first
-    try:
-        with TestClient(create_app()) as c:
-            yield c
-    finally:
-        settings.get_settings.cache_clear()
-        tasks.queue.cache_clear()
-
-
 def post(client, path, settings, name=None):
     with open(path, "rb") as f:
         return client.post("/v1/jobs", files={"mesh": (name or path.name, f)}, data={"settings": json.dumps(settings)})
