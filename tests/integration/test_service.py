@@ -150,11 +150,14 @@ def test_broken_geometry_fails_its_job_and_uploaded_names_stay_inside(server, tm
     url, data_dir, _ = server
     bad = tmp_path / "range.obj"
     bad.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n")
-    r = upload(url, bad, {}, name="../../../../tmp/evil/range.obj")
+    # up to the root and down into this test's own folder: there only if the name escaped
+    # (a fixed /tmp path may be another process's)
+    escaped = tmp_path / "escaped"
+    r = upload(url, bad, {}, name="../" * 16 + str(escaped).lstrip("/") + "/range.obj")
     assert r.status_code == 202
     job = wait(url, r.json()["id"])
     assert job["state"] == "failed" and job["error"] == "range.obj: line 4: vertex index 9 out of range (3 defined)", job["error"]
-    assert (data_dir / "jobs" / job["id"] / "range.obj").is_file() and not os.path.exists("/tmp/evil")
+    assert (data_dir / "jobs" / job["id"] / "range.obj").is_file() and not escaped.exists()
 
 
 def test_upload_limit_stops_a_streamed_body(server):
