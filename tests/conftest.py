@@ -15,6 +15,7 @@ from pathlib import Path
 
 import httpx
 import pytest
+from fastapi.testclient import TestClient
 
 ROOT = Path(__file__).resolve().parents[1]  # the repository
 SHARED = ROOT.parent / "shared"
@@ -405,3 +406,25 @@ def own_s3(tmp_path_factory):
     server = OwnS3(tmp_path_factory.mktemp("s3")).start()
     yield server
     server.stop()
+
+
+# the service's in-process tests: the app on a fresh data folder, migrated as `texbake serve`
+# migrates it, through FastAPI's TestClient
+@pytest.fixture
+def client(tmp_path_factory, monkeypatch):
+    from texbake.service.core import config as settings
+    from texbake.service.core import db
+    from texbake.service.main import create_app
+    from texbake.service.worker import tasks
+
+    monkeypatch.setenv("BAKE_DATA_DIR", str(tmp_path_factory.mktemp("data")))
+    monkeypatch.setenv("BAKE_MAX_SIZE", "2048")
+    settings.get_settings.cache_clear()
+    tasks.queue.cache_clear()  # its huey queue lives in this data folder
+    db.upgrade(settings.get_settings().database)  # as `texbake serve` does first
+    try:
+        with TestClient(create_app()) as c:
+            yield c
+    finally:
+        settings.get_settings.cache_clear()
+        tasks.queue.cache_clear()
