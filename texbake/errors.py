@@ -29,12 +29,13 @@ class MeshError(BakeError):
 
 
 class ParameterError(BakeError, ValueError):
-    """A bake parameter is out of range or unknown: ``name`` and the problem."""
+    """A bake parameter is out of range or unknown: ``name`` and the problem, shown as
+    ``name: problem`` (``size: expected a whole number from 1 to 65536, got 0``)."""
 
     def __init__(self, name: str, problem: str):
         self.name = name
         self.problem = problem
-        super().__init__(f"parameter {name!r}: {problem}")
+        super().__init__(f"{name}: {problem}")
 
     def __reduce__(self):
         return (type(self), (self.name, self.problem))
