@@ -9,6 +9,8 @@ import json
 import pytest
 from fastapi.testclient import TestClient
 
+from texbake.settings import BakeSettings
+
 
 @pytest.fixture
 def client(tmp_path_factory, monkeypatch):
@@ -80,6 +82,20 @@ def test_bad_settings_get_the_libraries_words(client, meshes, settings, detail):
     r = post(client, meshes / "suzanne.ply", settings)
     assert r.status_code == 422 and r.json()["detail"] == detail, r.text
     assert r.json()["errors"] == [{"loc": detail.partition(":")[0].split("."), "msg": detail.partition(": ")[2]}]
+
+
+def test_a_bake_over_the_job_memory_limit_is_refused_at_upload(client, meshes, monkeypatch):
+    from texbake.memory import bake_bytes
+    from texbake.service.core import config
+
+    monkeypatch.setenv("BAKE_JOB_MEMORY_MB", "380")
+    config.get_settings.cache_clear()
+    need = bake_bytes(BakeSettings.build(size=2048), 0, workers=1)
+    r = post(client, meshes / "suzanne.ply", {"size": 2048})
+    assert r.status_code == 422 and r.json()["detail"] == (f"size: a 2048x2048 bake needs about {need / 1e9:.2g} GB; "
+                                                           f"this server's limit is {380 * 2**20 / 1e9:.2g} GB a bake"), r.text
+    assert post(client, meshes / "suzanne.ply", {"size": 512}).status_code == 202
+    assert client.get("/v1/jobs").json()["total"] == 1
 
 
 def test_not_json_settings_and_unknown_routes(client, meshes):

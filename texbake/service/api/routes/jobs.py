@@ -18,6 +18,7 @@ from pydantic import Json
 from sqlalchemy import func, select, true
 
 from texbake.errors import MeshError
+from texbake.memory import check_fits
 from texbake.mesh.load import FORMATS, check_file
 
 from ...core import db
@@ -63,6 +64,7 @@ def _bake_options(parsed: BakeSettings | None, settings) -> dict:
     for name, (value, limit) in limits.items():
         if value > limit:
             raise HTTPException(422, detail=f"settings.{name}: {value} is over this server's limit of {limit}")
+    check_fits(parsed, 0, workers=1, limit=settings.job_memory_mb << 20)  # the maps' memory: the faces are not counted yet
     out = parsed.model_dump(mode="json", exclude_unset=True)
     out.setdefault("max_faces", settings.max_faces)
     return out
