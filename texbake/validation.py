@@ -15,7 +15,7 @@ import json
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-__all__ = ["allowed", "describe", "did_you_mean", "shown"]
+__all__ = ["allowed", "describe", "did_you_mean", "json_error_text", "shown"]
 
 # the types pydantic names a union's branches by in an error's location
 _TYPE_TAGS = {"int", "float", "str", "bool", "bytes", "list", "dict", "tuple", "none", "set"}
@@ -227,10 +227,6 @@ _CONTEXT = {"greater_than_equal": "at least {ge}", "greater_than": "more than {g
 
 def _from_context(kind: str, ctx: dict, error: Mapping[str, Any]) -> str:
     """A problem from the error alone (no schema: a query parameter), its limit from ``ctx``."""
-    if kind == "missing":
-        return "required"
-    if kind == "extra_forbidden":
-        return "not a known field"
     template = _CONTEXT.get(kind)
     if template is None:
         return f"{error['msg'][:1].lower()}{error['msg'][1:]}, got {shown(error['input'])}"
