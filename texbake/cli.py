@@ -12,10 +12,12 @@ import json
 import math
 import os
 import sys
+import threading
 import time
 import types
 import typing
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from contextlib import contextmanager
 from multiprocessing import get_context
 from pathlib import Path
 
@@ -82,13 +84,17 @@ def read_spec(value):
     return data
 
 
-def _bake_one(mesh: str, out: str, given: dict, source: str | None = None, workers: int = 2, cache: str | None = None) -> dict:
+def _bake_one(mesh: str, out: str, given: dict, source: str | None = None, workers: int = 2, cache: str | None = None,
+              progress=None) -> dict:
     """Bake and save one mesh with the settings ``given`` (as the command line or a manifest
-    line has them), atlases kept in ``cache``; returns the report (runs in batch worker
-    processes too)."""
+    line has them), atlases kept in ``cache``, ``progress`` called with the fraction done;
+    returns the report (runs in batch worker processes too)."""
+    from .compiling import watch_compiles
     from .pipeline import bake_mesh
     from .settings import BakeSettings
     from .textures.spec import with_overrides
+
+    watch_compiles()
 
     given = dict(given)
     overrides = given.pop("set", None) or []
@@ -96,19 +102,20 @@ def _bake_one(mesh: str, out: str, given: dict, source: str | None = None, worke
         given["texture"] = with_overrides(read_spec(given.get("texture", "checker")), overrides)
     if isinstance(given.get("bump"), str):
         given["bump"] = read_spec(given["bump"])
-    result = bake_mesh(mesh, BakeSettings.build(given), source=source, workers=workers, cache=cache)
+    result = bake_mesh(mesh, BakeSettings.build(given), source=source, workers=workers, cache=cache, progress=progress)
     result.save(out)
     return result.report
 
 
 def _batch_item(mesh: str, out: str, given: dict, cache: str | None) -> tuple[str, float, dict | str]:
-    """One batch item in its worker process: ``(status, seconds of the bake itself, report
-    or the error)``; a user error is a failed item, not an exception."""
+    """One batch item in its worker process: ``(status, seconds of the bake and its save,
+    report or the error)``; a user error is a failed item, not an exception."""
     start = time.perf_counter()
     try:
-        return "done", time.perf_counter() - start, _bake_one(mesh, out, given, None, 1, cache)
+        report = _bake_one(mesh, out, given, None, 1, cache)
     except BakeError as exc:
         return "failed", time.perf_counter() - start, str(exc)
+    return "done", time.perf_counter() - start, report
 
 
 def _floats(text: str, name: str) -> list[float]:
@@ -119,7 +126,7 @@ def _floats(text: str, name: str) -> list[float]:
             return [float(x) for x in np.linspace(float(start), float(stop), int(n))]
         return [float(x) for x in text.split(",")]
     except ValueError:
-        _fail(f"parameter {name!r}: expected numbers like 'a,b,c' or 'start:stop:count', got {text!r}")
+        _fail(f"{name}: expected numbers like 'a,b,c' or 'start:stop:count', got {text!r}")
         raise  # not reached: _fail exits
 
 
@@ -190,13 +197,53 @@ def settings_options(command):
 def _given(options: dict) -> dict:
     """The settings given on the command line (options left out take the defaults)."""
     given = {k: v for k, v in options.items() if v is not None}
-    if "size" in given:
-        given["size"] = [int(x) if x.strip().isdigit() else x for x in given["size"].replace("x", ",").split(",")]
-        given["size"] = given["size"][0] if len(given["size"]) == 1 else given["size"]
+    if "size" in given:  # N, W,H or WxH; anything else goes to the settings as typed, to be named in the error
+        parts = given["size"].replace("x", ",").split(",")
+        if all(part.strip().isdigit() for part in parts):
+            given["size"] = int(parts[0]) if len(parts) == 1 else [int(part) for part in parts]
     for name in ("light", "frames"):
         if name in given:
             given[name] = _floats(given[name], name)
     return given
+
+
+PROGRESS_SECONDS = 10.0  # between progress lines when stderr is not a terminal ($TEXBAKE_PROGRESS_SECONDS)
+
+
+@contextmanager
+def _progress(label: str, quiet: bool):
+    """A ``progress(fraction)`` callable for one bake, shown on stderr: a bar on a terminal
+    (gone when the bake ends); elsewhere (a CI log, a pipe) a plain line at most every
+    ``$TEXBAKE_PROGRESS_SECONDS`` (10) seconds, so a bake shorter than that writes none and
+    a long one shows it is alive; None with ``quiet``."""
+    if quiet:
+        yield None
+    elif sys.stderr.isatty():
+        from rich.console import Console
+        from rich.progress import BarColumn, Progress, TaskProgressColumn, TimeElapsedColumn, TimeRemainingColumn
+
+        with Progress("[progress.description]{task.description}", BarColumn(), TaskProgressColumn(), TimeElapsedColumn(),
+                      TimeRemainingColumn(), console=Console(stderr=True), transient=True) as bar:
+            task = bar.add_task(label, total=1.0)
+            yield lambda fraction: bar.update(task, completed=fraction)
+    else:
+        try:
+            every = float(os.environ.get("TEXBAKE_PROGRESS_SECONDS", PROGRESS_SECONDS))
+        except ValueError:
+            every = PROGRESS_SECONDS
+        start = time.monotonic()
+        due = [start + every]
+        lock = threading.Lock()  # called from the bake's tile threads too
+
+        def line(fraction: float) -> None:
+            now = time.monotonic()
+            with lock:
+                if now < due[0] or fraction >= 1.0:  # done: the summary line says so
+                    return
+                due[0] = now + every
+                typer.echo(f"texbake: {label}: {fraction:.0%} after {now - start:.0f} s", err=True)
+
+        yield line
 
 
 @app.command()
@@ -208,20 +255,22 @@ def bake(
     source: str | None = typer.Option(None, "--source", help="mesh to transfer the texture from (high poly)"),
     cache: Path | None = _CACHE,
     no_cache: bool = _NO_CACHE,
+    quiet: bool = typer.Option(False, "--quiet", help="no progress and no summary line (warnings and errors still on stderr); "
+                               "progress is a bar on a terminal, else a line every 10 s ($TEXBAKE_PROGRESS_SECONDS)"),
     **options,
 ):
     """Bake one mesh: writes DIR/albedo.<format>, DIR/<mesh>.glb and DIR/report.json."""
     start = time.perf_counter()
     try:
-        report = _bake_one(mesh, str(out), {**_given(options), "set": set_ or []}, source=source,
-                           cache=_cache_folder(cache, no_cache))
+        with _progress(Path(mesh).name, quiet) as progress:
+            report = _bake_one(mesh, str(out), {**_given(options), "set": set_ or []}, source=source,
+                               cache=_cache_folder(cache, no_cache), progress=progress)
     except BakeError as exc:
         _fail(str(exc))
     t = report["texels"]
-    typer.echo(
-        f"{mesh}: {t['covered']} texels covered, {t['margin']} margin; "
-        f"atlas {report['atlas']['method']}; {time.perf_counter() - start:.2f} s -> {out}"
-    )
+    if not quiet:
+        typer.echo(f"{mesh}: {t['covered']} texels covered, {t['margin']} margin; "
+                   f"atlas {report['atlas']['method']}; {time.perf_counter() - start:.2f} s -> {out}")
     for warning in report.get("warnings", []):
         typer.echo(f"texbake: warning: {mesh}: {warning}", err=True)
 
@@ -247,15 +296,27 @@ def _expand(inputs: list[str]) -> list[tuple[str, dict]]:
                     mesh = str(Path(arg).parent / mesh)
                 items.append((mesh, entry))
         elif any(c in arg for c in "*?["):  # only the mesh files a glob matches (not an OBJ's .mtl or .jpg)
-            from .mesh import FORMATS
-
-            matches = sorted(m for m in glob.glob(arg, recursive=True) if Path(m).suffix.lower() in FORMATS)
+            matches = sorted(m for m in glob.glob(arg, recursive=True) if _is_mesh(m))
             if not matches:
                 _fail(f"{arg}: no mesh file matches")
             items.extend((m, {}) for m in matches)
+        elif Path(arg).is_dir():  # every mesh file in it, not in its sub-folders
+            from .mesh.load import FORMATS
+
+            found = sorted(str(p) for p in Path(arg).iterdir() if _is_mesh(p) and p.is_file())
+            if not found:
+                _fail(f"{arg}: no mesh file in this folder (looked for {' '.join(FORMATS)})")
+            items.extend((m, {}) for m in found)
         else:
             items.append((arg, {}))
     return items
+
+
+def _is_mesh(path) -> bool:
+    """A mesh file by its extension (not an OBJ's .mtl or textures, nor a hidden file)."""
+    from .mesh.load import FORMATS
+
+    return Path(path).suffix.lower() in FORMATS and not Path(path).name.startswith(".")
 
 
 def _unique_folder(out: Path, stem: str, used: set[str]) -> Path:
@@ -270,7 +331,8 @@ def _unique_folder(out: Path, stem: str, used: set[str]) -> Path:
 @app.command()
 @settings_options
 def batch(
-    inputs: list[str] = typer.Argument(..., help="mesh files, globs, or .jsonl manifests (one JSON object a line: mesh and settings)"),
+    inputs: list[str] = typer.Argument(..., help="mesh files, folders (their mesh files), globs, or .jsonl manifests "
+                                       "(one JSON object a line: mesh and settings)"),
     out: Path = typer.Option(..., "--out", "-o", help="output folder; one sub-folder per mesh"),
     jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="parallel processes"),
     as_json: bool = typer.Option(False, "--json", help="print the summary as JSON (one object per mesh) instead of a table"),
@@ -342,10 +404,13 @@ def report(
 ):
     """Error against run time: bake under a sweep of quality settings, measure each against a converged reference."""
     from .checks.sweep import markdown, run_sweep, write_all
+    from .compiling import watch_compiles
     from .textures.spec import with_overrides
 
+    watch_compiles()
+
     if not 8 <= size <= 8192:
-        _fail(f"parameter 'size': expected a whole number from 8 to 8192, got {size}")
+        _fail(f"size: expected a whole number from 8 to 8192, got {size}")
     try:
         spec = with_overrides(read_spec(texture), list(set_ or []))
         rows, info = run_sweep(mesh, spec, size=size, repeats=repeats, reference_samples=reference_samples, uv=uv,
@@ -398,9 +463,12 @@ def stability(
     from rich.table import Table
 
     from .checks.stability import run_cases, selected
+    from .compiling import watch_compiles
+
+    watch_compiles()
 
     if select and not selected(select):
-        _fail(f"parameter '--case': no stability case matches {', '.join(map(repr, select))}")
+        _fail(f"case: no stability case matches {', '.join(map(repr, select))}")
     start = time.perf_counter()
     results = run_cases(quick=quick, select=select or None)
     seconds = time.perf_counter() - start

@@ -49,13 +49,14 @@ class ParameterError(BakeError, ValueError):
     problem : str
         What is wrong with its value, in one line; kept in ``problem``.
 
-    The message is ``"parameter {name!r}: {problem}"``. A ``ValueError`` too; picklable.
+    The message is ``"{name}: {problem}"`` (``size: expected a whole number from 1 to
+    65536, got 0``). A ``ValueError`` too; picklable.
     """
 
     def __init__(self, name: str, problem: str):
         self.name = name
         self.problem = problem
-        super().__init__(f"parameter {name!r}: {problem}")
+        super().__init__(f"{name}: {problem}")
 
     def __reduce__(self):
         return (type(self), (self.name, self.problem))

@@ -29,6 +29,7 @@ from .errors import ParameterError
 from .maps import Maps
 from .maps import estimate as estimate_stage
 from .maps import margin as margin_stage
+from .memory import check_fits
 from .mesh import LoadedMesh, load_mesh, mesh_from_trimesh, split_normals, vertex_tangents
 from .output import BakeTally, bake_report
 from .sampling import Sampler, sample_offsets, sample_uv, tiles
@@ -180,6 +181,7 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
     with timer.stage("load"):
         mesh = as_mesh(mesh_or_path, settings.max_faces, "mesh")
         src = None if source is None else as_mesh(source, settings.max_faces, "source")
+    check_fits(settings, len(mesh.faces) + (0 if src is None else len(src.faces)), workers, tile_samples)  # before the unwrap
     say(0.05)
     store = None if cache is None else cache if isinstance(cache, AtlasCache) else AtlasCache(cache)
     with timer.stage("atlas"):

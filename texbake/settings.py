@@ -18,7 +18,9 @@ dedup key hold.
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Mapping, Sequence
 from typing import Annotated, Any, Literal, Union
 
 from pydantic import (
@@ -37,6 +39,7 @@ from pydantic import (
 from .errors import ParameterError, TextureError
 from .output import bits_problem, format_name
 from .textures.spec import TEXTURES, TextureSpec, parse_spec
+from .validation import describe
 
 
 def _texture(value: Any):
@@ -60,7 +63,8 @@ Texture = Annotated[
     PlainSerializer(lambda spec: spec.model_dump(mode="json"), return_type=dict),
 ]
 Finite = Annotated[float, AfterValidator(_finite)]
-Texels = Annotated[int, Field(ge=1, le=65536)]
+MAX_TEXELS = 65536  # a side of the image
+Texels = Annotated[int, Field(ge=1, le=MAX_TEXELS)]
 
 # The quality presets: the values they give the fields they fix. Chosen from the error
 # against run time of ``texbake report`` (``texbake.checks.sweep``; figures: README,
@@ -213,10 +217,25 @@ def _above_one(samples: Any) -> bool:
         return False
 
 
+# what a field allows, where its JSON Schema's words would be clumsy
+ALLOWED = {"size": f"a whole number from 1 to {MAX_TEXELS} (or width,height)", "light": "3 finite numbers (x,y,z)"}
+
+
+def describe_errors(errors: Sequence[Mapping[str, Any]]) -> list[tuple[str, str]]:
+    """``(field, problem)`` for each bad setting of a failed validation (pydantic's error
+    dicts, located from the settings' top): the field, the value and what is allowed."""
+    return describe(errors, _schema(), hints=ALLOWED)
+
+
+@functools.cache
+def _schema() -> dict:
+    return BakeSettings.model_json_schema()
+
+
 def parameter_error(error: ValidationError) -> ParameterError:
-    """One :class:`ParameterError` for a failed validation, naming the first bad field."""
-    problems = error.errors()
-    first = problems[0]
-    name = ".".join(str(part) for part in first["loc"]) or str(first["msg"]).partition(":")[0].removeprefix("Value error, ")
-    text = "; ".join(str(p["msg"]).removeprefix("Value error, ") for p in problems)
-    return ParameterError(name, text)
+    """One :class:`ParameterError` for a failed validation, naming the first bad field
+    (``size: expected a whole number from 1 to 65536 (or width,height), got 'abc'``); any
+    others follow it, ``; field: problem`` each."""
+    problems = describe_errors(error.errors(include_url=False))
+    (name, problem), rest = problems[0], problems[1:]
+    return ParameterError(name or "settings", "; ".join([problem, *(f"{n or 'settings'}: {p}" for n, p in rest)]))

@@ -1,10 +1,20 @@
 """The command line, run as a real process."""
 
 import json
+import os
+import re
+import shutil
 from pathlib import Path
 
 import pytest
 from conftest import run_cli
+
+COMPILING = "texbake: compiling the kernels"  # said by the first process that compiles them (texbake.compiling)
+
+
+def _lines(stderr: str) -> list[str]:
+    """stderr's lines, without the one a first compile adds (whichever test runs first)."""
+    return [line for line in stderr.splitlines() if not line.startswith(COMPILING)]
 
 
 def test_bake_writes_maps_mesh_and_report(meshes, tmp_path):
@@ -60,10 +70,17 @@ def test_batch_summary_as_json_with_atlas_warnings_and_whole_paths(meshes, tmp_p
     rows = {Path(row["mesh"]).name: row for row in json.loads(r.stdout)}
     assert set(rows) == {"capsule.obj", "Duck.glb"}
     assert rows["Duck.glb"]["atlas"] == "kept" and "overlap" in rows["Duck.glb"]["warnings"][0]
-    assert rows["capsule.obj"]["warnings"] == [] and all(0 < row["seconds"] < 60 for row in rows.values())
+    assert rows["capsule.obj"]["warnings"] == []
+    for row in rows.values():  # each item's own bake and save: at least the report's stages, not much more
+        seconds = json.loads((Path(row["out"]) / "report.json").read_text())["seconds"]
+        wall = sum(seconds[stage] for stage in WALL_STAGES)
+        assert 0.05 < wall <= row["seconds"] <= wall + 5, (row["seconds"], seconds)
     table = run_cli("batch", tmp_path / "*.obj", "--out", out, "--size", 32)  # not a terminal: nothing cut
     assert table.returncode == 0 and str(out / "capsule") in table.stdout
     assert rows["capsule.obj"]["atlas"] in table.stdout
+
+
+WALL_STAGES = ("load", "atlas", "normals", "prepare", "tiles (wall)", "estimate", "margin")  # one after another: the bake
 
 
 def test_textures_lists_every_texture_and_its_schema():
@@ -139,3 +156,125 @@ def test_bake_quality_preset_and_override(meshes, tmp_path):
     assert r.returncode == 0, r.stderr
     p = json.loads((tmp_path / "o" / "report.json").read_text())["settings"]
     assert (p["quality"], p["samples"], p["filtering"]) == ("final", 4, False)
+
+
+@pytest.mark.parametrize("args, line", [
+    (["--size", "abc"], "size: expected a whole number from 1 to 65536 (or width,height), got 'abc'"),
+    (["--size", "64,x"], "size: expected a whole number from 1 to 65536 (or width,height), got '64,x'"),
+    (["--texture", "marble", "--set", "octaves=6"], "set: marble has no parameter 'octaves' (did you mean 'turbulence.octaves'? "
+     "it has: axis, frequency, amplitude, turbulence, colormap, transform, space, model)"),
+    (["--texture", '{"name": "marble", x}'], "texture: not valid JSON at line 1 column 20: expecting property name enclosed in double quotes"),
+    (["--texture", "marbel"], "texture: unknown texture 'marbel' (did you mean 'marble'? known: checker, fbm, flame, marble, noise, "
+     "position, turbulence, wood)"),
+    (["--uv", "sideways"], "uv: expected one of 'auto', 'unwrap', 'keep', got 'sideways'"),
+])
+def test_a_bad_setting_is_named_with_its_value_and_what_is_allowed(meshes, tmp_path, args, line):
+    r = run_cli("bake", meshes / "suzanne.ply", *args, "--out", tmp_path / "o")
+    assert (r.returncode, _lines(r.stderr)) == (2, [f"texbake: error: {line}"]), r.stderr
+
+
+def test_bake_progress_is_plain_lines_off_a_terminal(meshes, tmp_path, monkeypatch):
+    """Off a terminal (a CI log) a bake writes a progress line at most every
+    $TEXBAKE_PROGRESS_SECONDS (10): none for a short bake; 0 writes one a step."""
+    r = run_cli("bake", meshes / "suzanne.ply", "--size", 64, "--out", tmp_path / "a")
+    assert r.returncode == 0 and _lines(r.stderr) == [] and r.stdout.startswith(f"{meshes / 'suzanne.ply'}: "), r.stderr
+    monkeypatch.setenv("TEXBAKE_PROGRESS_SECONDS", "0")
+    r = run_cli("bake", meshes / "suzanne.ply", "--size", 64, "--out", tmp_path / "b")
+    assert r.returncode == 0, r.stderr
+    found = [re.fullmatch(r"texbake: suzanne\.ply: (\d+)% after (\d+) s", line) for line in _lines(r.stderr)]
+    assert all(found), r.stderr
+    percents = [int(m.group(1)) for m in found if m]
+    assert percents[0] == 5 and 30 in percents and percents[-1] == 95 and percents == sorted(percents), percents
+    assert len(r.stdout.splitlines()) == 1  # the summary, on stdout
+
+
+def _on_a_terminal(args, timeout=300) -> tuple[int, bytes, bytes]:
+    """Run the command line with stderr on a pseudo-terminal: (exit code, stdout, what the terminal got)."""
+    import pty
+    import select
+    import subprocess
+    import sys
+
+    master, slave = pty.openpty()
+    env = {**os.environ, "TERM": "xterm-256color", "COLUMNS": "120"}
+    process = subprocess.Popen([sys.executable, "-m", "texbake.cli", *map(str, args)], stdout=subprocess.PIPE, stderr=slave, env=env)
+    os.close(slave)
+    shown = b""
+    try:
+        while process.poll() is None or select.select([master], [], [], 0)[0]:
+            if select.select([master], [], [], 0.2)[0]:
+                try:
+                    shown += os.read(master, 1 << 16)
+                except OSError:  # the terminal's other end closed
+                    break
+        out = process.stdout.read() if process.stdout else b""
+        return process.wait(timeout), out, shown
+    finally:
+        os.close(master)
+        if process.stdout:
+            process.stdout.close()
+
+
+def test_bake_progress_is_a_bar_on_a_terminal_and_quiet_says_nothing(meshes, tmp_path):
+    code, out, shown = _on_a_terminal(["bake", meshes / "suzanne.ply", "--size", 128, "--out", tmp_path / "a"])
+    assert code == 0 and out.decode().startswith(f"{meshes / 'suzanne.ply'}: "), shown[-500:]
+    assert b"suzanne.ply" in shown and "━".encode() in shown and b"%" in shown, shown[-500:]
+    code, out, shown = _on_a_terminal(["bake", meshes / "suzanne.ply", "--size", 128, "--quiet", "--out", tmp_path / "b"])
+    assert (code, out) == (0, b"") and COMPILING.encode() not in shown and shown.strip() == b"", shown[-500:]
+    assert (tmp_path / "b" / "albedo.png").exists()
+
+
+def test_a_bake_too_large_for_the_memory_is_refused_with_the_figure(meshes, tmp_path, monkeypatch):
+    """Refused after loading the mesh, before its atlas is made (none is kept): exit 2, one line."""
+    from texbake.memory import available_bytes, bake_bytes, gigabytes
+    from texbake.mesh.load import load_mesh
+    from texbake.settings import BakeSettings
+
+    faces = len(load_mesh(meshes / "suzanne.ply").faces)
+    monkeypatch.setenv("TEXBAKE_CACHE", str(tmp_path / "cache"))
+    # 64 frames of 65536² need terabytes: refused anywhere
+    need = bake_bytes(BakeSettings.build(size=65536, texture="flame", frames=list(range(64))), faces, workers=2)
+    r = run_cli("bake", meshes / "suzanne.ply", "--size", 65536, "--texture", "flame", "--frames", "0:63:64", "--out", tmp_path / "o")
+    assert r.returncode == 2 and re.fullmatch(rf"texbake: error: size: a 65536x65536 bake needs about {gigabytes(need)}; "
+                                              r"[\d.]+ GB are available", r.stderr.strip()), r.stderr
+    assert not (tmp_path / "o").exists() and not any((tmp_path / "cache").rglob("*.*"))
+    need = bake_bytes(BakeSettings.build(size=65536), faces, workers=2)
+    if available_bytes() > need:
+        pytest.skip(f"this machine has the {gigabytes(need)} a 65536² bake needs")
+    r = run_cli("bake", meshes / "suzanne.ply", "--size", 65536, "--out", tmp_path / "o")
+    assert r.returncode == 2 and re.fullmatch(rf"texbake: error: size: a 65536x65536 bake needs about {gigabytes(need)}; "
+                                              r"[\d.]+ GB are available", r.stderr.strip()), r.stderr
+
+
+def test_batch_takes_a_folder_of_meshes(meshes, tmp_path):
+    """A folder is every mesh file in it (by extension, not its sub-folders), sorted; an empty one is an error."""
+    folder = tmp_path / "in"
+    (folder / "sub").mkdir(parents=True)
+    for name in ("suzanne.ply", "capsule.obj", "capsule.mtl", "capsule0.jpg"):
+        shutil.copy(meshes / name, folder / name)
+    shutil.copy(meshes / "BoxTextured.glb", folder / "sub" / "BoxTextured.glb")
+    (folder / "notes.txt").write_text("not a mesh\n")
+    r = run_cli("batch", f"{folder}/", "--out", tmp_path / "o", "--size", 16, "--json")
+    assert r.returncode == 0, r.stderr
+    assert [Path(row["mesh"]).name for row in json.loads(r.stdout)] == ["capsule.obj", "suzanne.ply"]
+    empty = tmp_path / "empty"
+    (empty / "sub").mkdir(parents=True)
+    (empty / "capsule.mtl").write_text("")
+    r = run_cli("batch", empty, "--out", tmp_path / "o")
+    assert (r.returncode, _lines(r.stderr)) == (2, [f"texbake: error: {empty}: no mesh file in this folder "
+                                                    "(looked for .obj .ply .stl .off .gltf .glb)"]), r.stderr
+
+
+@pytest.mark.parametrize("texture", ["checker", "wood"])
+def test_the_first_compile_says_so_once(meshes, tmp_path, monkeypatch, texture):
+    """With an empty numba cache every kernel is compiled: the first bake says so once (a
+    checker or wood bake, whose kernels are not the noise's, too); the next says nothing."""
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "numba"))
+    r = run_cli("bake", meshes / "suzanne.ply", "--texture", texture, "--size", 16, "--quiet", "--out", tmp_path / "a", timeout=900)
+    assert r.returncode == 0, r.stderr
+    lines = r.stderr.splitlines()
+    assert len(lines) == 1, r.stderr
+    assert re.fullmatch(rf"{COMPILING} \(once after an install: several seconds\); cached in {re.escape(str(tmp_path / 'numba'))}/\S+",
+                        lines[0]), lines[0]
+    again = run_cli("bake", meshes / "suzanne.ply", "--texture", texture, "--size", 16, "--quiet", "--out", tmp_path / "b")
+    assert again.returncode == 0 and again.stderr == "", again.stderr

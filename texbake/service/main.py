@@ -20,6 +20,7 @@ from texbake.errors import BakeError
 from texbake.version import __version__
 
 from .api import jsondepth
+from .api.problems import request_problems
 from .api.routes import jobs, meta, swatch
 from .api.routes.page import add_page
 from .api.schemas import Problem
@@ -245,9 +246,7 @@ def create_app() -> FastAPI:
     @app.exception_handler(RequestValidationError)
     async def invalid_request(request: Request, exc: RequestValidationError):
         """422 naming each bad field (``settings.size: ...``), the list under ``errors``."""
-        errors = [{"loc": list(e["loc"][1:]), "msg": e["msg"].removeprefix("Value error, "), "type": e["type"]}
-                  for e in exc.errors()]
-        detail = "; ".join(f"{'.'.join(map(str, e['loc']))}: {e['msg']}" if e["loc"] else e["msg"] for e in errors)
+        detail, errors = request_problems(list(exc.errors()))
         return JSONResponse(status_code=422, content={"detail": detail, "errors": errors})
 
     return app

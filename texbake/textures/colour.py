@@ -95,7 +95,7 @@ def marble_colours(points, width, knots, colour_list, *, axis=0, frequency=6.0, 
     (None: point sampling) the mean colour over the phase's spread (:func:`wave_colours`).
     Those functions in turn, without their temporaries.
     """
-    from .noise import BASES, INTERPOLATIONS, _derived_tables, announce_compile, basis_mean, octave_count, tables
+    from .noise import BASES, INTERPOLATIONS, _derived_tables, basis_mean, octave_count, tables
 
     p = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
     w = np.zeros(len(p)) if width is None else np.ascontiguousarray(width, dtype=np.float64).reshape(-1)
@@ -106,6 +106,5 @@ def marble_colours(points, width, knots, colour_list, *, axis=0, frequency=6.0, 
             BASES.index(basis), INTERPOLATIONS.index(interpolation), cap.evaluated, float(lacunarity), float(gain),
             basis_mean(basis, seed), float(cap.capped), float(cap.norm), sines, waves, MAX_SPREAD)
     out = np.empty((len(p), 3))
-    announce_compile(kernels.marble_kernel)
     kernels.in_pieces(len(p), lambda a, b: kernels.marble_kernel(p[a:b], w[a:b], *args, out[a:b]))
     return out

@@ -43,6 +43,10 @@ from typing import Any, TypeVar
 import numba as nb  # pip install numba
 import numpy as np
 
+from ..compiling import watch_compiles
+
+watch_compiles()  # a texture evaluated on its own, outside a bake, says so too
+
 # Kernels are module-level so that numba's on-disk cache finds them in a new process.
 # The cache is the ``__pycache__`` folder beside this file where that is writable (an
 # installed wheel in a user's venv), else numba's user-wide cache (``NUMBA_CACHE_DIR``,

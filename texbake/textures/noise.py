@@ -25,7 +25,6 @@ Hot loops are numba kernels over flat arrays (compiled once, cached on disk), al
 from __future__ import annotations
 
 import functools
-import logging
 from typing import NamedTuple
 
 import numpy as np
@@ -35,8 +34,6 @@ from .kernels import DROP_CELLS, box_keep, fade_factor
 
 __all__ = ["BASES", "DROP_CELLS", "INTERPOLATIONS", "OctaveCount", "basis_mean", "box_keep", "fade_factor", "noise", "octave_count",
            "octave_sum", "tables"]
-
-logger = logging.getLogger(__name__)
 
 INTERPOLATIONS = ("linear", "cubic", "catmull-rom")
 BASES = ("value", "perlin")
@@ -103,7 +100,6 @@ def octave_sum(
     mean = basis_mean(basis, seed)
     args = (float(scale), float(offset), noise_table, index_table, noise2, hash4, BASES.index(basis),
             INTERPOLATIONS.index(interpolation), cap.evaluated, float(lacunarity), float(gain), bool(signed), mean)
-    announce_compile(kernels.octave_kernel)
     kernels.in_pieces(len(p), lambda lo, hi: kernels.octave_kernel(p[lo:hi], w[lo:hi], *args, out[lo:hi]))
     if cap.evaluated < octaves and not signed:  # the capped octaves add their mean (signed octaves have mean 0)
         out += cap.capped
@@ -133,22 +129,3 @@ def noise(points: np.ndarray, *, basis: str = "value", interpolation: str = "lin
     for linear and cubic value noise and for Perlin's; Catmull-Rom value noise overshoots
     its lattice values, to about [-0.10, 1.11]."""
     return octave_sum(points, None, octaves=1, basis=basis, interpolation=interpolation, seed=seed)
-
-
-_announced = False
-
-
-def announce_compile(kernel) -> None:
-    """Say once per process when a kernel is about to be compiled (numba's cache has none
-    for this code yet: the first bake after an install), so a pause is explained."""
-    global _announced
-    if _announced or kernel.signatures:  # said, or loaded in this process already
-        return
-    try:  # numba's cache index for the kernels' source file (empty when missing or out of date)
-        cache = kernel._cache
-        cached, where = bool(cache._cache_file._load_index()), cache._cache_path
-    except (AttributeError, OSError):  # another numba: nothing to say
-        return
-    if not cached:
-        _announced = True
-        logger.warning("texbake: compiling the texture kernels (once after an install: a few seconds); cached in %s", where)

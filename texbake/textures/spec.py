@@ -8,14 +8,16 @@ command line and the service (as JSON).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 from itertools import pairwise
-from typing import Annotated, ClassVar, Literal, get_args
+from typing import Annotated, Any, ClassVar, Literal, get_args
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, model_validator
 
 from ..errors import TextureError
+from ..validation import describe, did_you_mean, json_error_text, shown
 from .context import EvalContext, Placement
 
 Vec3 = tuple[float, float, float]
@@ -152,9 +154,9 @@ class Checker(_Texture):
 
 def _check_knots(knots, values) -> None:
     if len(knots) != len(values) or not knots:
-        raise ValueError(f"{len(knots)} knots for {len(values)} values")
+        raise ValueError(f"expected one knot for each of at least one value, got {len(knots)} knots for {len(values)} values")
     if any(b <= a for a, b in pairwise(knots)):
-        raise ValueError(f"knots must increase, got {knots}")
+        raise ValueError(f"expected increasing knots, got {list(knots)}")
 
 
 class ColourMap(BaseModel):
@@ -389,41 +391,62 @@ _ADAPTER = TypeAdapter(TextureSpec)
 TEXTURES = {cls.model_fields["name"].default: cls for cls in TEXTURE_CLASSES}
 
 
-def _describe(error: ValidationError) -> str:
-    """``field.sub: problem; ...``, each path from the spec's top (without the union's tag,
-    the texture's name, which the message names already)."""
-    parts = []
-    for e in error.errors():
-        loc = e["loc"][1:] if e["loc"] and e["loc"][0] in TEXTURES else e["loc"]
-        where = ".".join(str(x) for x in loc) or "spec"
-        parts.append(f"{where}: {str(e['msg']).removeprefix('Value error, ')}")
+@functools.cache
+def _schema(name: str) -> dict:
+    """The JSON Schema of texture ``name``, its own parameters first (then the placement's)."""
+    schema = TEXTURES[name].model_json_schema()
+    shared = set(_Texture.model_fields)
+    schema["properties"] = dict(sorted(schema["properties"].items(), key=lambda item: item[0] in shared))
+    return schema
+
+
+def _describe(name: str, error: ValidationError) -> str:
+    """The problems of a spec of texture ``name``, written for a person, each path from the
+    spec's top: ``marble has no parameter 'octaves' (it has: ...)``, ``turbulence.octaves:
+    expected a whole number from 1 to 30, got 99``; ``; `` between several."""
+    errors = []
+    for e in error.errors(include_url=False):  # without the union's tag (the name)
+        errors.append({**e, "loc": e["loc"][1:] if e["loc"] and e["loc"][0] == name else e["loc"]})
+    parts = [f"{field}: {problem}" if field else problem if problem.startswith(name) else f"{name}: {problem}"
+             for field, problem in describe(errors, _schema(name), subject=name)]
     return "; ".join(parts)
 
 
 def with_overrides(value, assignments: list[str]) -> _Texture:
     """A spec with ``key.sub=value`` assignments applied (values are JSON, else strings).
 
-    ``with_overrides("marble", ["turbulence.octaves=6"])``. Unknown keys are rejected
-    by name, like any bad parameter.
+    ``with_overrides("marble", ["turbulence.octaves=6"])``. A bad ``value`` raises
+    :class:`TextureError` starting ``texture:``, a bad assignment one starting ``set:``
+    (the command line's ``--texture`` and ``--set``); unknown keys are named with the
+    parameters there are.
     """
-    spec = parse_spec(value)
+    try:
+        spec = parse_spec(value)
+    except TextureError as exc:
+        raise TextureError(f"texture: {exc}") from None
     data = {"name": spec.name, **spec.model_dump(mode="json", exclude_defaults=True)}
+    whole = spec.model_dump(mode="json")  # a group set in part keeps the rest of its values (not its class's defaults)
     for item in assignments:
         key, sep, raw = item.partition("=")
         if not sep or not key.strip():
-            raise TextureError(f"--set {item!r}: expected key=value, e.g. turbulence.octaves=6")
+            raise TextureError(f"set: expected key=value (e.g. turbulence.octaves=6), got {item!r}")
         try:
             parsed = json.loads(raw)
         except json.JSONDecodeError:
             parsed = raw
-        node = data
+        node: Any = data
+        full: Any = whole
         *parents, leaf = key.strip().split(".")
         for part in parents:
-            node = node.setdefault(part, {})
+            full = full.get(part, {}) if isinstance(full, dict) else {}
+            node = node.setdefault(part, full if not isinstance(full, dict) else dict(full))
             if not isinstance(node, dict):
-                raise TextureError(f"--set {item!r}: {part!r} is not a group of parameters")
+                raise TextureError(f"set: {item!r}: {part!r} is one value, not a group of parameters")
         node[leaf] = parsed
-    return parse_spec(data)
+    try:
+        return parse_spec(data)
+    except TextureError as exc:
+        raise TextureError(f"set: {exc}") from None
 
 
 def catalogue() -> list[dict]:
@@ -477,31 +500,45 @@ def parse_spec(value) -> _Texture:
     """A texture spec from a spec object, a dict, a texture name or JSON text.
 
     Pure: a string is a name or JSON, never a path (only the command line reads spec
-    files). Raises :class:`TextureError` naming the unknown texture or the bad parameter;
-    every string that is neither a known name nor a JSON object gets the same message.
+    files). Raises :class:`TextureError` naming the unknown texture (and the name it is
+    close to), the bad parameter (and the texture's parameters) or where JSON text (a
+    string starting with ``{`` or ``[``) fails to parse; any other string that is not a
+    known name is an unknown texture, whatever it names.
     """
     if isinstance(value, _Texture):
         return value
     if isinstance(value, str):
-        text = value.strip()
-        if text in TEXTURES:
-            return _ADAPTER.validate_python({"name": text})
-        try:
-            value = json.loads(text) if text.startswith("{") and _nesting(text) <= MAX_NESTING else None
-        except json.JSONDecodeError:
-            value = None
-        if not isinstance(value, dict):
-            shown = text if len(text) <= 80 else text[:77] + "..."
-            raise TextureError(f"unknown texture {shown!r}: expected a texture name ({', '.join(sorted(TEXTURES))}) "
-                               "or a JSON spec object") from None
+        value = _from_text(value)
     if not isinstance(value, dict):
-        raise TextureError(f"texture spec must be a name or a mapping, got {type(value).__name__}")
+        raise TextureError(f"expected a texture name or a spec (a mapping with a 'name'), got {type(value).__name__}")
     if "name" not in value:
-        raise TextureError("texture spec has no 'name'")
+        raise TextureError(f"a spec needs a 'name' (one of {', '.join(sorted(TEXTURES))}), got the keys {', '.join(map(str, value))}")
     if not isinstance(value["name"], str) or value["name"] not in TEXTURES:  # a dict would not even hash
-        known = ", ".join(sorted(TEXTURES))
-        raise TextureError(f"unknown texture {value['name']!r} (known: {known})")
+        raise TextureError(_unknown(value["name"]))
     try:
         return _ADAPTER.validate_python(value)
     except ValidationError as exc:
-        raise TextureError(f"texture {value['name']!r}: {_describe(exc)}") from None
+        raise TextureError(_describe(value["name"], exc)) from None
+
+
+def _unknown(name) -> str:
+    """``unknown texture 'marbel' (did you mean 'marble'? known: ...)``."""
+    return f"unknown texture {shown(name, 80)} ({did_you_mean(name, sorted(TEXTURES))}known: {', '.join(sorted(TEXTURES))})"
+
+
+def _from_text(value: str):
+    """A texture name's spec, or the JSON text's object (a TextureError for anything else)."""
+    text = value.strip()
+    if text in TEXTURES:
+        return {"name": text}
+    if not text.startswith(("{", "[")):
+        raise TextureError(_unknown(text))
+    if _nesting(text) > MAX_NESTING:
+        raise TextureError(f"JSON spec nested deeper than {MAX_NESTING} levels")
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise TextureError(json_error_text(exc)) from None
+    if not isinstance(data, dict):
+        raise TextureError(f"expected a JSON object with a 'name', got a {type(data).__name__}")
+    return data

@@ -56,6 +56,36 @@ def test_bad_settings_name_the_field(client, meshes, settings, field):
     assert r.status_code == 422 and field in r.json()["detail"], r.text
 
 
+@pytest.mark.parametrize("settings, detail", [
+    ({"size": "abc"}, "settings.size: expected a whole number from 1 to 65536 (or width,height), got 'abc'"),
+    ({"texture": "marbel"}, "settings.texture: unknown texture 'marbel' (did you mean 'marble'? known: checker, fbm, flame, marble, "
+                            "noise, position, turbulence, wood)"),
+    ({"texture": {"name": "marble", "octaves": 6}}, "settings.texture: marble has no parameter 'octaves' (did you mean "
+     "'turbulence.octaves'? it has: axis, frequency, amplitude, turbulence, colormap, transform, space, model)"),
+    ({"texture": '{"name": "marble", x}'}, "settings.texture: not valid JSON at line 1 column 20: expecting property name enclosed in "
+                                           "double quotes"),
+])
+def test_bad_settings_get_the_libraries_words(client, meshes, settings, detail):
+    """The same messages as the library's and the command line's, under ``settings.``."""
+    r = post(client, meshes / "suzanne.ply", settings)
+    assert r.status_code == 422 and r.json()["detail"] == detail, r.text
+    assert r.json()["errors"] == [{"loc": detail.partition(":")[0].split("."), "msg": detail.partition(": ")[2]}]
+
+
+def test_a_bake_over_the_job_memory_limit_is_refused_at_upload(client, meshes, monkeypatch):
+    from texbake.memory import bake_bytes
+    from texbake.service.core import config
+
+    monkeypatch.setenv("BAKE_JOB_MEMORY_MB", "380")
+    config.get_settings.cache_clear()
+    need = bake_bytes(BakeSettings.build(size=2048), 0, workers=1)
+    r = post(client, meshes / "suzanne.ply", {"size": 2048})
+    assert r.status_code == 422 and r.json()["detail"] == (f"size: a 2048x2048 bake needs about {need / 1e9:.2g} GB; "
+                                                           f"this server's limit is {380 * 2**20 / 1e9:.2g} GB a bake"), r.text
+    assert post(client, meshes / "suzanne.ply", {"size": 512}).status_code == 202
+    assert client.get("/v1/jobs").json()["total"] == 1
+
+
 def test_not_json_settings_and_unknown_routes(client, meshes):
     with open(meshes / "suzanne.ply", "rb") as f:
         r = client.post("/v1/jobs", files={"mesh": ("suzanne.ply", f)}, data={"settings": "{size: 3"})
@@ -260,17 +290,19 @@ def test_the_swatch_is_a_png_cached_by_its_spec(client):
 
 
 @pytest.mark.parametrize("method, request_args, words", [
-    ("get", {"params": {"texture": json.dumps({"name": "marble", "frequency": -1})}}, "texture 'marble': frequency: Input should be greater than 0"),
-    ("get", {"params": {"texture": "plaid"}}, "unknown texture 'plaid'"),
-    ("get", {"params": {"texture": "/etc/passwd"}}, "unknown texture '/etc/passwd'"),
-    ("get", {"params": {"texture": "marble", "size": 4096}}, "size: Input should be less than or equal to 512"),
-    ("get", {"params": {"texture": "marble", "view": "cube"}}, "view: Input should be 'sphere' or 'slice'"),
-    ("get", {"params": {"texture": "x" * 9000}}, "texture: String should have at most 8192 characters"),
-    ("get", {"params": {"texture": '{"name": "marble", "x": ' + '{"a":' * 800 + "1" + "}" * 800 + "}"}}, "unknown texture"),  # nesting refused unparsed
-    ("get", {}, "texture: Field required"),
-    ("post", {"json": {"texture": {"name": "wood", "rings": 3}}}, "texture: texture 'wood': rings: Extra inputs are not permitted"),
-    ("post", {"json": {"texture": "marble", "colour": "red"}}, "colour: Extra inputs are not permitted"),
-    ("post", {"json": {"texture": {"name": {}}}}, "unknown texture {}"),  # was a 500: a dict as the name
+    ("get", {"params": {"texture": json.dumps({"name": "marble", "frequency": -1})}},
+     "texture: frequency: expected a number above 0 and at most 1000000, got -1"),
+    ("get", {"params": {"texture": "plaid"}}, "texture: unknown texture 'plaid' (known: checker, fbm, flame, marble, noise, position, turbulence, wood)"),
+    ("get", {"params": {"texture": "/etc/passwd"}}, "texture: unknown texture '/etc/passwd' (known: "),
+    ("get", {"params": {"texture": "marble", "size": 4096}}, "size: expected at most 512, got 4096"),
+    ("get", {"params": {"texture": "marble", "view": "cube"}}, "view: expected 'sphere' or 'slice', got 'cube'"),
+    ("get", {"params": {"texture": "x" * 9000}}, "texture: expected at most 8192 characters, got 9000 characters"),
+    ("get", {"params": {"texture": '{"name": "marble", "x": ' + '{"a":' * 800 + "1" + "}" * 800 + "}"}},
+     "texture: JSON spec nested deeper than 32 levels"),  # refused unparsed
+    ("get", {}, "texture: required"),
+    ("post", {"json": {"texture": {"name": "wood", "rings": 3}}}, "texture: wood has no parameter 'rings' (it has: ring_width, wobble,"),
+    ("post", {"json": {"texture": "marble", "colour": "red"}}, "colour: not a known field"),
+    ("post", {"json": {"texture": {"name": {}}}}, "texture: unknown texture {} (known: "),  # was a 500: a dict as the name
 ])
 def test_a_bad_swatch_is_a_422_naming_the_parameter(client, method, request_args, words):
     r = getattr(client, method)("/v1/swatch", **request_args)

@@ -112,16 +112,19 @@ def test_filtered_checker_stays_in_range_far_out():
 
 def test_parse_spec_reads_no_files(tmp_path):
     """A string is a name or JSON, never a path: an existing spec file, a missing one and an
-    unknown name get the same message, so a client cannot probe the server's files."""
+    unknown name get the same message, so a client cannot probe the server's files; JSON
+    text that does not parse says where."""
     spec = tmp_path / "wood.yaml"
     spec.write_text("name: wood\n")
-    texts = [str(spec), str(tmp_path / "missing.yaml"), "/etc/hostname", "plaid", "{not json"]
+    texts = [str(spec), str(tmp_path / "missing.yaml"), "/etc/hostname", "plaid"]
     messages = set()
     for text in texts:
         with pytest.raises(TextureError) as error:
             parse_spec(text)
         messages.add(str(error.value).replace(repr(text), "TEXT"))
-    assert len(messages) == 1, messages
+    assert messages == {"unknown texture TEXT (known: checker, fbm, flame, marble, noise, position, turbulence, wood)"}
+    with pytest.raises(TextureError, match="^not valid JSON at line 1 column 2: expecting property name enclosed in double quotes$"):
+        parse_spec("{not json")
 
 
 @pytest.mark.parametrize("name", ["checker", "noise", "turbulence", "fbm", "marble", "wood", "flame", "position"])
@@ -247,6 +250,6 @@ def test_filtered_checker_is_cut_to_the_objects_box():
 def test_json_nested_too_deep_is_refused_before_parsing():
     """json.loads recurses: 100000 levels would be a RecursionError, not a TextureError."""
     deep = '{"name": "marble", "x": ' + '{"a": ' * 100_000 + "1" + "}" * 100_000 + "}"
-    with pytest.raises(TextureError, match="unknown texture"):
+    with pytest.raises(TextureError, match="^JSON spec nested deeper than 32 levels$"):
         parse_spec(deep)
     assert parse_spec('{"name": "marble", "turbulence": {"octaves": 3}}').turbulence.octaves == 3  # shallow JSON still parses

@@ -17,6 +17,7 @@ from fastapi.responses import StreamingResponse
 from pydantic import BeforeValidator, Json
 
 from texbake.errors import MeshError
+from texbake.memory import check_fits
 from texbake.mesh import FORMATS, check_file
 
 from ...core import crud
@@ -87,6 +88,7 @@ def _bake_settings(parsed: BakeSettings | None, settings) -> BakeSettings:
     for name, (value, limit) in limits.items():
         if value > limit:
             raise HTTPException(422, detail=f"settings.{name}: {value} is over this server's limit of {limit}")
+    check_fits(parsed, 0, workers=1, limit=settings.job_memory_mb << 20)  # the maps' memory: the faces are not counted yet
     if "max_faces" in parsed.model_fields_set:
         return parsed
     return BakeSettings.build(parsed, max_faces=settings.max_faces)

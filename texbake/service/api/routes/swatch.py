@@ -18,6 +18,7 @@ from typing import Annotated, Any, Literal
 from fastapi import APIRouter, Depends, Header, Query, Response
 from pydantic import BaseModel, ConfigDict, Field
 
+from texbake.errors import TextureError
 from texbake.output import encode_png_bytes
 from texbake.settings import Texture
 from texbake.swatch import swatch
@@ -49,7 +50,11 @@ def _png(spec_json: str, size: int, view: str) -> bytes:
 
 
 def _answer(spec, size: int, view: str, if_none_match: str | None) -> Response:
-    spec_json = json.dumps(parse_spec(spec).model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
+    try:
+        parsed = parse_spec(spec)
+    except TextureError as exc:  # named as the settings name it: the field, then the problem
+        raise TextureError(f"texture: {exc}") from None
+    spec_json = json.dumps(parsed.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
     etag = '"' + hashlib.sha256(f"{__version__}|{size}|{view}|{spec_json}".encode()).hexdigest()[:32] + '"'
     headers = {"ETag": etag, "Cache-Control": "private, max-age=3600"}
     if if_none_match and etag in (tag.strip() for tag in if_none_match.split(",")):

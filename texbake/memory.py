@@ -1,0 +1,107 @@
+"""How much memory a bake needs, told before it starts: a size that cannot fit is refused
+with the figure instead of unwrapping for minutes and dying of a MemoryError.
+
+:func:`bake_bytes` is a pure function of the settings, the face count and the tile
+threads; :func:`check_fits` compares it with the memory there is (or a limit) and raises
+:class:`~texbake.errors.ParameterError`. What a bake holds at its peak (the tiles', or the
+writer's after them, whichever is more):
+
+- the process itself: Python, numpy, numba's kernels, Embree, OpenImageIO (``BASE``);
+- per face: the mesh, its atlas, the lookup's layout and the surface's per-face arrays;
+- per texel: each map (3 channels of float32, or float16 for images over ``HALF_TEXELS``
+  texels written as 8 bits: ``texbake.maps.accumulate``), and two bytes: the sample
+  counts while the tiles run, the coverage and margin masks after them;
+- while the tiles run, per sample of each tile in flight (one a thread): the lookup's
+  rays and coordinates, the surface point, its footprint and normal, and the texture's
+  temporaries, for each colour map (``PER_SAMPLE_COLOUR``) and each lit or normal map
+  (``PER_SAMPLE_OTHER``);
+- after them, the margin's and the writer's bands and buffers (``AFTER_TILES``: both work
+  a band at a time).
+
+The constants are fitted to the measured peak resident memory of bakes from 512² to
+16384², of 63k to 1M faces, with one and several maps (the figures are in the commit
+that set them); ``tests/texbake/test_memory.py`` measures some again.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from .errors import ParameterError
+from .output.images import DEFAULT_BITS
+
+BASE = 240 * 2**20
+PER_FACE = 900
+PER_SAMPLE_COLOUR = 150
+PER_SAMPLE_OTHER = 60
+AFTER_TILES = 100 * 2**20
+HALF_TEXELS = 8192 * 8192  # as texbake.maps.accumulate: larger 8-bit images are held as float16
+MIN_TILES = 16  # as texbake.sampling.lookup.tiles
+TILE_SAMPLES = 1 << 20  # bake_mesh's default
+
+
+def _tile_samples(width: int, height: int, samples: int, budget: int) -> int:
+    """Samples of one tile as ``texbake.sampling.lookup.tiles`` cuts them."""
+    rows = max(1, min(budget // max(1, width * samples), -(-height // MIN_TILES)))
+    return min(rows, height) * width * samples
+
+
+def bake_bytes(settings, faces: int, workers: int = 2, tile_samples: int = TILE_SAMPLES) -> int:
+    """Bytes of memory a bake with ``settings`` (``BakeSettings``) of a mesh of ``faces``
+    faces needs at its peak, on ``workers`` tile threads, in tiles of about
+    ``tile_samples`` samples (bake_mesh's arguments)."""
+    width, height = settings.width_height
+    texels = width * height
+    samples = settings.quality_settings().samples
+    colours = len(settings.frames) if settings.frames is not None else 1
+    others = (settings.shading != "decal") + (settings.bump is not None)
+    bits = settings.bits or DEFAULT_BITS[settings.format]
+    channel = 2 if bits == 8 and texels > HALF_TEXELS else 4
+    maps = (colours + others) * 3 * channel * texels
+    masks = 2 * texels  # the coverage and margin masks (the sample counts before them take no more)
+    tile = _tile_samples(width, height, samples, tile_samples)
+    in_flight = min(max(1, workers), -(-texels * samples // tile)) * tile
+    tiles = in_flight * (PER_SAMPLE_COLOUR * colours + PER_SAMPLE_OTHER * others)
+    return BASE + PER_FACE * int(faces) + maps + masks + max(tiles, AFTER_TILES)
+
+
+def available_bytes() -> int:
+    """Memory this process may still take: the system's available memory (psutil), or
+    less where a control group (a container's limit) leaves less."""
+    import psutil
+
+    free = psutil.virtual_memory().available
+    for limit_file, usage_file in (("memory.max", "memory.current"), ("memory/memory.limit_in_bytes", "memory/memory.usage_in_bytes")):
+        try:
+            limit = Path("/sys/fs/cgroup", limit_file).read_text().strip()
+            usage = Path("/sys/fs/cgroup", usage_file).read_text().strip()
+        except OSError:
+            continue
+        if limit.isdigit() and usage.isdigit() and int(limit) < 2**60:  # "max", or v1's "no limit"
+            free = min(free, max(0, int(limit) - int(usage)))
+    return free
+
+
+def gigabytes(n: float) -> str:
+    """``"48 GB"``, ``"3.2 GB"``, ``"0.45 GB"``: two figures or the whole number."""
+    gb = n / 1e9
+    return f"{gb:.0f} GB" if gb >= 10 else f"{gb:.2g} GB"
+
+
+def check_fits(settings, faces: int, workers: int = 2, tile_samples: int = TILE_SAMPLES, *, limit: int | None = None) -> int:
+    """Raise :class:`ParameterError` naming ``size`` when a bake would need more memory
+    than there is (:func:`available_bytes`), or than ``limit`` bytes (a server's limit a
+    bake); else return the estimate (:func:`bake_bytes`).
+
+    ``size: a 65536x65536 bake needs about 40 GB; 20 GB are available``.
+    """
+    need = bake_bytes(settings, faces, workers, tile_samples)
+    have = available_bytes() if limit is None else int(limit)
+    if need > have:
+        width, height = settings.width_height
+        where = f"{gigabytes(have)} are available" if limit is None else f"this server's limit is {gigabytes(have)} a bake"
+        raise ParameterError("size", f"a {width}x{height} bake needs about {gigabytes(need)}; {where}")
+    return need
+
+
+__all__ = ["available_bytes", "bake_bytes", "check_fits", "gigabytes"]
