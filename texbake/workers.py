@@ -58,14 +58,18 @@ def isolated(command: Sequence[str]) -> list[str]:
 
     ``-I`` keeps the working directory, the user's site-packages and every ``PYTHON*``
     variable out of the child. ``PATHS`` puts back what it needs: the folder holding this
-    package (a source checkout, not installed), then the absolute entries of this process's
-    ``PYTHONPATH`` (a relative one would name the working directory).
+    package (a source checkout, not installed), the absolute entries of this process's
+    ``PYTHONPATH`` (a relative one would name the working directory), and the user's
+    site-packages where this process uses them (``pip install --user``).
     """
+    import site
+
     command = list(command)
     if len(command) < 3 or command[1] != "-m":
         return command
     extra = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if os.path.isabs(p)]
-    paths = os.pathsep.join(dict.fromkeys([_ROOT, *extra]))
+    user = [p for p in [site.getusersitepackages()] if p in sys.path]
+    paths = os.pathsep.join(dict.fromkeys([_ROOT, *extra, *user]))
     return [command[0], "-I", "-c", _BOOTSTRAP, paths, *command[2:]]
 
 

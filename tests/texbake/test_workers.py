@@ -4,6 +4,7 @@ import os
 import signal
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -92,3 +93,26 @@ time.sleep(60)
     assert child.ppid() != parent.pid  # re-parented
     child.wait(10)  # raises TimeoutExpired if it outlives its parent by 10 s (2 s start + 0.5 s poll)
     assert not psutil.pid_exists(pid) or child.status() == psutil.STATUS_ZOMBIE
+
+
+def test_a_module_worker_is_isolated_from_the_working_directory(tmp_path, monkeypatch):
+    """``[python, -m, MODULE]`` runs isolated: a ``texbake.py`` in its working folder and a
+    relative PYTHONPATH entry (naming that folder) are ignored; the package still imports
+    from this source tree, and an absolute PYTHONPATH entry still counts."""
+    import subprocess
+
+    from texbake.workers import isolated
+
+    (tmp_path / "texbake.py").write_text("raise SystemExit('the working folder was imported')")
+    (tmp_path / "extra").mkdir()
+    (tmp_path / "extra" / "texbake_extra.py").write_text("")
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([".", str(tmp_path / "extra")]))
+    code = "import sys, texbake, texbake_extra; print(texbake.__file__, sys.flags.isolated, sys.argv[1:])"
+    probe = tmp_path / "extra" / "probe.py"
+    probe.write_text(code)
+    command = isolated([sys.executable, "-m", "probe", "a", "b"])
+    assert command[1:3] == ["-I", "-c"] and command[-3:] == ["probe", "a", "b"]
+    out = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == [str(Path(__file__).resolve().parents[2] / "texbake" / "__init__.py"), "1", "['a',", "'b']"]
+    assert isolated([sys.executable, "worker.py"]) == [sys.executable, "worker.py"]  # a script: as it is

@@ -86,6 +86,7 @@ _idle: list[Worker] = []  # bake processes started and waiting for a job
 _idle_lock = threading.Lock()
 _running: dict[str, tuple[int, int]] = {}  # job id -> (pid of the bake process baking it, lease), this worker's
 JOBS_PER_PROCESS = 50  # then a fresh process: no memory creeps from job to job
+_handing_back = threading.Event()  # set by hand_back(): the bakes it kills are not failures
 
 
 def _new_bake_process(s: Settings) -> Worker:
@@ -236,6 +237,8 @@ def _supervise(job_id: str, token: int, folder: Path, tmp: str, worker: Worker) 
                 error = f"the bake took longer than {s.job_seconds:g} s"
                 worker.end()  # the bake is abandoned with its process
                 break
+    if reply is not None and not reply[0] and _handing_back.is_set():
+        return "handed back"  # killed by hand_back(), which puts the job back in the queue
     if reply is not None:
         ok, value = reply
         if ok:  # the bake's own answer: None (done) or why it failed
@@ -288,6 +291,7 @@ def hand_back() -> list[str]:
     """
     s = get_settings()
     returned = []
+    _handing_back.set()  # before the kills: their bakes' threads must not fail the jobs first
     for job_id, (pid, token) in list(_running.items()):
         try:
             os.kill(pid, signal.SIGKILL)  # first: a bake that ends now cannot publish a released job
