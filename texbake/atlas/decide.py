@@ -80,14 +80,10 @@ def make_atlas(
         ``OVERLAP_LIMIT`` of the covered texel centres under two or more faces, on the
         bake's grid) and unwraps otherwise, saying why; "unwrap" always unwraps; "keep"
         requires usable UVs and keeps overlapping ones with a warning.
-    size : int, optional
-        Texels of the square texture, 1 to 65536: the packing's resolution.
-    padding : int, optional
-        Texels between charts, 0 to 64.
-    deadline : float, optional
-        Seconds for all xatlas work, in ``workers`` processes.
-    workers : int, optional
-        xatlas worker processes.
+    size, padding : int, optional
+        Texels of the square texture (1 to 65536) and between charts (0 to 64).
+    deadline, workers : float, int, optional
+        Seconds for all xatlas work, and its worker processes.
     charting : {"auto", "xatlas", "planar"}, optional
         "planar" (:mod:`texbake.atlas.charts`), "xatlas" (its own charts; meshes of more
         than ``2 * PATCH_FACES`` faces in patches, in parallel) or "auto"
@@ -99,13 +95,10 @@ def make_atlas(
     Returns
     -------
     Atlas
-        ``reason`` says why the UVs were not kept, which charting was used and why, and
-        what failed. ``stats``: :func:`texbake.atlas.uvcheck.measure` (charts,
-        utilisation, stretch, ``overlap``: the share of covered texels under two or more
-        faces, ``bare_area``: the share of the surface on charts that hold no texel centre
-        at ``size``, None above 8192), plus ``seconds``,
-        and ``patches`` or ``planar_charts`` and ``flat_share``. ``warnings``: overlapping
-        UVs kept, the fallback grid, over ``BARE_LIMIT`` of the surface on bare charts.
+        ``reason``: why the UVs were not kept, the charting used and why, what failed.
+        ``stats``: :func:`texbake.atlas.uvcheck.measure`'s, ``seconds``, and ``patches``
+        or ``planar_charts`` and ``flat_share``. ``warnings``: overlapping UVs kept, the
+        fallback grid, over ``BARE_LIMIT`` of the surface on charts with no texel centre.
 
     Raises
     ------
