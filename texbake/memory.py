@@ -28,7 +28,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from .errors import ParameterError
-from .output.images import DEFAULT_BITS
+from .formats import DEFAULT_BITS
 
 BASE = 240 * 2**20
 PER_FACE = 900

@@ -37,7 +37,7 @@ from pydantic import (
 )
 
 from .errors import ParameterError, TextureError
-from .output import bits_problem, format_name
+from .formats import bits_problem, format_name
 from .textures.spec import TEXTURES, TextureSpec, parse_spec
 from .validation import describe
 

@@ -19,7 +19,7 @@ from contextlib import nullcontext
 import numba as nb
 import numpy as np
 
-from ..output import DEFAULT_BITS
+from ..formats import DEFAULT_BITS
 from ..sampling import Samples, Tile
 from ..settings import BakeSettings
 from ..textures.mapping import TextureMapping

@@ -2,8 +2,8 @@
 
 What the rest of texbake uses is named here; the modules are this folder's own:
 
-- ``images``: OpenImageIO maps in and out, the formats and bit depths (:func:`write_image`,
-  :func:`read_image`, :func:`encode_png_bytes`, :data:`BITS`, :func:`format_name`);
+- ``images``: OpenImageIO maps in and out (:func:`write_image`, :func:`read_image`,
+  :func:`encode_png_bytes`);
 - ``export``: the GLB and OBJ + MTL (:func:`write_glb`, :func:`write_obj`);
 - ``report``: ``report.json`` (:func:`bake_report`);
 - ``save``: a bake's files written together (:func:`save_result`);
@@ -19,28 +19,17 @@ from .._lazy import lazy_names
 if TYPE_CHECKING:
     from .atomic import remove_stale, replacing, write_bytes
     from .export import write_glb, write_obj
-    from .images import (
-        BITS,
-        DEFAULT_BITS,
-        bits_problem,
-        encode_png_bytes,
-        format_name,
-        image_format,
-        read_image,
-        srgb_decode,
-        srgb_encode,
-        write_image,
-    )
+    from .images import encode_png_bytes, read_image, srgb_decode, srgb_encode, write_image
     from .report import BakeTally, bake_report, library_versions, write_json
     from .save import save_result
 
 _HOMES = {name: module for module, names in {
-    "images": ["write_image", "read_image", "encode_png_bytes", "srgb_encode", "srgb_decode", "BITS", "DEFAULT_BITS", "format_name", "image_format", "bits_problem"],
+    "images": ["write_image", "read_image", "encode_png_bytes", "srgb_encode", "srgb_decode"],
     "export": ["write_glb", "write_obj"],
     "report": ["bake_report", "BakeTally", "write_json", "library_versions"],
     "save": ["save_result"],
     "atomic": ["write_bytes", "replacing", "remove_stale"],
 }.items() for name in names}
 
-__all__ = ["write_image", "read_image", "encode_png_bytes", "srgb_encode", "srgb_decode", "BITS", "DEFAULT_BITS", "format_name", "image_format", "bits_problem", "write_glb", "write_obj", "bake_report", "BakeTally", "write_json", "library_versions", "save_result", "write_bytes", "replacing", "remove_stale"]
+__all__ = ["write_image", "read_image", "encode_png_bytes", "srgb_encode", "srgb_decode", "write_glb", "write_obj", "bake_report", "BakeTally", "write_json", "library_versions", "save_result", "write_bytes", "replacing", "remove_stale"]
 __getattr__ = lazy_names(__name__, _HOMES)

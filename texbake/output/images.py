@@ -46,14 +46,13 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import OutputError, ParameterError
+from ..formats import DEFAULT_BITS, bits_problem, image_format
 from .atomic import replacing
 from .atomic import sync as _sync  # a module global: tests put a failure in it
 
 SRGB = "srgb_rec709_scene"
 LINEAR = "lin_rec709_scene"
 DATA = "data"
-BITS = {"png": (8, 16), "exr": (16, 32), "tif": (8, 16, 32)}  # the bit depths each format takes
-DEFAULT_BITS = {"png": 8, "exr": 16, "tif": 16}
 _EXTENSION = {"png": ".png", "exr": ".exr", "tif": ".tif"}
 _COLORSPACES = {"linear": "linear", "lin_rec709_scene": "linear", "srgb": "srgb", "srgb_rec709_scene": "srgb",
                 "data": "data", "raw": "data"}
@@ -73,28 +72,6 @@ def srgb_decode(encoded: np.ndarray) -> np.ndarray:
     """Inverse of :func:`srgb_encode`."""
     x = np.asarray(encoded, dtype=np.float64)
     return np.where(x <= 0.04045, x / 12.92, np.power((x + 0.055) / 1.055, 2.4))
-
-
-def format_name(name: str) -> str:
-    """An image format as texbake names it: lower case, no leading dot, "tiff" as "tif"."""
-    name = name.lower().lstrip(".")
-    return "tif" if name == "tiff" else name
-
-
-def image_format(name: str) -> str:
-    """:func:`format_name` of ``name`` (a format or an extension); :class:`ParameterError`
-    (``format``) unless it is one of :data:`BITS`."""
-    fmt = format_name(name)
-    if fmt not in BITS:
-        raise ParameterError("format", f"expected png, exr, tif or tiff, got {fmt!r}")
-    return fmt
-
-
-def bits_problem(fmt: str, bits) -> str | None:
-    """Why ``bits`` is not a bit depth the image format ``fmt`` takes, or None."""
-    if bits in BITS[fmt]:
-        return None
-    return f"{fmt} takes {' or '.join(map(str, BITS[fmt]))} bits, got {bits!r}"
 
 
 # -- exact 8-bit sRGB encoding, fast ------------------------------------------------------

@@ -12,9 +12,10 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from ..errors import OutputError, ParameterError
+from ..formats import bits_problem, image_format
 from .atomic import remove_stale
 from .export import write_glb, write_obj
-from .images import bits_problem, image_format, write_image
+from .images import write_image
 from .report import write_json
 
 
