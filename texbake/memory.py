@@ -52,7 +52,7 @@ def bake_bytes(settings, faces: int, workers: int = 2, tile_samples: int = TILE_
     ``tile_samples`` samples (bake_mesh's arguments)."""
     width, height = settings.width_height
     texels = width * height
-    samples = settings.quality_settings().samples
+    samples = settings.samples
     colours = len(settings.frames) if settings.frames is not None else 1
     others = (settings.shading != "decal") + (settings.bump is not None)
     bits = settings.bits or DEFAULT_BITS[settings.format]
