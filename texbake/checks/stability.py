@@ -666,8 +666,8 @@ def _() -> Figure:
 BIG = 16384
 # Peak RSS limit of the 16384^2 bake and save, in its own process. The maps are held as
 # float16 at this size (6 bytes a texel), the hit counts and masks take a few more, and
-# the tiles, the margin and the PNG writer work in bands: 2.99 GB measured (11.2 bytes a
-# texel, 2026-12-01). 13 bytes a texel (3.5 GB) bounds that with some room; a float32
+# the tiles, the margin and the PNG writer work in bands: about 11 bytes a texel in all
+# (bench/bench_bake.py measures it). 13 bytes a texel bounds that with some room; a float32
 # map (12 bytes a texel more) or a stage that held whole-image per-sample arrays would
 # break it.
 BIG_LIMIT_GB = 13 * BIG * BIG / 1e9

@@ -198,7 +198,7 @@ _POWERS_OF_TEN = np.array([float(10**k) for k in range(23)])  # all exact in flo
 def _plain_decimals(content: bytes, starts: np.ndarray, ends: np.ndarray) -> np.ndarray | None:
     """float() of each field of ``content`` (``starts``, ``ends``: its fields), each a sign,
     digits and at most one ".", or None. The digits without the point are read as one
-    integer (numpy's integer parser: 10x faster than its float parser) and divided by a
+    integer (numpy's integer parser is much faster than its float parser) and divided by a
     power of ten: both are exact below 2**53 and 10**22, so the quotient is the correctly
     rounded value that float() gives."""
     if not len(starts):
@@ -360,7 +360,7 @@ def _corner_indices(corners: list[str], where: str) -> tuple[np.ndarray, np.ndar
     double = "//" in corners[0]
     if joined.count("/") == slashes * len(corners) and joined.count("//") == (len(corners) if double else 0):
         columns = 1 if slashes == 0 else (2 if slashes == 1 or double else 3)
-        try:  # numpy's C parser: 6x faster than int() on each field
+        try:  # numpy's C parser, not int() on each field
             flat = np.fromstring(joined.replace("//", " ").replace("/", " "), dtype=np.int64, sep=" ")
         except ValueError:  # a field that is not a whole number: the slow way names it
             flat = None

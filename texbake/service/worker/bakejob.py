@@ -44,7 +44,8 @@ def setup(memory_mb: int, cache: Path | None = None) -> None:
 def _few_arenas() -> None:
     """At most two malloc arenas (glibc's ``mallopt(M_ARENA_MAX, 2)``): each thread that
     allocates may otherwise reserve an arena of 64 MB of address space, which the limit
-    counts (the tile threads, the kernels' pool, the warm-up: a 1500 MB bake failed)."""
+    counts (the tile threads, the kernels' pool, the warm-up), so a bake well inside the
+    limit could fail for address space it never used."""
     try:
         ctypes.CDLL(None).mallopt(-8, 2)  # M_ARENA_MAX
     except (OSError, AttributeError):
