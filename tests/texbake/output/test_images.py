@@ -19,6 +19,7 @@ import numpy as np
 import OpenImageIO as oiio
 import pytest
 
+import texbake.formats as formats
 import texbake.output.images as imageio
 from texbake.errors import OutputError, ParameterError
 from texbake.output.images import encode_png_bytes, read_image, srgb_decode, srgb_encode, write_image
@@ -356,14 +357,14 @@ def test_one_format_rule_for_the_settings_the_writer_and_the_saver(tmp_path, nam
     from texbake.output.save import save_result
     from texbake.settings import BakeSettings
 
-    assert imageio.image_format(name) == fmt and BakeSettings(format=name).format == fmt
+    assert formats.image_format(name) == fmt and BakeSettings(format=name).format == fmt
     for bits in (8, 16, 32):
-        takes = bits in imageio.BITS[fmt]
-        assert (imageio.bits_problem(fmt, bits) is None) == takes
+        takes = bits in formats.BITS[fmt]
+        assert (formats.bits_problem(fmt, bits) is None) == takes
         if not takes:
-            with pytest.raises(ParameterError, match=f"'bits': {fmt} takes"):
+            with pytest.raises(ParameterError, match=f"bits: {fmt} takes"):
                 write_image(tmp_path / f"a.{fmt}", ramp(), bits=bits)
-            with pytest.raises(ParameterError, match=f"'bits': {fmt} takes"):
+            with pytest.raises(ParameterError, match=f"bits: {fmt} takes"):
                 save_result(None, tmp_path / "out", fmt=name, bits=bits)  # checked before the result is read
             with pytest.raises(ValueError, match=f"bits: {fmt} takes"):
                 BakeSettings(format=name, bits=bits)
@@ -377,7 +378,7 @@ def test_an_unknown_format_is_refused_by_each_of_them(tmp_path):
     from texbake.settings import BakeSettings
 
     for call in (lambda: write_image(tmp_path / "a.jpg", ramp()), lambda: save_result(None, tmp_path / "out", fmt="jpeg")):
-        with pytest.raises(ParameterError, match="'format': expected png, exr, tif or tiff, got 'jp"):
+        with pytest.raises(ParameterError, match="format: expected png, exr, tif or tiff, got 'jp"):
             call()
     with pytest.raises(ValidationError, match="format"):
         BakeSettings(format="jpeg")
