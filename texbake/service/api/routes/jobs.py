@@ -16,7 +16,7 @@ from fastapi import APIRouter, File, Form, HTTPException, Query, Request, Respon
 from fastapi.responses import StreamingResponse
 from pydantic import BeforeValidator, Json
 
-from texbake.errors import MeshError
+from texbake.errors import MeshError, ParameterError
 from texbake.memory import check_fits
 from texbake.mesh import FORMATS, check_file
 
@@ -88,7 +88,10 @@ def _bake_settings(parsed: BakeSettings | None, settings) -> BakeSettings:
     for name, (value, limit) in limits.items():
         if value > limit:
             raise HTTPException(422, detail=f"settings.{name}: {value} is over this server's limit of {limit}")
-    check_fits(parsed, 0, workers=1, limit=settings.job_memory_mb << 20)  # the maps' memory: the faces are not counted yet
+    try:  # the maps' memory: the faces are not counted yet
+        check_fits(parsed, 0, workers=1, limit=settings.job_memory_mb << 20)
+    except ParameterError as exc:  # named as the other settings are
+        raise HTTPException(422, detail=f"settings.{exc.name}: {exc.problem}") from None
     if "max_faces" in parsed.model_fields_set:
         return parsed
     return BakeSettings.build(parsed, max_faces=settings.max_faces)
