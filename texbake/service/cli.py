@@ -20,6 +20,18 @@ def _need_service_extra(exc: ImportError):
     raise typer.Exit(2)
 
 
+def _started(command: str):
+    """The service's settings for a long-running ``command``, its logging set up and its
+    database migrated (what ``serve`` and ``worker`` do first)."""
+    from .core import logs
+    from .core.config import get_settings
+
+    settings = get_settings()
+    logs.setup(settings.log_format)
+    _upgrade_database(command, settings.database)
+    return settings
+
+
 def _upgrade_database(command: str, url: str) -> tuple[str | None, str | None]:
     """Migrate the jobs database (every process that uses it does, as it starts: the lock
     in ``db.upgrade`` lets one at a time); a database out of reach ends the command."""
@@ -57,16 +69,12 @@ def serve(
     try:
         import uvicorn
 
-        from .core import logs
-        from .core.config import get_settings
         from .main import create_app
         from .worker.supervise import Supervisor, worker_environment
     except ImportError as exc:
         _need_service_extra(exc)
 
-    settings = get_settings()
-    logs.setup(settings.log_format)
-    _upgrade_database("serve", settings.database)
+    settings = _started("serve")
     if host not in ("127.0.0.1", "localhost", "::1") and not settings.api_keys:
         print(f"texbake serve: listening on {host} with no API keys: anyone who can reach it can bake (set BAKE_API_KEYS)", file=sys.stderr)
     supervisor = None
@@ -125,15 +133,11 @@ def worker(workers: int | None = typer.Option(None, help="bakes at a time (defau
     if os.environ.get(PARENT_ENV):  # started by ``texbake serve``: it must not outlive it
         die_with_parent()
     try:
-        from .core import logs
-        from .core.config import get_settings
         from .worker.tasks import hand_back, prestart, queue, reap_forever
     except ImportError as exc:
         _need_service_extra(exc)
 
-    settings = get_settings()
-    logs.setup(settings.log_format)
-    _upgrade_database("worker", settings.database)
+    settings = _started("worker")
     count = workers or settings.workers
     prestart(count)  # the first jobs find their bake processes warm
     stop = threading.Event()
