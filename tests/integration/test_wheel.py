@@ -14,7 +14,7 @@ from importlib import metadata
 from conftest import ROOT
 
 # what a fresh clone does not have: at the top, and anywhere (caches of Python and numba)
-NOT_AT_THE_TOP = {".git", ".venv", ".venv-blender", "build", "dist", "out", ".tools", ".pytest_cache", ".hypothesis",
+NOT_AT_THE_TOP = {".git", ".venv", ".venv-blender", "build", "dist", "out", "wheelhouse", ".tools", ".pytest_cache", ".hypothesis",
                   ".mypy_cache", ".ruff_cache", ".schemathesis"}
 NOWHERE = ("__pycache__", "node_modules", ".egg-info", ".pyc", ".nbi", ".nbc")
 
@@ -40,12 +40,14 @@ def test_the_wheel_holds_texbake_and_its_data_only(tmp_path):
     assert built.returncode == 0, built.stdout[-3000:] + built.stderr[-3000:]
     (wheel,) = (tmp_path / "dist").glob("texbake-*.whl")
     version = metadata.version("texbake")
-    assert wheel.name == f"texbake-{version}-py3-none-any.whl"
+    assert wheel.name.startswith(f"texbake-{version}-cp3") and wheel.name.endswith("_x86_64.whl"), wheel.name  # compiled: a platform wheel
     with zipfile.ZipFile(wheel) as z:
         names = z.namelist()
         entry_points = z.read(f"texbake-{version}.dist-info/entry_points.txt").decode()
     assert {n.split("/")[0] for n in names} == {"texbake", f"texbake-{version}.dist-info"}  # no other top-level package
     # every module and data file of the package, and nothing else: no cache, no test
-    assert {n for n in names if n.startswith("texbake/")} == package_files(ROOT), "the wheel's texbake/ differs from the tree's"
+    native = {n for n in names if n.startswith("texbake/_native.") and n.endswith(".so")}
+    assert len(native) == 1, names  # the compiled kernels, built from native/
+    assert {n for n in names if n.startswith("texbake/")} - native == package_files(ROOT), "the wheel's texbake/ differs from the tree's"
     assert "texbake/py.typed" in names and "texbake/service/static/index.html" in names
     assert "[console_scripts]\ntexbake = texbake.cli:main\n" in entry_points
