@@ -44,6 +44,48 @@ class Charts:
     flat: float  # share of the surface area on faces within 2 degrees of their direction
 
 
+@dataclass
+class Sides:
+    """The faces of a mesh split into front faces and back faces: a back face has the
+    corners of an earlier face (its twin) in the opposite winding, the other side of one
+    surface (a double-sided mesh). Charting the front faces alone and mapping each back
+    face onto its twin's texels gives one chart per surface, not two overlapping ones."""
+
+    faces: np.ndarray  # (m, 3) int64: the mesh's faces
+    front: np.ndarray  # (f,) int64: the faces charted, ascending
+    back: np.ndarray  # (b,) int64: the back faces, ascending
+    twin: np.ndarray  # (b,) int64: each back face's twin, as a position in ``front``
+
+    @classmethod
+    def of(cls, faces: np.ndarray) -> Sides:
+        """The sides of ``(m, 3)`` int faces: of the faces on one set of three vertices, those
+        in the winding of the first are front faces, the others back faces of that first one."""
+        faces = np.asarray(faces, dtype=np.int64)
+        start = np.argmin(faces, axis=1)
+        turned = np.take_along_axis(faces, (start[:, None] + np.arange(3)) % 3, axis=1)
+        winding = turned[:, 1] < turned[:, 2]
+        _, first, inverse = np.unique(np.sort(faces, axis=1), axis=0, return_index=True, return_inverse=True)
+        twin = first[inverse.ravel()]
+        is_back = winding != winding[twin]
+        front = np.flatnonzero(~is_back)
+        back = np.flatnonzero(is_back)
+        return cls(faces, front, back, np.searchsorted(front, twin[back]))
+
+    def restored(self, vmapping: np.ndarray, faces: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(vmapping, faces, uv)`` of an atlas of the front faces (``faces`` (f, 3) in their
+        order) extended to every face: each back face gets new atlas vertices at its twin's
+        corners' UVs (its own vertices, so its shading normals stay its own)."""
+        tf = faces[self.twin]  # (b, 3) atlas vertices of each twin
+        own = self.faces[self.back]  # (b, 3) mesh vertices of each back face
+        corner = np.argmax(own[:, :, None] == vmapping[tf][:, None, :], axis=2)  # twin's corner of each back corner
+        ids = np.take_along_axis(tf, corner, axis=1)
+        new, inverse = np.unique(ids, return_inverse=True)
+        out = np.empty((len(self.faces), 3), dtype=np.int64)
+        out[self.front] = faces
+        out[self.back] = len(vmapping) + inverse.reshape(-1, 3)
+        return np.concatenate([vmapping, vmapping[new]]), out, np.concatenate([uv, uv[new]])
+
+
 def directions(normals: np.ndarray, weights: np.ndarray, angle_limit: float = ANGLE_LIMIT) -> np.ndarray:
     """``(d, 3)`` unit projection directions covering ``(m, 3)`` unit face normals.
 

@@ -23,7 +23,7 @@ import numpy as np
 from ..errors import AtlasError, ParameterError
 from ..mesh import uv_areas
 from ..workers import Pool
-from .charts import prefer_planar
+from .charts import Sides, prefer_planar
 from .fallback import grid_atlas
 from .pack import PATCH_FACES, Unwrapped, UnwrapRequest, XatlasFailed, start_workers, unwrap
 from .uvcheck import OVERLAP_GRID, bare_warning, coverage, measure, overlap_of, unwrap_problem, uv_problem
@@ -117,6 +117,11 @@ def make_atlas(
         kept, why = _keep(request, uv, mode, start)
         if kept is not None:
             return kept
+    sides = Sides.of(request.faces)
+    if len(sides.back):  # a double-sided mesh: one side is charted, the other shares its texels
+        return _both_sides(sides, make_atlas(request.vertices, request.faces[sides.front], mode="unwrap", size=size,
+                                             padding=padding, deadline=deadline, workers=workers, charting=charting,
+                                             _patch_faces=_patch_faces), why)
     end = time.monotonic() + deadline
     attempts, order = _attempts(request.vertices, request.faces, charting, _patch_faces)
     failures: list[str] = []
@@ -131,6 +136,15 @@ def make_atlas(
     stats = {**_stats(request, atlas.faces, atlas.uv, start), **atlas.detail}
     return Atlas(atlas.vmapping, atlas.faces, atlas.uv, atlas.method, f"{why}; {charted} charts: {order}{retried}", stats,
                  bare_warning(stats, size))
+
+
+def _both_sides(sides: Sides, atlas: Atlas, why: str) -> Atlas:
+    """The atlas of a mesh's front faces (:class:`texbake.atlas.charts.Sides`) with its back
+    faces on their twins' texels, counted in ``stats["double_sided_faces"]``."""
+    vmapping, faces, uv = sides.restored(atlas.vmapping, atlas.faces, atlas.uv)
+    reason = atlas.reason.replace("uv='unwrap'", why, 1) + f"; {len(sides.back)} back faces share their front faces' texels"
+    stats = {**atlas.stats, "double_sided_faces": len(sides.back)}
+    return Atlas(vmapping, faces, uv, atlas.method, reason, stats, atlas.warnings)
 
 
 def _check_settings(*, mode, charting, size, padding, deadline, workers) -> None:
