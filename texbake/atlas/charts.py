@@ -25,6 +25,7 @@ SPLITS = 6  # rounds of cutting self-overlapping charts in two
 MERGE_WORK = 8  # joining cut pieces again rasterises at most this many times the mesh's faces
 CRUMB_FACES, CRUMB_LIMIT = 16, 55.0  # charts of fewer faces join a neighbour within this angle, on meshes
 CRUMB_FLAT = 0.1  # with less of their area flat (within 2 degrees of its direction) than this
+FLAT_REGION = 0.01  # a coplanar region of this share of the surface or more is flat ("auto" charting)
 XATLAS_FACES = 6_000  # "auto" charting leaves meshes of more faces to planar charts
 
 
@@ -360,9 +361,11 @@ def prefer_planar(vertices: np.ndarray, faces: np.ndarray) -> tuple[bool, str]:
     Planar for meshes of more than ``XATLAS_FACES`` faces (xatlas' charting then takes
     seconds where planar charts take a fraction of one, at a density spread and
     utilisation as good as Smart UV Project's) and for CAD-like ones: a fifth of the
-    area on flat regions of four or more coplanar faces, or on slivers (longest edge squared over
-    twice the area above 20), where xatlas cuts thousands of charts. xatlas for small
-    organic meshes: fewer seams and less stretch.
+    area on flat regions, or on slivers (longest edge squared over
+    twice the area above 20), where xatlas cuts thousands of charts. A flat region is
+    judged by its area alone, at least ``FLAT_REGION`` of the surface, however few its
+    triangles (a box's side of two): on an organic mesh a planar quad is far smaller.
+    xatlas for small organic meshes: fewer seams and less stretch.
     """
     if len(faces) > XATLAS_FACES:
         return True, f"more than {XATLAS_FACES} faces"
@@ -379,7 +382,8 @@ def prefer_planar(vertices: np.ndarray, faces: np.ndarray) -> tuple[bool, str]:
     a, b = _edge_pairs(faces)
     same = np.einsum("ij,ij->i", normals[a], normals[b]) > COPLANAR_COS
     region = connected_components(len(faces), a[same], b[same])
-    flat = float(twice[np.bincount(region)[region] >= 4].sum() / total)  # a triangulated quad is not a flat
+    region_area = np.bincount(region, weights=twice)[region]
+    flat = float(twice[region_area >= FLAT_REGION * total].sum() / total)
     if flat >= 0.2 or sliver >= 0.2:
         return True, f"CAD-like: {flat:.0%} of the area on flat regions, {sliver:.0%} on slivers"
     return False, f"organic: {flat:.0%} of the area on flat regions, {sliver:.0%} on slivers"
