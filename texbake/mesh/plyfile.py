@@ -55,7 +55,7 @@ def _header(data: bytes) -> tuple[str, list, bytes]:
         raise ValueError("no PLY header")
     newline = data.find(b"\n", end)
     body = data[newline + 1:] if newline >= 0 else b""
-    fmt, elements = "", []
+    fmt, elements = "", []  # type: tuple[str, list[tuple[str, int, list]]]
     for line in data[:end].decode("ascii", errors="replace").splitlines()[1:]:
         words = line.split()
         if not words or words[0] in ("comment", "obj_info"):
@@ -78,7 +78,8 @@ def _header(data: bytes) -> tuple[str, list, bytes]:
 def _ascii_elements(body: bytes, elements: list, _order: str) -> dict[str, dict]:
     """Each element's properties (arrays; a list property: a list of arrays) from ASCII rows."""
     numbers = np.array(body.split(), dtype=np.float64)  # integers up to 2**53 exactly
-    out, at = {}, 0
+    out: dict[str, dict] = {}
+    at = 0
     for name, count, props in elements:
         if all(not isinstance(t, tuple) for _, t in props):
             block = numbers[at:at + count * len(props)].reshape(count, len(props))
@@ -104,7 +105,8 @@ def _ascii_elements(body: bytes, elements: list, _order: str) -> dict[str, dict]
 def _binary_elements(body: bytes, elements: list, order: str) -> dict[str, dict]:
     """Each element's properties from binary rows: fixed rows read at once, rows with lists
     one at a time."""
-    out, at = {}, 0
+    out: dict[str, dict] = {}
+    at = 0
     for name, count, props in elements:
         if all(not isinstance(t, tuple) for _, t in props):
             dtype = np.dtype([(p, order + t) for p, t in props])
