@@ -110,14 +110,14 @@ def make_atlas(
     start = time.perf_counter()
     _check_settings(mode=mode, charting=charting, size=size, padding=padding, deadline=deadline, workers=workers)
     request = UnwrapRequest(*_checked_mesh(vertices, faces), size, padding)
+    if len((sides := Sides.of(request.faces)).back):  # double-sided: one side is mapped, the other shares its texels
+        return _both_sides(sides, make_atlas(request.vertices, request.faces[sides.front], uv, mode=mode, size=size, padding=padding,
+                                             deadline=deadline, workers=workers, charting=charting, _patch_faces=_patch_faces))
     why = "uv='unwrap'"
     if mode != "unwrap":
         kept, why = _keep(request, uv, mode, start)
         if kept is not None:
             return kept
-    if len((sides := Sides.of(request.faces)).back):  # double-sided: one side is charted, the other shares its texels
-        return _both_sides(sides, why, make_atlas(request.vertices, request.faces[sides.front], mode="unwrap", size=size, padding=padding,
-                                                  deadline=deadline, workers=workers, charting=charting, _patch_faces=_patch_faces))
     end = time.monotonic() + deadline
     attempts, order = _attempts(request.vertices, request.faces, charting, _patch_faces)
     failures: list[str] = []
@@ -134,11 +134,12 @@ def make_atlas(
                  bare_warning(stats, size))
 
 
-def _both_sides(sides: Sides, why: str, atlas: Atlas) -> Atlas:
-    """The atlas of a mesh's front faces (:class:`texbake.atlas.charts.Sides`) with its back
-    faces on their twins' texels, counted in ``stats["double_sided_faces"]``."""
+def _both_sides(sides: Sides, atlas: Atlas) -> Atlas:
+    """The atlas of a mesh's front faces (:class:`texbake.atlas.charts.Sides`: their own UVs
+    kept, or unwrapped) with its back faces on their twins' texels, counted in
+    ``stats["double_sided_faces"]``."""
     vmapping, faces, uv = sides.restored(atlas.vmapping, atlas.faces, atlas.uv)
-    reason = atlas.reason.replace("uv='unwrap'", why, 1) + f"; {len(sides.back)} back faces share their front faces' texels"
+    reason = f"{atlas.reason}; {len(sides.back)} back faces share their front faces' texels"
     stats = {**atlas.stats, "double_sided_faces": len(sides.back)}
     return Atlas(vmapping, faces, uv, atlas.method, reason, stats, atlas.warnings)
 
