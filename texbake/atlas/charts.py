@@ -65,8 +65,13 @@ class Sides:
         start = np.argmin(faces, axis=1)
         turned = np.take_along_axis(faces, (start[:, None] + np.arange(3)) % 3, axis=1)
         winding = turned[:, 1] < turned[:, 2]
-        _, first, inverse = np.unique(np.sort(faces, axis=1), axis=0, return_index=True, return_inverse=True)
-        twin = first[inverse.ravel()]
+        corners = np.sort(faces, axis=1)
+        order = np.lexsort(corners.T[::-1])  # stable: within one set of corners, the faces in their order
+        ordered = corners[order]
+        new = np.ones(len(faces), dtype=bool)
+        new[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
+        twin = np.empty(len(faces), dtype=np.int64)  # the first face on each face's corners
+        twin[order] = order[np.maximum.accumulate(np.where(new, np.arange(len(faces)), 0))]
         is_back = winding != winding[twin]
         front = np.flatnonzero(~is_back)
         back = np.flatnonzero(is_back)
