@@ -4,7 +4,8 @@
 
 Copies into ``DIR`` (default ``$TEXBAKE_BENCH_MESHES``, else ``~/.cache/texbake-bench/meshes``)
 the meshes named in ``SOURCES`` from git repositories that are already on this machine:
-``--repo owner/name=GIT_DIR`` (a bare clone or a mirror; by default the mirrors under
+``--repo owner/name=GIT_DIR`` (a bare clone, e.g. ``git clone --bare --filter=blob:none
+https://github.com/mikedh/trimesh``, or a mirror; by default the mirrors under
 ``/work/.mirror``), read with ``git show HEAD:path``, so nothing is downloaded here. The
 shared meshes (``../shared/meshes``) and the generated CAD parts
 (:mod:`texbake.checks.cad`) are not copied: :func:`gathered` lists the cache's files and
