@@ -85,7 +85,7 @@ def test_unwrap_is_skipped_when_uvs_are_usable(meshes):
 def test_uvs_outside_the_unit_square_are_unwrapped(meshes):
     # BoxTextured's UVs run from 0 to 6 (a repeating texture): not an atlas
     result = texbake.bake_mesh(meshes / "BoxTextured.glb", "checker", size=64)
-    assert result.report["atlas"]["method"] == "xatlas"
+    assert result.report["atlas"]["method"] == "planar"  # a box: its sides are flat
     assert "unit square" in result.report["atlas"]["reason"]
 
 
@@ -226,3 +226,16 @@ def test_the_lit_map_shades_with_the_normals_the_glb_gets():
     levels = np.unique(np.round(ratio[bright], 4))
     assert len(levels) <= 6, levels  # one shade a face at most
     assert np.allclose(result.mesh.normals[result.mesh.faces].std(axis=1), 0)  # the GLB's: flat per face
+
+
+def test_a_double_sided_mesh_bakes_as_its_front_side(tmp_path):
+    # a box with every face doubled in the opposite winding: both sides on one chart, and the
+    # texels hold the front side's shading (not whichever side a texel's ray met)
+    box = trimesh.creation.box(extents=(1.0, 2.0, 3.0))
+    double = trimesh.Trimesh(box.vertices, np.concatenate([box.faces, box.faces[:, ::-1]]), process=False)
+    kw = dict(size=64, shading="ambient-diffuse", uv="unwrap", charting="planar", texture_space="object")
+    one, two = texbake.bake_mesh(box, "marble", **kw), texbake.bake_mesh(double, "marble", **kw)
+    assert two.report["atlas"]["double_sided_faces"] == 12 and two.report["atlas"]["charts"] == 6
+    assert np.array_equal(one.coverage, two.coverage)
+    for name in ("albedo", "lit"):
+        assert np.allclose(one.images[name], two.images[name], atol=1e-5), name

@@ -5,7 +5,8 @@ What the rest of texbake uses is named here; the modules are this folder's own:
 - ``decide``: :func:`make_atlas`, the list of attempts (keep, unwrap one way, the other,
   fall back), and :class:`Atlas`, what it returns;
 - ``uvcheck``: whether UVs are usable, texel coverage and overlap, an atlas's statistics;
-- ``charts``: planar charts (faces grouped by normal direction, projected onto planes);
+- ``charts``: planar charts (faces grouped by normal direction, projected onto planes),
+  and :class:`Sides`, a double-sided mesh's front and back faces;
 - ``pack``: the unwrap in xatlas' worker processes (charting, packing, refitting), and
   ``packworker``, the worker process itself;
 - ``fallback``: the grid atlas, one cell per triangle;
@@ -23,6 +24,7 @@ from .._lazy import lazy_names
 
 if TYPE_CHECKING:
     from .cache import AtlasCache, atlas_key
+    from .charts import Sides
     from .decide import Atlas, make_atlas
     from .pack import run_xatlas_in_child
     from .uvcheck import atlas_stats, overlap, uv_problem
@@ -32,7 +34,8 @@ _HOMES = {
     "AtlasCache": "cache", "atlas_key": "cache",
     "uv_problem": "uvcheck", "atlas_stats": "uvcheck", "overlap": "uvcheck",
     "run_xatlas_in_child": "pack",
+    "Sides": "charts",
 }
 
-__all__ = ["Atlas", "make_atlas", "AtlasCache", "atlas_key", "uv_problem", "atlas_stats", "overlap", "run_xatlas_in_child"]
+__all__ = ["Atlas", "make_atlas", "AtlasCache", "atlas_key", "uv_problem", "atlas_stats", "overlap", "run_xatlas_in_child", "Sides"]
 __getattr__ = lazy_names(__name__, _HOMES)

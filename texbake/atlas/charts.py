@@ -25,6 +25,7 @@ SPLITS = 6  # rounds of cutting self-overlapping charts in two
 MERGE_WORK = 8  # joining cut pieces again rasterises at most this many times the mesh's faces
 CRUMB_FACES, CRUMB_LIMIT = 16, 55.0  # charts of fewer faces join a neighbour within this angle, on meshes
 CRUMB_FLAT = 0.1  # with less of their area flat (within 2 degrees of its direction) than this
+FLAT_REGION = 0.01  # a coplanar region of this share of the surface or more is flat ("auto" charting)
 XATLAS_FACES = 6_000  # "auto" charting leaves meshes of more faces to planar charts
 
 
@@ -42,6 +43,53 @@ class Charts:
     labels: np.ndarray  # (m,) int64: each face's chart (connected, one direction)
     directions: np.ndarray  # (d, 3) float64: the projection directions
     flat: float  # share of the surface area on faces within 2 degrees of their direction
+
+
+@dataclass
+class Sides:
+    """The faces of a mesh split into front faces and back faces: a back face has the
+    corners of an earlier face (its twin) in the opposite winding, the other side of one
+    surface (a double-sided mesh). Charting the front faces alone and mapping each back
+    face onto its twin's texels gives one chart per surface, not two overlapping ones."""
+
+    faces: np.ndarray  # (m, 3) int64: the mesh's faces
+    front: np.ndarray  # (f,) int64: the faces charted, ascending
+    back: np.ndarray  # (b,) int64: the back faces, ascending
+    twin: np.ndarray  # (b,) int64: each back face's twin, as a position in ``front``
+
+    @classmethod
+    def of(cls, faces: np.ndarray) -> Sides:
+        """The sides of ``(m, 3)`` int faces: of the faces on one set of three vertices, those
+        in the winding of the first are front faces, the others back faces of that first one."""
+        faces = np.asarray(faces, dtype=np.int64)
+        start = np.argmin(faces, axis=1)
+        turned = np.take_along_axis(faces, (start[:, None] + np.arange(3)) % 3, axis=1)
+        winding = turned[:, 1] < turned[:, 2]
+        corners = np.sort(faces, axis=1)
+        order = np.lexsort(corners.T[::-1])  # stable: within one set of corners, the faces in their order
+        ordered = corners[order]
+        new = np.ones(len(faces), dtype=bool)
+        new[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
+        twin = np.empty(len(faces), dtype=np.int64)  # the first face on each face's corners
+        twin[order] = order[np.maximum.accumulate(np.where(new, np.arange(len(faces)), 0))]
+        is_back = winding != winding[twin]
+        front = np.flatnonzero(~is_back)
+        back = np.flatnonzero(is_back)
+        return cls(faces, front, back, np.searchsorted(front, twin[back]))
+
+    def restored(self, vmapping: np.ndarray, faces: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(vmapping, faces, uv)`` of an atlas of the front faces (``faces`` (f, 3) in their
+        order) extended to every face: each back face gets new atlas vertices at its twin's
+        corners' UVs (its own vertices, so its shading normals stay its own)."""
+        tf = faces[self.twin]  # (b, 3) atlas vertices of each twin
+        own = self.faces[self.back]  # (b, 3) mesh vertices of each back face
+        corner = np.argmax(own[:, :, None] == vmapping[tf][:, None, :], axis=2)  # twin's corner of each back corner
+        ids = np.take_along_axis(tf, corner, axis=1)
+        new, inverse = np.unique(ids, return_inverse=True)
+        out = np.empty((len(self.faces), 3), dtype=np.int64)
+        out[self.front] = faces
+        out[self.back] = len(vmapping) + inverse.reshape(-1, 3)
+        return np.concatenate([vmapping, vmapping[new]]), out, np.concatenate([uv, uv[new]])
 
 
 def directions(normals: np.ndarray, weights: np.ndarray, angle_limit: float = ANGLE_LIMIT) -> np.ndarray:
@@ -318,9 +366,11 @@ def prefer_planar(vertices: np.ndarray, faces: np.ndarray) -> tuple[bool, str]:
     Planar for meshes of more than ``XATLAS_FACES`` faces (xatlas' charting then takes
     seconds where planar charts take a fraction of one, at a density spread and
     utilisation as good as Smart UV Project's) and for CAD-like ones: a fifth of the
-    area on flat regions of four or more coplanar faces, or on slivers (longest edge squared over
-    twice the area above 20), where xatlas cuts thousands of charts. xatlas for small
-    organic meshes: fewer seams and less stretch.
+    area on flat regions, or on slivers (longest edge squared over
+    twice the area above 20), where xatlas cuts thousands of charts. A flat region is
+    judged by its area alone, at least ``FLAT_REGION`` of the surface, however few its
+    triangles (a box's side of two): on an organic mesh a planar quad is far smaller.
+    xatlas for small organic meshes: fewer seams and less stretch.
     """
     if len(faces) > XATLAS_FACES:
         return True, f"more than {XATLAS_FACES} faces"
@@ -337,7 +387,8 @@ def prefer_planar(vertices: np.ndarray, faces: np.ndarray) -> tuple[bool, str]:
     a, b = _edge_pairs(faces)
     same = np.einsum("ij,ij->i", normals[a], normals[b]) > COPLANAR_COS
     region = connected_components(len(faces), a[same], b[same])
-    flat = float(twice[np.bincount(region)[region] >= 4].sum() / total)  # a triangulated quad is not a flat
+    region_area = np.bincount(region, weights=twice)[region]
+    flat = float(twice[region_area >= FLAT_REGION * total].sum() / total)
     if flat >= 0.2 or sliver >= 0.2:
         return True, f"CAD-like: {flat:.0%} of the area on flat regions, {sliver:.0%} on slivers"
     return False, f"organic: {flat:.0%} of the area on flat regions, {sliver:.0%} on slivers"

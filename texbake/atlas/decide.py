@@ -23,7 +23,7 @@ import numpy as np
 from ..errors import AtlasError, ParameterError
 from ..mesh import uv_areas
 from ..workers import Pool
-from .charts import prefer_planar
+from .charts import Sides, prefer_planar
 from .fallback import grid_atlas
 from .pack import PATCH_FACES, Unwrapped, UnwrapRequest, XatlasFailed, start_workers, unwrap
 from .uvcheck import OVERLAP_GRID, bare_warning, coverage, measure, overlap_of, unwrap_problem, uv_problem
@@ -76,19 +76,17 @@ def make_atlas(
     uv : (n, 2) array_like of float, optional
         The mesh's per-vertex UVs, or None.
     mode : {"auto", "unwrap", "keep"}, optional
-        "auto" keeps usable UVs (:func:`uv_problem`) that do not overlap (more than
-        ``OVERLAP_LIMIT`` of the covered texel centres under two or more faces, on the
-        bake's grid) and unwraps otherwise, saying why; "unwrap" always unwraps; "keep"
-        requires usable UVs and keeps overlapping ones with a warning.
+        "auto" keeps usable UVs (:func:`uv_problem`) that do not overlap (more than ``OVERLAP_LIMIT``
+        of the covered texel centres under two or more faces, on the bake's grid) and unwraps otherwise,
+        saying why; "unwrap" always unwraps; "keep" requires usable UVs and keeps overlapping ones with a warning.
     size, padding : int, optional
         Texels of the square texture (1 to 65536) and between charts (0 to 64).
     deadline, workers : float, int, optional
         Seconds for all xatlas work, and its worker processes.
     charting : {"auto", "xatlas", "planar"}, optional
-        "planar" (:mod:`texbake.atlas.charts`), "xatlas" (its own charts; meshes of more
-        than ``2 * PATCH_FACES`` faces in patches, in parallel) or "auto"
-        (:func:`texbake.atlas.charts.prefer_planar`). The other is tried when the first
-        fails, and a "fallback-grid" atlas (a cell per triangle) only when both have.
+        "planar" (:mod:`texbake.atlas.charts`), "xatlas" (its own charts; meshes of more than ``2 * PATCH_FACES``
+        faces in patches, in parallel) or "auto" (:func:`texbake.atlas.charts.prefer_planar`). The other is tried
+        when the first fails, and a "fallback-grid" atlas (a cell per triangle) only when both have.
     _patch_faces : int or None
         Faces per patch of the xatlas unwrap; None: the whole mesh in one piece (tests).
 
@@ -96,9 +94,9 @@ def make_atlas(
     -------
     Atlas
         ``reason``: why the UVs were not kept, the charting used and why, what failed.
-        ``stats``: :func:`texbake.atlas.uvcheck.measure`'s, ``seconds``, and ``patches``
-        or ``planar_charts`` and ``flat_share``. ``warnings``: overlapping UVs kept, the
-        fallback grid, over ``BARE_LIMIT`` of the surface on charts with no texel centre.
+        ``stats``: :func:`texbake.atlas.uvcheck.measure`'s, ``seconds``, ``patches`` or ``planar_charts`` and
+        ``flat_share``, ``double_sided_faces`` (back faces on their front faces' texels). ``warnings``: overlapping
+        UVs kept, the fallback grid, over ``BARE_LIMIT`` of the surface on charts with no texel centre.
 
     Raises
     ------
@@ -112,6 +110,9 @@ def make_atlas(
     start = time.perf_counter()
     _check_settings(mode=mode, charting=charting, size=size, padding=padding, deadline=deadline, workers=workers)
     request = UnwrapRequest(*_checked_mesh(vertices, faces), size, padding)
+    if len((sides := Sides.of(request.faces)).back):  # double-sided: one side is mapped, the other shares its texels
+        return _both_sides(sides, make_atlas(request.vertices, request.faces[sides.front], uv, mode=mode, size=size, padding=padding,
+                                             deadline=deadline, workers=workers, charting=charting, _patch_faces=_patch_faces))
     why = "uv='unwrap'"
     if mode != "unwrap":
         kept, why = _keep(request, uv, mode, start)
@@ -131,6 +132,16 @@ def make_atlas(
     stats = {**_stats(request, atlas.faces, atlas.uv, start), **atlas.detail}
     return Atlas(atlas.vmapping, atlas.faces, atlas.uv, atlas.method, f"{why}; {charted} charts: {order}{retried}", stats,
                  bare_warning(stats, size))
+
+
+def _both_sides(sides: Sides, atlas: Atlas) -> Atlas:
+    """The atlas of a mesh's front faces (:class:`texbake.atlas.charts.Sides`: their own UVs
+    kept, or unwrapped) with its back faces on their twins' texels, counted in
+    ``stats["double_sided_faces"]``."""
+    vmapping, faces, uv = sides.restored(atlas.vmapping, atlas.faces, atlas.uv)
+    reason = f"{atlas.reason}; {len(sides.back)} back faces share their front faces' texels"
+    stats = {**atlas.stats, "double_sided_faces": len(sides.back)}
+    return Atlas(vmapping, faces, uv, atlas.method, reason, stats, atlas.warnings)
 
 
 def _check_settings(*, mode, charting, size, padding, deadline, workers) -> None:

@@ -1,7 +1,7 @@
 """Load and validate a mesh: one triangle mesh in float64, or a clear error.
 
-Formats: OBJ (+MTL, read by :mod:`texbake.mesh.objfile`), PLY, STL (ASCII and binary), OFF, glTF
-and GLB (read with trimesh).
+Formats: OBJ (+MTL, read by :mod:`texbake.mesh.objfile`), PLY (:mod:`texbake.mesh.plyfile`:
+polygons and triangle strips), STL (ASCII and binary), OFF, glTF and GLB (read with trimesh).
 A scene is flattened, node transforms applied, into one mesh. The file is checked before
 and after parsing: archives, references that leave the mesh's folder, a glTF's buffers,
 views and accessors that claim more bytes than there are, its node tree past
@@ -28,6 +28,7 @@ import numpy as np
 
 from ..errors import MeshError, ParameterError
 from .objfile import read_obj
+from .plyfile import read_ply
 from .uvgeometry import areas
 
 FORMATS = {".obj": "obj", ".ply": "ply", ".stl": "stl", ".off": "off", ".gltf": "gltf", ".glb": "glb"}
@@ -182,6 +183,10 @@ def _read(data: bytes, kind: str, path: Path) -> list:
             _check_mtl(path.parent / name, path)
 
         return [read_obj(data, path, check)]
+    if kind == "ply":  # our own reader first: trimesh reads no triangle strips, nor mixed binary polygons
+        ply = read_ply(data)
+        if ply is not None:
+            return [ply]
 
     import trimesh  # pip install trimesh
 

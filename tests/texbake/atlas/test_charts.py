@@ -8,7 +8,7 @@ import trimesh
 from conftest import MESHES
 
 from texbake.atlas import atlas_stats, make_atlas, overlap
-from texbake.atlas.charts import ANGLE_LIMIT, density_spread, directions, planar_charts, prefer_planar
+from texbake.atlas.charts import ANGLE_LIMIT, Sides, density_spread, directions, planar_charts, prefer_planar
 from texbake.checks.cad import fan_cylinder, holed_plate
 from texbake.mesh.load import load_mesh
 from texbake.mesh.uvgeometry import uv_areas
@@ -73,9 +73,18 @@ def test_a_part_cut_for_overlap_keeps_no_more_charts_than_it_needs():
 
 def test_auto_charting_picks_planar_for_cad_and_xatlas_for_small_organic_meshes():
     plate = holed_plate(cells=(2, 1), segments=256)
-    assert prefer_planar(*plate) == (True, "CAD-like: 76% of the area on flat regions, 42% on slivers")
+    assert prefer_planar(*plate) == (True, "CAD-like: 84% of the area on flat regions, 42% on slivers")
     sphere = trimesh.creation.icosphere(3)
     assert prefer_planar(sphere.vertices, sphere.faces) == (False, "organic: 0% of the area on flat regions, 0% on slivers")
+    # flat regions by their area, however few their triangles: a building of boxes is
+    # flat; Suzanne's planar quads are each far under a hundredth of her surface
+    storeys = [trimesh.creation.box(extents=(10 - 2 * i, 8 - 2 * i, 3)) for i in range(4)]
+    for i, b in enumerate(storeys):
+        b.apply_translation((0, 0, 3 * i + 1.5))
+    building = trimesh.util.concatenate(storeys)
+    assert prefer_planar(building.vertices, building.faces) == (True, "CAD-like: 98% of the area on flat regions, 0% on slivers")
+    suzanne = load_mesh(MESHES / "suzanne.ply")
+    assert prefer_planar(suzanne.vertices, suzanne.faces) == (False, "organic: 2% of the area on flat regions, 0% on slivers")
     big = trimesh.creation.icosphere(5)
     assert prefer_planar(big.vertices, big.faces) == (True, "more than 6000 faces")
 
@@ -136,3 +145,29 @@ def test_charts_packed_by_their_outline_follow_the_packer(mirror):
     assert np.abs(out - np.column_stack([z_out.real, z_out.imag])).max() < 1e-12
     with pytest.raises(Exception, match="distorted a chart"):
         _place(uv, chart, source, placed + rng.normal(scale=0.01, size=placed.shape))
+
+
+def test_sides_pair_each_back_face_with_its_front_face():
+    # faces 0-1 a quad, 2 the back of 0 (rotated), 3 the back of 1, 4 a face of its own
+    faces = np.array([[0, 1, 2], [0, 2, 3], [2, 1, 0], [2, 0, 3], [1, 4, 2]])
+    s = Sides.of(faces)
+    assert s.front.tolist() == [0, 1, 4] and s.back.tolist() == [2, 3]
+    assert s.front[s.twin].tolist() == [0, 1]
+    # an atlas of the front faces, extended: each back corner at its twin's corner's UV
+    vmapping, uv = np.array([0, 1, 2, 3, 4]), np.array([[0, 0], [1, 0], [1, 1], [0, 1], [2, 1]], dtype=float)
+    vm, f, u = s.restored(vmapping, faces[s.front], uv)
+    assert np.array_equal(vm[f], faces)  # every face on its own mesh vertices, in its winding
+    assert np.array_equal(u[f[2]], uv[[2, 1, 0]]) and np.array_equal(u[f[3]], uv[[2, 0, 3]])
+    assert not np.isin(f[s.back], f[s.front]).any()  # the back faces' atlas vertices are their own
+
+
+def test_a_double_sided_mesh_gets_one_chart_per_surface():
+    # a box with every face doubled in the opposite winding: the back faces share texels
+    box = trimesh.creation.box(extents=(1.0, 2.0, 3.0))
+    faces = np.concatenate([box.faces, box.faces[:, ::-1]])
+    one = make_atlas(box.vertices, box.faces, mode="unwrap", size=256, charting="planar")
+    two = make_atlas(box.vertices, faces, mode="unwrap", size=256, charting="planar")
+    assert np.array_equal(box.vertices[two.vmapping][two.faces], box.vertices[faces])
+    assert np.allclose(two.uv[two.faces[12:]], two.uv[two.faces[:12]][:, ::-1])
+    assert two.stats["double_sided_faces"] == 12 and "12 back faces" in two.reason
+    assert two.stats["charts"] == 6 and two.stats["utilisation"] == pytest.approx(one.stats["utilisation"], rel=0.01)

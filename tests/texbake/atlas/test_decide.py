@@ -140,7 +140,7 @@ def test_auto_unwraps_repeating_uvs():
     v, f, uv = load("BoxTextured.glb")
     assert "unit square" in uv_problem(v, f, uv)
     a = make_atlas(v, f, uv, size=256)
-    assert a.method == "xatlas" and "unit square" in a.reason
+    assert a.method == "planar" and "unit square" in a.reason and "CAD-like" in a.reason  # a box: flat sides
     check_atlas(a, v, f)
     with pytest.raises(AtlasError, match="unit square"):
         make_atlas(v, f, uv, mode="keep")
@@ -374,3 +374,14 @@ def test_stats_of_an_isometric_layout():
     uv2 = np.array([[0, 0], [0.5, 0], [0.5, 0.5], [0.6, 0.6], [0.85, 0.85], [0.6, 0.85]])
     s = atlas_stats(v, f, np.array([[0, 1, 2], [3, 4, 5]]), uv2)
     assert s["charts"] == 2 and abs(s["stretch"] - 1.25) < 1e-14
+
+
+def test_a_double_sided_mesh_keeps_uvs_that_map_both_sides_to_the_same_texels():
+    # Suzanne's own UVs, every face doubled on the same vertices in the opposite winding:
+    # the two sides are one surface on the same texels, not overlapping UVs
+    v, f, uv = load("suzanne.ply")
+    doubled = np.concatenate([f, f[:, ::-1]])
+    a = make_atlas(v, doubled, uv, size=256)
+    assert a.method == "kept" and a.stats["double_sided_faces"] == len(f), a.reason
+    assert a.reason == f"the mesh's UVs are usable; {len(f)} back faces share their front faces' texels"
+    assert np.array_equal(v[a.vmapping][a.faces], v[doubled]) and np.array_equal(a.uv[a.faces[len(f):]], uv[doubled[len(f):]])

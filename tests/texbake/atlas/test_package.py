@@ -10,10 +10,10 @@ import texbake.atlas
 
 
 def test_the_package_names_resolve_to_their_modules():
-    from texbake.atlas import cache, decide, pack, uvcheck
+    from texbake.atlas import cache, charts, decide, pack, uvcheck
 
     homes = {"Atlas": decide, "make_atlas": decide, "AtlasCache": cache, "atlas_key": cache, "uv_problem": uvcheck,
-             "atlas_stats": uvcheck, "overlap": uvcheck, "run_xatlas_in_child": pack}
+             "atlas_stats": uvcheck, "overlap": uvcheck, "run_xatlas_in_child": pack, "Sides": charts}
     assert sorted(texbake.atlas.__all__) == sorted(homes)
     for name, module in homes.items():
         assert getattr(texbake.atlas, name) is getattr(module, name)

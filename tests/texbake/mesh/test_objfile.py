@@ -152,3 +152,17 @@ def test_errors_name_the_line_with_crlf_and_indentation():
 def test_odd_space_is_what_str_isspace_adds():
     spaces = {chr(c) for c in range(sys.maxunicode + 1) if chr(c).isspace()}
     assert set(_ODD_SPACE) == spaces - set(" \t\r\n")
+
+
+@pytest.mark.parametrize("corner", ["{i}/{i}/{n}", "{i}//{n}", "{i}/{i}"])
+def test_polygons_with_texture_and_normal_indices_are_fans(corner):
+    # a convex pentagon and a triangle, corners with texture and normal indices as exporters write them
+    text = ("v 0 0 0\nv 2 0 0\nv 3 1 0\nv 1 2 0\nv -1 1 0\nvt 0 0\nvt 1 0\nvt 1 0.5\nvt 0.5 1\nvt 0 0.5\nvn 0 0 1\nvn 0 0 -1\n"
+            "f " + " ".join(corner.format(i=i, n=1) for i in range(1, 6)) + "\n"
+            "f " + " ".join(corner.format(i=i, n=2) for i in (1, 2, 3)) + "\n")
+    v, f, uv = read(text)
+    assert f.shape == (4, 3)
+    assert np.array_equal(v[f[:3]][:, :, 0], [[0, 2, 3], [0, 3, 1], [0, 1, -1]])  # fan from the first corner
+    assert (uv is not None) == ("/{i}" in corner)
+    if uv is not None:
+        assert np.array_equal(uv[f[:3]], [[[0, 0], [1, 0], [1, 0.5]], [[0, 0], [1, 0.5], [0.5, 1]], [[0, 0], [0.5, 1], [0, 0.5]]])
