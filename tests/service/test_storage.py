@@ -36,12 +36,16 @@ def storage(request, tmp_path, monkeypatch):
 
 
 def test_both_storages_keep_publish_serve_and_sweep_a_job(storage, tmp_path):
-    mesh = tmp_path / "upload.obj"
-    mesh.write_bytes(b"v 0 0 0\n" * 1000)
-    storage.save_input("a" * 32, mesh, "m.obj", {"mesh": "m.obj", "settings": {"size": 8}})
-    folder = storage.fetch_input("a" * 32, 3)  # what a worker bakes in
-    assert (folder / "m.obj").read_bytes() == b"v 0 0 0\n" * 1000
-    assert json.loads((folder / "job.json").read_text()) == {"mesh": "m.obj", "settings": {"size": 8}}
+    mesh, mtl, image = tmp_path / "upload.obj", tmp_path / "upload.mtl", tmp_path / "upload.png"
+    mesh.write_bytes(b"mtllib m.mtl\n" + b"v 0 0 0\n" * 1000)
+    mtl.write_bytes(b"newmtl a\nmap_Kd m.png\n")
+    image.write_bytes(b"\x89PNG" + bytes(100))
+    job = {"mesh": "m.obj", "files": ["m.mtl", "m.png"], "settings": {"size": 8}}
+    storage.save_input("a" * 32, {"m.obj": mesh, "m.mtl": mtl, "m.png": image}, job)
+    folder = storage.fetch_input("a" * 32, 3)  # what a worker bakes in: the mesh beside the files it refers to
+    assert (folder / "m.obj").read_bytes() == b"mtllib m.mtl\n" + b"v 0 0 0\n" * 1000
+    assert (folder / "m.mtl").read_bytes() == b"newmtl a\nmap_Kd m.png\n" and (folder / "m.png").read_bytes() == b"\x89PNG" + bytes(100)
+    assert json.loads((folder / "job.json").read_text()) == job
     baked = folder / "out.tmp.3"
     baked.mkdir()
     (baked / "albedo.png").write_bytes(b"\x89PNG" + bytes(3 << 20))  # more than one chunk
@@ -56,7 +60,7 @@ def test_both_storages_keep_publish_serve_and_sweep_a_job(storage, tmp_path):
         assert z.getinfo("albedo.png").compress_type == zipfile.ZIP_STORED and z.getinfo("report.json").compress_type == zipfile.ZIP_DEFLATED
     # left-overs: an orphan's files, and (of a finished job) what it did not publish
     mesh.write_bytes(b"v 0 0 0\n")  # (save_input may have moved it)
-    storage.save_input("b" * 32, mesh, "m.obj", {"mesh": "m.obj", "settings": {}})
+    storage.save_input("b" * 32, {"m.obj": mesh}, {"mesh": "m.obj", "settings": {}})
     unpublished = storage.fetch_input("a" * 32, 2) / "out.tmp.2"
     unpublished.mkdir()
     (unpublished / "albedo.png").write_bytes(b"half")
@@ -80,7 +84,7 @@ def test_a_store_that_is_missing_or_down_raises_typed_errors(own_s3, tmp_path, m
     missing = S3Storage("s3://no-such-bucket/x", tmp_path, own_s3.endpoint)
     (tmp_path / "m.obj").write_bytes(b"v 0 0 0\n")
     with pytest.raises(StorageUnavailable, match="does not exist"):
-        missing.save_input("a" * 32, tmp_path / "m.obj", "m.obj", {})
+        missing.save_input("a" * 32, {"m.obj": tmp_path / "m.obj"}, {})
     own_s3.client().create_bucket(Bucket=BUCKET)
     store = S3Storage(f"s3://{BUCKET}/x", tmp_path, own_s3.endpoint)
     with pytest.raises(StorageMissing):
