@@ -292,6 +292,31 @@ def test_retry_takes_the_upload_from_the_store(own_s3, tmp_path, meshes):
         stop(api)
 
 
+def test_a_gltf_with_its_buffers_bakes_from_the_store(own_s3, tmp_path):
+    """A glTF whose geometry is in .bin files beside it: every part is stored in the
+    bucket, and a worker that bakes from its own copy (work/) fetches them all."""
+    import trimesh
+
+    own_s3.client().create_bucket(Bucket=BUCKET)
+    parts = trimesh.exchange.gltf.export_gltf(trimesh.creation.icosphere(subdivisions=3))
+    buffers = sorted((name, part) for name, part in parts.items() if name.endswith(".bin"))
+    port = free_port()
+    api = start(["serve", "--port", str(port), "--workers", "1"], tmp_path, {**own_s3.env, "BAKE_STORAGE_URL": f"s3://{BUCKET}/parts"}, port=port)
+    url = f"http://127.0.0.1:{port}"
+    try:
+        r = httpx.post(f"{url}/v1/jobs", files=[("mesh", ("sphere.gltf", parts["model.gltf"]))] + [("files", b) for b in buffers],
+                       data={"settings": json.dumps({"size": 64})}, timeout=60)
+        assert r.status_code == 202, r.text
+        job = wait(url, r.json()["id"], timeout=120)
+        assert job["state"] == "done" and job["report"]["mesh"]["faces"] == 1280, job
+        stored = own_s3.keys(BUCKET, f"parts/jobs/{job['id']}/")
+        assert {name: stored[f"parts/jobs/{job['id']}/{name}"] for name, _ in buffers} == dict(buffers)
+        assert json.loads(stored[f"parts/jobs/{job['id']}/job.json"])["files"] == [name for name, _ in buffers]
+        assert not list((tmp_path / "uploads").iterdir()) and not list((tmp_path / "work").glob("*"))  # no copy left behind
+    finally:
+        stop(api)
+
+
 def test_a_store_that_lost_its_objects_fails_its_done_jobs_with_the_reason(own_s3, tmp_path, meshes):
     """The S3 server restarted empty: a done job reads failed with the reason, its
     result.zip says why; its upload is gone too, so retry asks for the mesh again, and
