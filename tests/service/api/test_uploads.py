@@ -161,6 +161,19 @@ def test_names_sent_twice_too_many_files_and_a_nul_are_refused(client, meshes):
     assert client.get("/v1/jobs").json()["total"] == 0 and uploads_left() == []
 
 
+def test_names_of_four_byte_letters_fit_a_file_name_on_disk(client, meshes):
+    """A file name on disk takes 255 bytes: a mesh's name is cut to fit (it only names the
+    outputs), a companion's, which the mesh refers to, is refused when it does not fit."""
+    letters = "\U00020000" * 70  # a CJK letter, 4 bytes in UTF-8
+    r = post(client, (letters + ".ply", (meshes / "suzanne.ply").read_bytes()))
+    assert r.status_code == 202 and r.json()["mesh"] == letters + ".ply", r.text
+    stored = json.loads(job_files(r.json())["job.json"])["mesh"]
+    assert stored == "\U00020000" * 50 + ".ply" and len(stored.encode()) == 204, stored
+    r = post(client, meshes / "capsule.obj", [(letters[:63] + ".mtl", b"newmtl a\n")])  # 256 bytes
+    assert r.status_code == 422 and "is not a plain file name (at most 255 bytes as UTF-8" in r.json()["detail"], r.text
+    assert client.get("/v1/jobs").json()["total"] == 1 and uploads_left() == []
+
+
 def test_the_upload_limit_counts_every_part(client, meshes, monkeypatch):
     from texbake.service.core import config
 

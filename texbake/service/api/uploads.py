@@ -39,8 +39,8 @@ MAX_COMPANIONS = 64
 MAX_NAME = 255
 _CHUNK = 1 << 20
 # Not a plain file name: folders, what Windows, a shell or a URL parser reads as more than
-# a name, control characters, a hidden name, a name ending in a dot or a space.
-_NOT_PLAIN = re.compile(r'[\x00-\x1f\x7f/\\:*?"<>|]|^[.\s]|[.\s]$')
+# a name, control characters, lone surrogates, a hidden name, a name ending in a dot or a space.
+_NOT_PLAIN = re.compile(r'[\x00-\x1f\x7f\ud800-\udfff/\\:*?"<>|]|^[.\s]|[.\s]$')
 # An OBJ's material libraries, and an MTL's texture maps as the loader reads them (the
 # file name is the last word, options come before it).
 _MTLLIB = re.compile(rb"^[ \t]*mtllib[ \t]+([^\r\n]*)", re.M)
@@ -95,8 +95,8 @@ def check_names(mesh: UploadFile, files: list[UploadFile]) -> tuple[str, list[st
     names: list[str] = []
     for part in files:
         name = part.filename or ""
-        if not name or len(name) > MAX_NAME or _NOT_PLAIN.search(name):
-            raise HTTPException(422, detail=f"files: {name[:80]!r} is not a plain file name (at most {MAX_NAME} characters, "
+        if not name or len(name.encode()) > MAX_NAME or _NOT_PLAIN.search(name):  # (a file name on disk: 255 bytes)
+            raise HTTPException(422, detail=f"files: {name[:80]!r} is not a plain file name (at most {MAX_NAME} bytes as UTF-8, "
                                             "no folders, no control characters or any of \\:*?\"<>|, not hidden)")
         if Path(name).suffix.lower() not in COMPANION_FORMATS:
             raise HTTPException(422, detail=f"files: {name!r} is not a file a mesh refers to ({' '.join(COMPANION_FORMATS)})")

@@ -69,9 +69,12 @@ def _out(job: Job, request: Request, session) -> JobOut:
 
 
 def _safe_stem(filename: str | None) -> str:
-    """The upload's name without folders or odd characters (it names the outputs)."""
+    """The upload's name without folders or odd characters (it names the outputs), at most
+    64 characters and 200 bytes as UTF-8 (a file name on disk takes 255 bytes, and a letter
+    may take 4)."""
     stem = Path((filename or "mesh").replace("\\", "/")).stem
-    return "".join(c if c.isalnum() or c in "-_" else "_" for c in stem)[:64] or "mesh"
+    safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in stem)[:64]
+    return safe.encode()[:200].decode(errors="ignore") or "mesh"
 
 
 def _bake_settings(parsed: BakeSettings | None, settings) -> BakeSettings:
