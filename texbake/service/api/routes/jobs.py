@@ -169,7 +169,7 @@ def create_job(
     One mesh as ``mesh``; an OBJ's MTL and images, or a glTF's .bin buffers and images, as
     ``files`` beside it (the field repeated, once a file), each under the name the mesh
     uses: ``curl -F mesh=@capsule.obj -F files=@capsule.mtl -F files=@capsule0.jpg ...``.
-    Every name is checked (a plain file name of a known kind, at most 255 characters); the
+    Every name is checked (a plain file name of a known kind, at most 255 bytes); the
     upload limit counts every part together; a buffer the mesh needs and that was not sent,
     or a file the mesh does not refer to, is a 422 naming it.
 
