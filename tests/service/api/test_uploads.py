@@ -214,6 +214,7 @@ def test_openapi_documents_the_files_beside_the_mesh(client):
     form = spec["components"]["schemas"][body]
     assert form["required"] == ["mesh"]
     files = form["properties"]["files"]
-    assert files["anyOf"][0]["type"] == "array" and "an OBJ's MTL and its images, a glTF's .bin buffers" in files["description"]
+    assert files["type"] == "array" and files["items"]["contentMediaType"] == "application/octet-stream"  # a file picker each in /docs
+    assert "an OBJ's MTL and its images, a glTF's .bin buffers" in files["description"]
     assert ".gltf" in form["properties"]["mesh"]["description"]
     assert "-F files=@capsule.mtl" in spec["paths"]["/v1/jobs"]["post"]["description"]

@@ -158,9 +158,9 @@ FILES_DOC = (f"The files the mesh refers to, each under the name it uses ({', '.
 def create_job(
     request: Request, response: Response, session: SessionDep, settings: SettingsDep, client: ClientDep, storage: StorageDep,
     mesh: Annotated[UploadFile, File(description=MESH_DOC)],
+    files: Annotated[list[UploadFile], File(default_factory=list, description=FILES_DOC)],
     bake_settings: Annotated[Json[BakeSettings] | None, BeforeValidator(shallow),
                              Form(alias="settings", description="BakeSettings as JSON (default: all defaults)")] = None,
-    files: Annotated[list[UploadFile] | None, File(description=FILES_DOC)] = None,
 ):
     """Upload a mesh, the files it refers to and its bake settings; the bake is queued (202).
     The same upload with the same settings returns the existing job (200) instead of baking
@@ -175,11 +175,11 @@ def create_job(
 
     A plain function: FastAPI runs it in its thread pool, so the copying, hashing and
     database work of one upload never holds up the event loop (or ``/healthz``)."""
-    suffix, names = check_names(mesh, files or [])
+    suffix, names = check_names(mesh, files)
     # one serialisation of the resolved settings: the job's, the worker's and the dedup key's
     options = _bake_settings(bake_settings, settings).model_dump(mode="json")
     _check_unfinished(session, client, settings)
-    upload = receive(mesh, files or [], names, _safe_stem(mesh.filename) + suffix, settings.data_dir / "uploads", settings.max_upload_bytes)
+    upload = receive(mesh, files, names, _safe_stem(mesh.filename) + suffix, settings.data_dir / "uploads", settings.max_upload_bytes)
     try:
         key = upload.key(options, client if settings.api_keys else None)  # with keys, each client has its own jobs
         return _make_job(request, response, session, settings, storage, client, upload=upload, mesh_name=mesh.filename or "mesh",
