@@ -83,6 +83,14 @@ def test_a_buffer_not_sent_is_a_422_naming_it(client):
     assert client.get("/v1/jobs").json()["total"] == 0 and uploads_left() == []
 
 
+def test_a_gltf_that_cannot_be_read_is_said_so_with_its_files(client):
+    """Not "does not refer to" the files sent beside it: what is wrong is the glTF."""
+    parts = sphere_gltf()
+    buffers = [(n, parts[n]) for n in sorted(parts) if n.endswith(".bin")]
+    r = post(client, ("model.gltf", parts["model.gltf"][:-10]), buffers)
+    assert r.status_code == 422 and r.json()["detail"].startswith("mesh 'model.gltf': cannot parse GLTF header: "), r.text
+
+
 def test_a_gltf_image_may_be_sent_or_left_out(client):
     """The loader reads a glTF's geometry without its images (a bake draws its own texture)."""
     parts = with_image(sphere_gltf(), "wood grain.png")

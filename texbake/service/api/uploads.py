@@ -151,7 +151,10 @@ def check_references(mesh: Path, sent: list[str]) -> None:
 
     Only plain file names count: a reference that leaves the folder, a URL or a data URI
     is :func:`texbake.mesh.check_file`'s to judge, as is a file that cannot be parsed."""
-    needed, optional = _references(mesh, sent)
+    found = _references(mesh, sent)
+    if found is None:  # not readable: check_file says why
+        return
+    needed, optional = found
     for name in needed:
         if name not in sent and not _NOT_PLAIN.search(name):
             raise MeshError(str(mesh), f"refers to {name!r}, which was not sent: send it as a 'files' part beside the mesh")
@@ -162,8 +165,9 @@ def check_references(mesh: Path, sent: list[str]) -> None:
             raise MeshError(str(mesh), f"does not refer to {name!r}, sent beside it (it refers to {others})")
 
 
-def _references(mesh: Path, sent: list[str]) -> tuple[list[str], list[str]]:
-    """The files ``mesh`` refers to: (needed to load it, optional), as written in it."""
+def _references(mesh: Path, sent: list[str]) -> tuple[list[str], list[str]] | None:
+    """The files ``mesh`` refers to: (needed to load it, optional), as written in it; None
+    for a glTF whose JSON cannot be read."""
     kind = FORMATS.get(mesh.suffix.lower())
     if kind == "obj":
         if not sent:  # nothing to match: a lone OBJ's MTL is the loader's business
@@ -173,7 +177,7 @@ def _references(mesh: Path, sent: list[str]) -> tuple[list[str], list[str]]:
         return [], libraries + maps
     if kind in ("gltf", "glb"):
         doc = _gltf_json(mesh)
-        return _uris(doc, "buffers"), _uris(doc, "images")
+        return None if doc is None else (_uris(doc, "buffers"), _uris(doc, "images"))
     return [], []
 
 
@@ -187,19 +191,19 @@ def _scan(path: Path, pattern: re.Pattern[bytes]) -> list[str]:
                 if not data[data.rfind(b"\n", 0, m.start()) + 1:m.start()].strip(b" \t")]
 
 
-def _gltf_json(path: Path) -> dict:
-    """A glTF's JSON, or a GLB's first chunk; {} when it cannot be read (check_file says why)."""
+def _gltf_json(path: Path) -> dict | None:
+    """A glTF's JSON, or a GLB's first chunk; None when it cannot be read."""
     try:
         with open(path, "rb") as f:
             if path.suffix.lower() == ".glb":
                 f.seek(12)
                 length, kind = struct.unpack("<I4s", f.read(8))
-                doc = json.loads(f.read(length)) if kind == b"JSON" else {}
+                doc = json.loads(f.read(length)) if kind == b"JSON" else None
             else:
                 doc = json.loads(f.read())
     except (ValueError, struct.error, RecursionError):
-        return {}
-    return doc if isinstance(doc, dict) else {}
+        return None
+    return doc if isinstance(doc, dict) else None
 
 
 def _uris(doc: dict, section: str) -> list[str]:
