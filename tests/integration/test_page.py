@@ -460,3 +460,42 @@ def test_the_vendored_three_js_is_the_pinned_one():
         pytest.skip(message)
     r = subprocess.run([sys.executable, str(ROOT / "scripts" / "vendor"), "--check"], capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr
+
+
+def test_a_mesh_with_its_files_on_the_page(api, page, meshes):
+    """The upload field takes several files: an OBJ chosen with its MTL and image is sent
+    as the mesh and its files, and bakes; a glTF without one of its buffers gets the API's
+    reason beside the field; a file that is neither a mesh nor one a mesh refers to is
+    said before anything is sent."""
+    import trimesh
+
+    p = page.page
+    p.goto(api + "/")
+    swatch(page, "17-files")
+    sent = posts(page)
+    p.set_input_files("#mesh", [{"name": "capsule.obj", "mimeType": "text/plain", "buffer": (meshes / "capsule.obj").read_bytes()},
+                                {"name": "notes.txt", "mimeType": "text/plain", "buffer": b"x"}])
+    expect(p.locator("#mesh-error")).to_contain_text("notes.txt is not a mesh file this server takes (.obj")
+    p.get_by_role("button", name="Bake", exact=True).click()
+    assert posts(page) == sent
+    p.set_input_files("#mesh", [meshes / "capsule.mtl", meshes / "capsule.obj", meshes / "capsule0.jpg"])
+    expect(p.locator("#mesh-info")).to_contain_text("capsule.obj with capsule.mtl, capsule0.jpg")
+    expect(p.locator("#mesh-error")).to_be_empty()
+    p.get_by_label("Image size", exact=True).fill("64")
+    with p.expect_request(lambda r: r.method == "POST" and r.url.endswith("/v1/jobs")) as request:
+        p.get_by_role("button", name="Bake", exact=True).click()
+    body = request.value.post_data_buffer
+    assert all(f'name="{field}"; filename="{name}"'.encode() in body
+               for field, name in (("mesh", "capsule.obj"), ("files", "capsule.mtl"), ("files", "capsule0.jpg"))), body[:2000]
+    expect(p.locator("#status")).to_contain_text("Done: capsule.obj", timeout=60000)
+    newest = httpx.get(f"{api}/v1/jobs", params={"limit": 1}, timeout=10).json()["jobs"][0]
+    assert (newest["mesh"], newest["state"]) == ("capsule.obj", "done"), newest
+    page.shot("18-mesh-with-files")
+    # a glTF whose first buffer is left out: the API names it beside the field
+    parts = trimesh.exchange.gltf.export_gltf(trimesh.creation.icosphere(subdivisions=2))
+    buffers = sorted(name for name in parts if name.endswith(".bin"))
+    p.set_input_files("#mesh", [{"name": name, "mimeType": "application/octet-stream", "buffer": parts[name]}
+                                for name in ["model.gltf", *buffers[1:]]])
+    p.get_by_role("button", name="Bake", exact=True).click()
+    expect(p.locator("#mesh-error")).to_have_text(f"model.gltf: refers to {buffers[0]!r}, which was not sent: "
+                                                  "send it as a 'files' part beside the mesh", timeout=20000)

@@ -3,6 +3,7 @@
 
 import bz2
 import io
+import json
 import os
 import re
 import signal
@@ -134,7 +135,7 @@ def zip_bomb() -> bytes:
     ("escape.glb", glb_with_image_uri("../../../etc/passwd"), "leaves"),
     ("bomb.obj", zip_bomb(), "zip archive"),
     ("bomb.ply", bz2.compress(bytes(200_000_000)), "bzip2 archive"),
-    ("bomb.zip", zip_bomb(), "not a single-file mesh"),
+    ("bomb.zip", zip_bomb(), "not a mesh file this server takes"),
     ("empty.off", b"", "empty"),
 ])
 def test_hostile_uploads_get_422_with_the_reason(server, tmp_path, name, data, reason):
@@ -158,6 +159,57 @@ def test_broken_geometry_fails_its_job_and_uploaded_names_stay_inside(server, tm
     job = wait(url, r.json()["id"])
     assert job["state"] == "failed" and job["error"] == "range.obj: line 4: vertex index 9 out of range (3 defined)", job["error"]
     assert (data_dir / "jobs" / job["id"] / "range.obj").is_file() and not escaped.exists()
+
+
+def capsule_gltf(meshes, embed=False) -> dict[str, bytes]:
+    """The shared capsule (OBJ) as a glTF written by trimesh: ``model.gltf`` with its
+    buffers (geometry and image) as data URIs, or in ``.bin`` files beside it: name -> bytes."""
+    import trimesh
+
+    return trimesh.exchange.gltf.export_gltf(trimesh.load(meshes / "capsule.obj", force="mesh"), embed_buffers=embed)
+
+
+def upload_parts(url, mesh, files, settings):
+    """POST /v1/jobs with ``mesh`` and ``files`` as (name, bytes) parts."""
+    parts = [("mesh", mesh)] + [("files", f) for f in files]
+    return httpx.post(f"{url}/v1/jobs", files=parts, data={"settings": json.dumps(settings)}, timeout=60)
+
+
+def test_a_gltf_and_meshes_with_their_files_bake(server, meshes):
+    """A self-contained .gltf, an OBJ with its MTL and image, and a glTF with its .bin
+    buffers each bake through the worker, to the same geometry as the OBJ alone."""
+    url, data_dir, _ = server
+    settings = {"size": 64, "texture": "checker"}
+    embedded, separate = capsule_gltf(meshes, embed=True), capsule_gltf(meshes)
+    buffers = sorted((name, part) for name, part in separate.items() if name.endswith(".bin"))
+    answers = {
+        "gltf": upload_parts(url, ("capsule.gltf", embedded["model.gltf"]), [], settings),
+        "obj+mtl": upload_parts(url, ("capsule.obj", (meshes / "capsule.obj").read_bytes()),
+                                [(p.name, p.read_bytes()) for p in (meshes / "capsule.mtl", meshes / "capsule0.jpg")], settings),
+        "gltf+bin": upload_parts(url, ("scene.gltf", separate["model.gltf"]), buffers, settings),
+    }
+    assert {k: r.status_code for k, r in answers.items()} == dict.fromkeys(answers, 202), {k: r.text for k, r in answers.items()}
+    jobs = {k: wait(url, r.json()["id"]) for k, r in answers.items()}
+    assert {k: j["state"] for k, j in jobs.items()} == dict.fromkeys(jobs, "done"), {k: j["error"] for k, j in jobs.items()}
+    assert "capsule.glb" in jobs["gltf"]["files"] and "scene.glb" in jobs["gltf+bin"]["files"]
+    faces = {k: j["report"]["mesh"]["faces"] for k, j in jobs.items()}
+    assert len(set(faces.values())) == 1 and faces["obj+mtl"] > 9000, faces  # the geometry came through whole
+    stored = data_dir / "jobs" / jobs["gltf+bin"]["id"]
+    assert all((stored / name).read_bytes() == part for name, part in buffers)
+
+
+def test_a_missing_buffer_and_a_hostile_companion_name_get_422(server, meshes):
+    url, data_dir, _ = server
+    separate = capsule_gltf(meshes)
+    buffers = sorted((name, part) for name, part in separate.items() if name.endswith(".bin"))
+    r = upload_parts(url, ("scene.gltf", separate["model.gltf"]), buffers[1:], {})
+    assert r.status_code == 422 and r.json()["detail"] == (f"mesh 'scene.gltf': refers to {buffers[0][0]!r}, which was not sent: "
+                                                           "send it as a 'files' part beside the mesh"), r.text
+    mtl = (meshes / "capsule.mtl").read_bytes()
+    for name in ("../capsule.mtl", "/tmp/capsule.mtl"):
+        r = upload_parts(url, ("capsule.obj", (meshes / "capsule.obj").read_bytes()), [(name, mtl)], {})
+        assert r.status_code == 422 and r.json()["detail"].startswith(f"files: {name!r} is not a plain file name"), r.text
+    assert not list((data_dir / "uploads").iterdir())  # nothing left behind
 
 
 def test_upload_limit_stops_a_streamed_body(server):

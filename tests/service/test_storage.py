@@ -36,12 +36,16 @@ def storage(request, tmp_path, monkeypatch):
 
 
 def test_both_storages_keep_publish_serve_and_sweep_a_job(storage, tmp_path):
-    mesh = tmp_path / "upload.obj"
-    mesh.write_bytes(b"v 0 0 0\n" * 1000)
-    storage.save_input("a" * 32, mesh, "m.obj", {"mesh": "m.obj", "settings": {"size": 8}})
-    folder = storage.fetch_input("a" * 32, 3)  # what a worker bakes in
-    assert (folder / "m.obj").read_bytes() == b"v 0 0 0\n" * 1000
-    assert json.loads((folder / "job.json").read_text()) == {"mesh": "m.obj", "settings": {"size": 8}}
+    mesh, mtl, image = tmp_path / "upload.obj", tmp_path / "upload.mtl", tmp_path / "upload.png"
+    mesh.write_bytes(b"mtllib m.mtl\n" + b"v 0 0 0\n" * 1000)
+    mtl.write_bytes(b"newmtl a\nmap_Kd m.png\n")
+    image.write_bytes(b"\x89PNG" + bytes(100))
+    job = {"mesh": "m.obj", "files": ["m.mtl", "m.png"], "settings": {"size": 8}}
+    storage.save_input("a" * 32, {"m.obj": mesh, "m.mtl": mtl, "m.png": image}, job)
+    folder = storage.fetch_input("a" * 32, 3)  # what a worker bakes in: the mesh beside the files it refers to
+    assert (folder / "m.obj").read_bytes() == b"mtllib m.mtl\n" + b"v 0 0 0\n" * 1000
+    assert (folder / "m.mtl").read_bytes() == b"newmtl a\nmap_Kd m.png\n" and (folder / "m.png").read_bytes() == b"\x89PNG" + bytes(100)
+    assert json.loads((folder / "job.json").read_text()) == job
     baked = folder / "out.tmp.3"
     baked.mkdir()
     (baked / "albedo.png").write_bytes(b"\x89PNG" + bytes(3 << 20))  # more than one chunk
@@ -56,7 +60,7 @@ def test_both_storages_keep_publish_serve_and_sweep_a_job(storage, tmp_path):
         assert z.getinfo("albedo.png").compress_type == zipfile.ZIP_STORED and z.getinfo("report.json").compress_type == zipfile.ZIP_DEFLATED
     # left-overs: an orphan's files, and (of a finished job) what it did not publish
     mesh.write_bytes(b"v 0 0 0\n")  # (save_input may have moved it)
-    storage.save_input("b" * 32, mesh, "m.obj", {"mesh": "m.obj", "settings": {}})
+    storage.save_input("b" * 32, {"m.obj": mesh}, {"mesh": "m.obj", "settings": {}})
     unpublished = storage.fetch_input("a" * 32, 2) / "out.tmp.2"
     unpublished.mkdir()
     (unpublished / "albedo.png").write_bytes(b"half")
@@ -80,7 +84,7 @@ def test_a_store_that_is_missing_or_down_raises_typed_errors(own_s3, tmp_path, m
     missing = S3Storage("s3://no-such-bucket/x", tmp_path, own_s3.endpoint)
     (tmp_path / "m.obj").write_bytes(b"v 0 0 0\n")
     with pytest.raises(StorageUnavailable, match="does not exist"):
-        missing.save_input("a" * 32, tmp_path / "m.obj", "m.obj", {})
+        missing.save_input("a" * 32, {"m.obj": tmp_path / "m.obj"}, {})
     own_s3.client().create_bucket(Bucket=BUCKET)
     store = S3Storage(f"s3://{BUCKET}/x", tmp_path, own_s3.endpoint)
     with pytest.raises(StorageMissing):
@@ -283,6 +287,31 @@ def test_retry_takes_the_upload_from_the_store(own_s3, tmp_path, meshes):
         assert r.status_code == 202 and r.json()["state"] == "queued", r.text
         keys = {o["Key"] for o in own_s3.client().list_objects_v2(Bucket=BUCKET, Prefix=f"retry/jobs/{r.json()['id']}/")["Contents"]}
         assert keys == {f"retry/jobs/{r.json()['id']}/suzanne.ply", f"retry/jobs/{r.json()['id']}/job.json"}, keys
+        assert not list((tmp_path / "uploads").iterdir()) and not list((tmp_path / "work").glob("*"))  # no copy left behind
+    finally:
+        stop(api)
+
+
+def test_a_gltf_with_its_buffers_bakes_from_the_store(own_s3, tmp_path):
+    """A glTF whose geometry is in .bin files beside it: every part is stored in the
+    bucket, and a worker that bakes from its own copy (work/) fetches them all."""
+    import trimesh
+
+    own_s3.client().create_bucket(Bucket=BUCKET)
+    parts = trimesh.exchange.gltf.export_gltf(trimesh.creation.icosphere(subdivisions=3))
+    buffers = sorted((name, part) for name, part in parts.items() if name.endswith(".bin"))
+    port = free_port()
+    api = start(["serve", "--port", str(port), "--workers", "1"], tmp_path, {**own_s3.env, "BAKE_STORAGE_URL": f"s3://{BUCKET}/parts"}, port=port)
+    url = f"http://127.0.0.1:{port}"
+    try:
+        r = httpx.post(f"{url}/v1/jobs", files=[("mesh", ("sphere.gltf", parts["model.gltf"]))] + [("files", b) for b in buffers],
+                       data={"settings": json.dumps({"size": 64})}, timeout=60)
+        assert r.status_code == 202, r.text
+        job = wait(url, r.json()["id"], timeout=120)
+        assert job["state"] == "done" and job["report"]["mesh"]["faces"] == 1280, job
+        stored = own_s3.keys(BUCKET, f"parts/jobs/{job['id']}/")
+        assert {name: stored[f"parts/jobs/{job['id']}/{name}"] for name, _ in buffers} == dict(buffers)
+        assert json.loads(stored[f"parts/jobs/{job['id']}/job.json"])["files"] == [name for name, _ in buffers]
         assert not list((tmp_path / "uploads").iterdir()) and not list((tmp_path / "work").glob("*"))  # no copy left behind
     finally:
         stop(api)

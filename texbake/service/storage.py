@@ -3,7 +3,8 @@ an S3-compatible object store (:class:`S3Storage`, ``BAKE_STORAGE_URL=s3://bucke
 The routes, the bake task and retention use only :class:`Storage`'s methods.
 
 A job's objects, under ``jobs/ID/`` of the data folder or of the store's prefix: the
-upload (``NAME``) and ``job.json`` (mesh name and settings), stored by the API; the
+upload (the mesh ``NAME`` and the files it refers to, each under its own name) and
+``job.json`` (the mesh's name, the other files' names, the settings), stored by the API; the
 outputs, published by the worker that holds the job's lease: in the data folder,
 ``out.tmp.LEASE`` renamed to ``out``; in a store, uploaded under ``out.LEASE/`` and made
 visible by the jobs table (a reader looks only at a ``done`` job's ``out.LEASE/``, and the
@@ -53,11 +54,12 @@ class StorageMissing(StorageError):
 
 
 class Storage(Protocol):
-    def save_input(self, job_id: str, mesh: Path, name: str, job: dict) -> None:
-        """Store a job's upload (``mesh``, stored as ``name``: the file may be moved away) and its ``job.json``."""
+    def save_input(self, job_id: str, files: dict[str, Path], job: dict) -> None:
+        """Store a job's upload (``files``: name -> file, the mesh and the files it refers to;
+        the files may be moved away) and its ``job.json``."""
 
     def fetch_input(self, job_id: str, lease: int) -> Path:
-        """A local folder holding the job's upload and ``job.json`` for a bake under
+        """A local folder holding the job's upload (every file) and ``job.json`` for a bake under
         ``lease`` (which writes ``out.tmp.LEASE`` there)."""
 
     def done_with(self, folder: Path) -> None:
@@ -97,10 +99,11 @@ class LocalStorage:
     def _dir(self, job_id: str) -> Path:
         return self.jobs / job_id
 
-    def save_input(self, job_id: str, mesh: Path, name: str, job: dict) -> None:
+    def save_input(self, job_id: str, files: dict[str, Path], job: dict) -> None:
         folder = self._dir(job_id)
         folder.mkdir(parents=True)
-        shutil.move(mesh, folder / name)
+        for name, path in files.items():
+            shutil.move(path, folder / name)
         (folder / "job.json").write_text(json.dumps(job))
 
     def fetch_input(self, job_id: str, lease: int) -> Path:
@@ -155,7 +158,8 @@ S3_CLIENT: ClientConfig = {"connect_timeout": "5s", "read_timeout": "60s", "time
 
 
 class S3Storage:
-    """An S3-compatible store (obstore): ``jobs/ID/NAME``, ``jobs/ID/job.json``, ``jobs/ID/out.LEASE/``.
+    """An S3-compatible store (obstore): ``jobs/ID/NAME`` (the mesh and each file it refers
+    to), ``jobs/ID/job.json``, ``jobs/ID/out.LEASE/``.
 
     The endpoint, when not AWS's, is ``endpoint`` (plain http is allowed for an
     ``http://`` one: MinIO, moto); credentials and region come from the standard
@@ -216,8 +220,9 @@ class S3Storage:
 
         return chunks()
 
-    def save_input(self, job_id: str, mesh: Path, name: str, job: dict) -> None:
-        self._put(f"jobs/{job_id}/{name}", mesh)  # from the file: multipart, constant memory
+    def save_input(self, job_id: str, files: dict[str, Path], job: dict) -> None:
+        for name, path in files.items():
+            self._put(f"jobs/{job_id}/{name}", path)  # from the file: multipart, constant memory
         self._put(f"jobs/{job_id}/job.json", json.dumps(job).encode())
 
     def fetch_input(self, job_id: str, lease: int) -> Path:
@@ -226,11 +231,13 @@ class S3Storage:
         folder.mkdir(parents=True)
         try:
             job = json.loads(b"".join(self._open(f"jobs/{job_id}/job.json")))
-            name = Path(job["mesh"]).name  # (the API's own name: never a path out of the folder)
-            with open(folder / name, "wb") as f:
-                for chunk in self._open(f"jobs/{job_id}/{name}"):
-                    f.write(chunk)
-            (folder / "job.json").write_text(json.dumps({**job, "mesh": name}))
+            # (the API's own names: never a path out of the folder, never job.json)
+            mesh, files = _plain(job["mesh"]), [_plain(name) for name in job.get("files", [])]
+            for name in [mesh, *files]:
+                with open(folder / name, "wb") as f:
+                    for chunk in self._open(f"jobs/{job_id}/{name}"):
+                        f.write(chunk)
+            (folder / "job.json").write_text(json.dumps({**job, "mesh": mesh, "files": files}))
         except BaseException:
             shutil.rmtree(folder, ignore_errors=True)
             raise
@@ -285,6 +292,14 @@ class S3Storage:
 
         # a prefix that holds nothing: a cheap answer, and a missing bucket's 404 tells
         self._call("listing", lambda: obstore.list_with_delimiter(self.store, "readyz/"), missing_is_unavailable=True)
+
+
+def _plain(name: str) -> str:
+    """A stored file's name from ``job.json``, as a name in the job's folder."""
+    plain = Path(name).name
+    if plain in ("", ".", "..", "job.json"):
+        raise StorageMissing(f"job.json names {name!r}: not an upload's file")
+    return plain
 
 
 @functools.lru_cache

@@ -323,7 +323,8 @@ def test_the_config_gives_the_limits_the_formats_and_the_settings_schema(client)
     config = client.get("/v1/config").json()
     assert config["auth"] is False
     assert config["limits"]["max_size"] == 2048 and config["limits"]["max_upload_bytes"] == 256 * 1024 * 1024
-    assert config["formats"] == [".obj", ".ply", ".stl", ".off", ".glb"]
+    assert config["formats"] == [".obj", ".ply", ".stl", ".off", ".gltf", ".glb"]
+    assert {".mtl", ".bin", ".png", ".jpg"} <= set(config["companions"]) and config["max_companions"] == 64
     assert config["settings_schema"]["properties"]["size"]["default"] == 1024
 
 

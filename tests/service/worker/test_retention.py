@@ -46,12 +46,20 @@ def test_collect_expires_old_jobs_and_left_overs_only(tmp_path):
     stale_upload, fresh_upload = tmp_path / "uploads" / "x.obj", tmp_path / "uploads" / "y.obj"
     stale_upload.write_bytes(b"v")
     fresh_upload.write_bytes(b"v")
-    for path in (orphan, half, stale_upload):
+    # a request's parts, each in a folder of its own: one long over, one with a part still arriving
+    stale_parts, arriving = tmp_path / "uploads" / ("1" * 32), tmp_path / "uploads" / ("2" * 32)
+    for folder in (stale_parts, arriving):
+        folder.mkdir()
+        (folder / "m.obj").write_bytes(b"v")
+        (folder / "m.mtl").write_bytes(b"newmtl a")
+    for path in (orphan, half, stale_upload, stale_parts, stale_parts / "m.obj", stale_parts / "m.mtl", arriving, arriving / "m.obj"):
         age(path, LEFTOVER_SECONDS + 60)
 
     collected = collect(settings)
     assert sorted(collected.jobs) == sorted([old_done, old_failed])
-    assert sorted(collected.leftovers) == sorted([f"jobs/{orphan.name}", f"jobs/{new_done}/out.tmp.1", "uploads/x.obj"])
+    assert sorted(collected.leftovers) == sorted([f"jobs/{orphan.name}", f"jobs/{new_done}/out.tmp.1", "uploads/x.obj",
+                                                  f"uploads/{stale_parts.name}"])
+    assert not stale_parts.exists() and (arriving / "m.mtl").exists()
     assert sorted(p.name for p in (tmp_path / "jobs").iterdir()) == sorted([new_done, queued, fresh_orphan.name])
     assert fresh_upload.exists() and (settings.data_dir / "jobs" / new_done / "out" / "albedo.png").exists()
     with db.sessions(settings.database)() as session:

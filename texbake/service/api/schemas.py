@@ -53,9 +53,13 @@ class ServerLimits(BaseModel):
 
 class ServerConfig(BaseModel):
     """What a client needs to know before it uploads: whether an API key is needed, the
-    limits, the mesh formats taken, and the JSON Schema of ``BakeSettings``."""
+    limits, the mesh formats taken, the files a mesh may bring beside it (``files``: an
+    OBJ's MTL and images, a glTF's buffers and images) and how many, and the JSON Schema of
+    ``BakeSettings``."""
 
     auth: bool
     limits: ServerLimits
     formats: list[str]
+    companions: list[str]
+    max_companions: int
     settings_schema: dict

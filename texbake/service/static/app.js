@@ -19,7 +19,7 @@ const MAIN_SETTINGS = ["size", "quality", "shading", "bump", "bump_strength", "f
 const NOT_SETTINGS = ["texture", "cage"]; // the texture has its own section; the service takes no source mesh
 
 let config, catalogue, textureSchema; // GET /v1/config, GET /v1/textures
-let meshFile = null;
+let meshFile = null, companionFiles = []; // the mesh, and the files it refers to (sent as `files` beside it)
 let textureControls = {}, settingsControls = {};
 let following = 0, currentJob = null; // the job whose progress is shown (a new follow() stops the old one)
 
@@ -393,18 +393,37 @@ async function updateSwatch() {
 // ---- the mesh --------------------------------------------------------------------------
 const megabytes = (n) => `${(n / 1e6).toFixed(n < 1e7 ? 2 : 0)} MB`;
 
-function chooseMesh(file) {
+const suffixOf = (name) => { const dot = name.lastIndexOf("."); return dot > 0 ? name.slice(dot).toLowerCase() : ""; };
+
+// What is wrong with the chosen files, said before anything is sent ("" when nothing): one
+// mesh, the others files a mesh refers to (an OBJ's MTL and images, a glTF's .bin and
+// images), all together within the server's upload limit.
+function filesProblem(mesh, others, all) {
+  const limit = config.limits.max_upload_bytes, total = all.reduce((n, f) => n + f.size, 0);
+  const meshes = all.filter((f) => config.formats.includes(suffixOf(f.name)));
+  const stranger = others.find((f) => !config.companions.includes(suffixOf(f.name)));
+  if (!mesh) return all.length > 1 ? `no mesh among ${all.map((f) => f.name).join(", ")} (this server takes ${config.formats.join(" ")})`
+    : `${all[0].name} is not a mesh file this server takes (${config.formats.join(" ")})`;
+  if (meshes.length > 1) return `one mesh at a time: got ${meshes.map((f) => f.name).join(", ")}`;
+  if (stranger) return `${stranger.name} is not a mesh file this server takes (${config.formats.join(" ")}), nor a file a mesh refers to (${config.companions.join(" ")})`;
+  if (others.length > config.max_companions) return `${others.length} files beside the mesh: this server takes at most ${config.max_companions}`;
+  if (total > limit) return `${all.length > 1 ? "together " : ""}${mesh.name}${all.length > 1 ? " and its files are" : " is"} ${megabytes(total)}: larger than this server's limit of ${megabytes(limit)}`;
+  return "";
+}
+
+function chooseMesh(files) {
   clearErrors("mesh");
   meshFile = null;
+  companionFiles = [];
   $("mesh-info").textContent = "";
-  if (!file) return;
-  const dot = file.name.lastIndexOf("."), suffix = dot >= 0 ? file.name.slice(dot).toLowerCase() : "";
-  const problem = !config.formats.includes(suffix) ? `${file.name} is not a mesh file this server takes (${config.formats.join(" ")})`
-    : file.size > config.limits.max_upload_bytes ? `${file.name} is ${megabytes(file.size)}: larger than this server's limit of ${megabytes(config.limits.max_upload_bytes)}`
-    : "";
+  const all = [...(files || [])];
+  if (!all.length) return;
+  const mesh = all.find((f) => config.formats.includes(suffixOf(f.name))), others = all.filter((f) => f !== mesh);
+  const problem = filesProblem(mesh, others, all);
   if (problem) return showError({ body: { detail: `mesh: ${problem}` } }, "mesh");
-  meshFile = file;
-  $("mesh-info").textContent = `${file.name}, ${megabytes(file.size)}`;
+  [meshFile, companionFiles] = [mesh, others];
+  const total = all.reduce((n, f) => n + f.size, 0);
+  $("mesh-info").textContent = others.length ? `${mesh.name} with ${others.map((f) => f.name).join(", ")}, ${megabytes(total)}` : `${mesh.name}, ${megabytes(total)}`;
 }
 
 // ---- the bake and its progress -------------------------------------------------------
@@ -481,6 +500,7 @@ async function bake(event) {
   }
   const form = new FormData();
   form.append("mesh", meshFile);
+  for (const file of companionFiles) form.append("files", file);
   form.append("settings", JSON.stringify(bakeSettings()));
   $("bake").disabled = true;
   setProgress(`Uploading ${meshFile.name}`, 0);
@@ -706,6 +726,7 @@ async function refreshJobs() {
 async function start() {
   fields.set("key", { input: $("key"), error: $("key-error") });
   fields.set("mesh", { input: $("mesh"), error: $("mesh-error") });
+  fields.set("files", { input: $("mesh"), error: $("mesh-error") }); // the files beside the mesh: one field on the page
   fields.set("texture", { input: $("texture"), error: $("texture-error") });
   fields.set("settings", { input: null, error: $("settings-error") });
   fields.set("jobs", { input: null, error: $("jobs-error") });
@@ -717,16 +738,16 @@ async function start() {
   if (sessionStorage.getItem(KEY)) $("key").placeholder = "a key is set for this tab";
 
   const limit = config.limits;
-  $("mesh-hint").textContent = `${config.formats.join(" ")}, up to ${megabytes(limit.max_upload_bytes)}`;
-  $("mesh").accept = config.formats.join(",");
-  $("mesh").addEventListener("change", () => chooseMesh($("mesh").files[0]));
+  $("mesh-hint").textContent = `${config.formats.join(" ")}, up to ${megabytes(limit.max_upload_bytes)}; an OBJ with its MTL and images, a glTF with its .bin and images`;
+  $("mesh").accept = [...config.formats, ...config.companions].join(",");
+  $("mesh").addEventListener("change", () => chooseMesh($("mesh").files));
   const drop = $("drop");
   drop.addEventListener("dragover", (e) => { e.preventDefault(); drop.classList.add("over"); });
   drop.addEventListener("dragleave", () => drop.classList.remove("over"));
   drop.addEventListener("drop", (e) => {
     e.preventDefault();
     drop.classList.remove("over");
-    if (e.dataTransfer.files.length) { $("mesh").files = e.dataTransfer.files; chooseMesh(e.dataTransfer.files[0]); }
+    if (e.dataTransfer.files.length) { $("mesh").files = e.dataTransfer.files; chooseMesh(e.dataTransfer.files); }
   });
 
   const settings = config.settings_schema;

@@ -4,7 +4,7 @@ job after another (``texbake.workers`` protocol), with the baking core imported 
 :func:`setup` caps the process's address space and names the folder of the atlases kept
 for later bakes of the same mesh (``DATA_DIR/cache``, bounded: ``texbake.atlas.cache``; the texel
 lookups of its latest bakes stay in memory for its next jobs); :func:`run` reads ``JOB_DIR/job.json``
-(mesh file name and bake settings), bakes into ``JOB_DIR/out.tmp.LEASE`` (the lease's
+(mesh file name and bake settings; the files the mesh refers to lie beside it), bakes into ``JOB_DIR/out.tmp.LEASE`` (the lease's
 own folder) and returns None, or the reason the bake failed.
 """
 

@@ -13,9 +13,11 @@ worker's copy of a job (``work/``, with a store) that it did not live to remove.
 
 from __future__ import annotations
 
+import shutil
 import time
 from dataclasses import dataclass, field
 from datetime import timedelta
+from pathlib import Path
 
 from ..core import crud, db, models
 from ..core.config import Settings
@@ -46,7 +48,20 @@ def collect(settings: Settings) -> Collected:
     out.leftovers += storage.sweep(jobs, older_than=min(old, time.time() - 2 * settings.job_seconds))
     uploads = settings.data_dir / "uploads"
     for upload in sorted(uploads.iterdir()) if uploads.is_dir() else []:
-        if upload.stat().st_mtime < old:
+        if _newest(upload) < old:
             out.leftovers.append(str(upload.relative_to(settings.data_dir)))
-            upload.unlink(missing_ok=True)
+            if upload.is_dir():
+                shutil.rmtree(upload, ignore_errors=True)
+            else:
+                upload.unlink(missing_ok=True)
     return out
+
+
+def _newest(upload: Path) -> float:
+    """When an upload (a folder of one request's parts, or an older version's file) was last
+    written: its newest part's time, as a part may still be arriving; now if it is gone
+    (its request has ended meanwhile)."""
+    try:
+        return max(p.stat().st_mtime for p in [upload, *(upload.iterdir() if upload.is_dir() else [])])
+    except FileNotFoundError:
+        return time.time()

@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 import functools
-import hashlib
 import json
 import logging
-import shutil
 import uuid
 from pathlib import Path
 from typing import Annotated
@@ -16,9 +14,8 @@ from fastapi import APIRouter, File, Form, HTTPException, Query, Request, Respon
 from fastapi.responses import StreamingResponse
 from pydantic import BeforeValidator, Json
 
-from texbake.errors import MeshError, ParameterError
+from texbake.errors import ParameterError
 from texbake.memory import check_fits
-from texbake.mesh import FORMATS, check_file
 
 from ...core import crud
 from ...core.config import get_settings
@@ -28,11 +25,10 @@ from ...worker.tasks import enqueue_bake, state_changed
 from ..deps import ClientDep, JobDep, SessionDep, SettingsDep, StorageDep
 from ..jsondepth import shallow
 from ..schemas import BakeSettings, JobOut, JobPage
+from ..uploads import COMPANION_FORMATS, UPLOAD_FORMATS, Upload, check_names, copy_of, receive
 
 router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
 logger = logging.getLogger("texbake.service")
-_CHUNK = 1 << 20
-UPLOAD_FORMATS = tuple(suffix for suffix in FORMATS if suffix != ".gltf")  # a glTF's buffers would be separate files
 LIMIT_RETRY_SECONDS = 30  # a client at its limit waits for a bake to finish: seconds, not milliseconds
 
 
@@ -73,9 +69,12 @@ def _out(job: Job, request: Request, session) -> JobOut:
 
 
 def _safe_stem(filename: str | None) -> str:
-    """The upload's name without folders or odd characters (it names the outputs)."""
+    """The upload's name without folders or odd characters (it names the outputs), at most
+    64 characters and 200 bytes as UTF-8 (a file name on disk takes 255 bytes, and a letter
+    may take 4)."""
     stem = Path((filename or "mesh").replace("\\", "/")).stem
-    return "".join(c if c.isalnum() or c in "-_" else "_" for c in stem)[:64] or "mesh"
+    safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in stem)[:64]
+    return safe.encode()[:200].decode(errors="ignore") or "mesh"
 
 
 def _bake_settings(parsed: BakeSettings | None, settings) -> BakeSettings:
@@ -97,31 +96,6 @@ def _bake_settings(parsed: BakeSettings | None, settings) -> BakeSettings:
     return BakeSettings.build(parsed, max_faces=settings.max_faces)
 
 
-def _receive(mesh: UploadFile, suffix: str, settings) -> tuple[Path, hashlib._Hash]:
-    """Stream the upload to a temporary file, stopped at the limit, and check what can be
-    told without parsing (the bake's process parses it). Returns the file and its sha256."""
-    uploads = settings.data_dir / "uploads"
-    uploads.mkdir(parents=True, exist_ok=True)
-    tmp = uploads / f"{uuid.uuid4().hex}{suffix}"
-    digest, size = hashlib.sha256(), 0
-    try:
-        with open(tmp, "wb") as f:
-            while chunk := mesh.file.read(_CHUNK):
-                size += len(chunk)
-                if size > settings.max_upload_bytes:
-                    raise HTTPException(413, detail=f"mesh: larger than the limit of {settings.max_upload_bytes} bytes")
-                digest.update(chunk)
-                f.write(chunk)
-        check_file(tmp)
-    except MeshError as exc:
-        tmp.unlink(missing_ok=True)
-        raise HTTPException(422, detail=f"mesh {mesh.filename!r}: {exc.problem}") from None
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return tmp, digest
-
-
 def _too_many(unfinished: int, limit: int) -> HTTPException:
     return HTTPException(429, detail=f"{unfinished} unfinished jobs: the limit per client is {limit}",
                          headers={"Retry-After": str(LIMIT_RETRY_SECONDS)})
@@ -136,8 +110,8 @@ def _check_unfinished(session, client: str, settings) -> None:
 
 
 def _make_job(request: Request, response: Response, session, settings, storage: Storage, client: str, *,
-              upload: Path, name: str, mesh_name: str, options: dict, key: str) -> JobOut:
-    """The job of the mesh in ``upload`` (stored as ``name``) with bake ``options``, queued;
+              upload: Upload, mesh_name: str, options: dict, key: str) -> JobOut:
+    """The job of the mesh (and its companions) in ``upload`` with bake ``options``, queued;
     or the queued, running or done job with the same ``key`` (the answer's status then 200)."""
     job = crud.live_job(session, key)  # the same upload again: answered without storing it once more
     if job is not None and not (job.state == "done" and not _checked(session, job, storage)):
@@ -146,7 +120,8 @@ def _make_job(request: Request, response: Response, session, settings, storage: 
         return _out(job, request, session)
     # the upload first, the row second: a job in the table always has its upload
     job_id = uuid.uuid4().hex
-    storage.save_input(job_id, upload, name, {"mesh": name, "settings": options})  # outputs are named after it
+    name = upload.mesh  # the outputs are named after it
+    storage.save_input(job_id, upload.files(), {"mesh": name, "files": upload.companions, "settings": options})
     try:
         job, created = crud.create_job(session, job_id=job_id, key=key, client=client, mesh_name=mesh_name, settings=options,
                                        limit=settings.jobs_per_client)
@@ -173,35 +148,44 @@ def _make_job(request: Request, response: Response, session, settings, storage: 
     return _out(job, request, session)
 
 
+MESH_DOC = f"The mesh: {', '.join(UPLOAD_FORMATS)} (a .gltf with its buffers as data: URIs, or with them in 'files')"
+FILES_DOC = (f"The files the mesh refers to, each under the name it uses ({', '.join(COMPANION_FORMATS)}): an OBJ's MTL and its "
+             "images, a glTF's .bin buffers and images. A glTF's buffers must be sent; an OBJ's MTL and the images may be left "
+             "out (the bake draws its own texture). Every file must be one the mesh or a sent MTL refers to, by a plain file name.")
+
+
 @router.post("", status_code=202, response_model=JobOut)
 def create_job(
     request: Request, response: Response, session: SessionDep, settings: SettingsDep, client: ClientDep, storage: StorageDep,
-    mesh: Annotated[UploadFile, File(description="OBJ, PLY, STL, OFF, glTF or GLB")],
+    mesh: Annotated[UploadFile, File(description=MESH_DOC)],
+    files: Annotated[list[UploadFile], File(default_factory=list, description=FILES_DOC)],
     bake_settings: Annotated[Json[BakeSettings] | None, BeforeValidator(shallow),
                              Form(alias="settings", description="BakeSettings as JSON (default: all defaults)")] = None,
 ):
-    """Upload a mesh and its bake settings; the bake is queued (202). The same upload with
-    the same settings returns the existing job (200) instead of baking twice.
+    """Upload a mesh, the files it refers to and its bake settings; the bake is queued (202).
+    The same upload with the same settings returns the existing job (200) instead of baking
+    twice.
+
+    One mesh as ``mesh``; an OBJ's MTL and images, or a glTF's .bin buffers and images, as
+    ``files`` beside it (the field repeated, once a file), each under the name the mesh
+    uses: ``curl -F mesh=@capsule.obj -F files=@capsule.mtl -F files=@capsule0.jpg ...``.
+    Every name is checked (a plain file name of a known kind, at most 255 bytes); the
+    upload limit counts every part together; a buffer the mesh needs and that was not sent,
+    or a file the mesh does not refer to, is a 422 naming it.
 
     A plain function: FastAPI runs it in its thread pool, so the copying, hashing and
     database work of one upload never holds up the event loop (or ``/healthz``)."""
-    if mesh.filename and (len(mesh.filename) > 255 or "\x00" in mesh.filename):
-        raise HTTPException(422, detail=f"mesh: the file name must be at most 255 characters, without NUL (got {len(mesh.filename)}: {mesh.filename[:40]!r}...)")
-    suffix = Path(mesh.filename or "").suffix.lower()
-    if suffix not in UPLOAD_FORMATS:
-        raise HTTPException(422, detail=f"mesh: {mesh.filename!r} is not a single-file mesh ({' '.join(UPLOAD_FORMATS)})")
+    suffix, names = check_names(mesh, files)
     # one serialisation of the resolved settings: the job's, the worker's and the dedup key's
     options = _bake_settings(bake_settings, settings).model_dump(mode="json")
     _check_unfinished(session, client, settings)
-    tmp, digest = _receive(mesh, suffix, settings)
+    upload = receive(mesh, files, names, _safe_stem(mesh.filename) + suffix, settings.data_dir / "uploads", settings.max_upload_bytes)
     try:
-        digest.update(json.dumps(options, sort_keys=True).encode())
-        if settings.api_keys:  # with keys, each client has its own jobs
-            digest.update(client.encode())
-        return _make_job(request, response, session, settings, storage, client, upload=tmp, name=_safe_stem(mesh.filename) + suffix,
-                         mesh_name=mesh.filename or "mesh", options=options, key=digest.hexdigest())
+        key = upload.key(options, client if settings.api_keys else None)  # with keys, each client has its own jobs
+        return _make_job(request, response, session, settings, storage, client, upload=upload, mesh_name=mesh.filename or "mesh",
+                         options=options, key=key)
     finally:
-        tmp.unlink(missing_ok=True)
+        upload.discard()
 
 
 @router.post("/{job_id}/retry", status_code=202, response_model=JobOut)
@@ -212,23 +196,19 @@ def retry_job(job: JobDep, request: Request, response: Response, session: Sessio
     if job.state not in ("failed", "cancelled"):
         raise HTTPException(409, detail=f"job {job.id} is {job.state}: only a failed or cancelled job is retried")
     _check_unfinished(session, client, settings)
-    uploads = settings.data_dir / "uploads"
-    uploads.mkdir(parents=True, exist_ok=True)
     try:
         folder = storage.fetch_input(job.id, job.lease)  # (from an object store: a copy of its own)
         try:
-            name = json.loads((folder / "job.json").read_text())["mesh"]
-            tmp = uploads / f"{uuid.uuid4().hex}{Path(name).suffix}"
-            shutil.copyfile(folder / name, tmp)
+            upload = copy_of(folder, json.loads((folder / "job.json").read_text()), settings.data_dir / "uploads")
         finally:
             storage.done_with(folder)
     except (StorageMissing, FileNotFoundError):  # deleted by retention, or from the store
         raise HTTPException(409, detail=f"job {job.id}: its upload is no longer kept; upload the mesh again") from None
     try:
-        return _make_job(request, response, session, settings, storage, client, upload=tmp, name=name, mesh_name=job.mesh_name,
+        return _make_job(request, response, session, settings, storage, client, upload=upload, mesh_name=job.mesh_name,
                          options=json.loads(job.settings), key=job.key)
     finally:
-        tmp.unlink(missing_ok=True)
+        upload.discard()
 
 
 @router.get("", response_model=JobPage)

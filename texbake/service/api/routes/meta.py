@@ -10,7 +10,7 @@ from texbake.textures.spec import catalogue, json_schema
 from ...health import ready
 from ..deps import SettingsDep
 from ..schemas import BakeSettings, ServerConfig, ServerLimits
-from .jobs import UPLOAD_FORMATS
+from ..uploads import COMPANION_FORMATS, MAX_COMPANIONS, UPLOAD_FORMATS
 
 router = APIRouter(tags=["meta"])
 
@@ -23,9 +23,11 @@ def textures():
 @router.get("/v1/config", response_model=ServerConfig)
 def config(settings: SettingsDep):
     """Whether this server needs an API key, its limits (a client can check a file's size
-    before sending it), the mesh formats it takes and the JSON Schema of the settings."""
+    before sending it), the mesh formats it takes, the files a mesh may bring beside it and
+    the JSON Schema of the settings."""
     limits = ServerLimits(**{name: getattr(settings, name) for name in ServerLimits.model_fields})
     return ServerConfig(auth=bool(settings.api_keys), limits=limits, formats=list(UPLOAD_FORMATS),
+                        companions=list(COMPANION_FORMATS), max_companions=MAX_COMPANIONS,
                         settings_schema=BakeSettings.model_json_schema())
 
 
