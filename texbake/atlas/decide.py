@@ -9,8 +9,11 @@ charts (:mod:`texbake.atlas.charts`: CAD parts and large meshes) or xatlas' own 
 and packs the charts with xatlas in worker processes under one deadline
 (:mod:`texbake.atlas.pack`). When one charting fails (crash, deadline, bad UVs) the other
 is tried; only when both have does every triangle get its own cell of a grid
-(:mod:`texbake.atlas.fallback`, "fallback-grid"). ``Atlas.reason`` says what was chosen,
-why, and what failed before it.
+(:mod:`texbake.atlas.fallback`, "fallback-grid"). A mesh whose parts have UVs only in part
+keeps those and unwraps the rest (:func:`_keep_parts`, :mod:`texbake.atlas.parts`).
+``Atlas.reason`` says what was chosen, why, and what failed before it; ``Atlas.warnings``
+what a user should know, one line each (the report, the command line, the service and
+the page show them).
 """
 
 from __future__ import annotations
@@ -26,12 +29,15 @@ from ..workers import Pool
 from .charts import prefer_planar
 from .fallback import grid_atlas
 from .pack import PATCH_FACES, Unwrapped, UnwrapRequest, XatlasFailed, start_workers, unwrap
-from .uvcheck import OVERLAP_GRID, bare_warning, coverage, measure, overlap_of, unwrap_problem, uv_problem
+from .parts import combine
+from .uvcheck import OVERLAP_GRID, bare_warning, coverage, measure, overlap_of, packing_estimate, unwrap_problem, uv_problem
 
 MODES = ("auto", "unwrap", "keep")
 CHARTINGS = ("auto", "xatlas", "planar")
 OVERLAP_LIMIT = 0.01  # a mesh's UVs under which more of the covered texels overlap are not kept
 PLANAR_GAIN = 1.3  # "auto" takes planar charts over xatlas' on a small organic mesh when they use this much more texture
+SPARSE_SHARE = 0.5  # a warning when kept UVs use less than this share of the tile an unwrap would use
+PROMISE_SHARE = 0.4  # a warning when an unwrap's utilisation is under this share of what its charts promise
 
 
 @dataclass
@@ -45,7 +51,7 @@ class Atlas:
     vmapping: np.ndarray  # (k,) int64: atlas vertex -> mesh vertex
     faces: np.ndarray  # (m, 3) int64: faces in atlas-vertex indices, same order as the mesh's
     uv: np.ndarray  # (k, 2) float64 in [0, 1], OpenGL convention (v up)
-    method: str  # "kept" | "planar" | "xatlas" | "xatlas-patches" | "fallback-grid"
+    method: str  # "kept" | "planar" | "xatlas" | "xatlas-patches" | "fallback-grid", or "kept+" one of those (UVs kept in part)
     reason: str  # why this method (and what failed before it)
     stats: dict = field(default_factory=dict)  # charts, utilisation, stretch, overlap, seconds
     warnings: list[str] = field(default_factory=list)  # what a user should know of this atlas
@@ -63,6 +69,8 @@ def make_atlas(
     deadline: float = 120.0,
     workers: int = 2,
     charting: str = "auto",
+    has_uv: np.ndarray | None = None,
+    without_uv: list[str] | tuple[str, ...] = (),
     _patch_faces: int | None = PATCH_FACES,
 ) -> Atlas:
     """A UV atlas for a triangle mesh: its own UVs kept, or an unwrap.
@@ -74,7 +82,11 @@ def make_atlas(
     faces : (m, 3) array_like of int
         Triangles, indices in ``[0, n)``, m >= 1; cast to int64.
     uv : (n, 2) array_like of float, optional
-        The mesh's per-vertex UVs, or None.
+        The mesh's per-vertex UVs, or None (NaN on the vertices of faces that have none).
+    has_uv, without_uv : (m,) array_like of bool and list of str, optional
+        Which faces have UVs when only some do (``LoadedMesh.has_uv``; None: all do if
+        ``uv`` is given), and the names of the parts without, for messages. "auto" and
+        "keep" then keep those faces' UVs and unwrap the others (:mod:`texbake.atlas.parts`).
     mode : {"auto", "unwrap", "keep"}, optional
         "auto" keeps usable UVs (:func:`uv_problem`) that do not overlap (more than
         ``OVERLAP_LIMIT`` of the covered texel centres under two or more faces, on the
@@ -97,8 +109,12 @@ def make_atlas(
     Atlas
         ``reason``: why the UVs were not kept, the charting used and why, what failed.
         ``stats``: :func:`texbake.atlas.uvcheck.measure`'s, ``seconds``, and ``patches``
-        or ``planar_charts`` and ``flat_share``. ``warnings``: overlapping UVs kept, the
-        fallback grid, over ``BARE_LIMIT`` of the surface on charts with no texel centre.
+        or ``planar_charts`` and ``flat_share``. ``warnings`` (one line each, what a user
+        should know): the mesh's UVs replaced and why, kept UVs that use under
+        ``SPARSE_SHARE`` of what an unwrap would, overlapping UVs kept, parts unwrapped
+        beside kept UVs, an unwrap that failed before the one used, utilisation under
+        ``PROMISE_SHARE`` of what the charts promise, the fallback grid, over
+        ``BARE_LIMIT`` of the surface on charts with no texel centre.
 
     Raises
     ------
@@ -112,25 +128,69 @@ def make_atlas(
     start = time.perf_counter()
     _check_settings(mode=mode, charting=charting, size=size, padding=padding, deadline=deadline, workers=workers)
     request = UnwrapRequest(*_checked_mesh(vertices, faces), size, padding)
-    why = "uv='unwrap'"
-    if mode != "unwrap":
+    mixed = _mixed(has_uv, uv, len(request.faces))
+    if mode == "unwrap":
+        kept, why = None, "uv='unwrap'"
+    elif mixed is None:
         kept, why = _keep(request, uv, mode, start)
-        if kept is not None:
-            return kept
+    else:
+        kept, why = _keep_parts(request, uv, mixed, without_uv, mode=mode, deadline=deadline, workers=workers,
+                                charting=charting, patch_faces=_patch_faces, start=start)
+    if kept is not None:
+        return kept
+    replaced = [f"the mesh's UVs were replaced by an unwrap: {why}"] if uv is not None and mode == "auto" else []
+    return _unwrap(request, why, replaced, deadline=deadline, workers=workers, charting=charting,
+                   patch_faces=_patch_faces, start=start)
+
+
+def _unwrap(request: UnwrapRequest, why: str, warnings: list[str], *, deadline: float, workers: int, charting: str,
+            patch_faces: int | None, start: float) -> Atlas:
+    """The atlas of an unwrap (or the fallback grid), its reason starting with ``why`` (the
+    UVs not kept) and its warnings with ``warnings``."""
     end = time.monotonic() + deadline
-    attempts, order = _attempts(request.vertices, request.faces, charting, _patch_faces)
-    failures: list[str] = []
     with start_workers(workers, end) as pool:  # one set of workers for every attempt
-        found = _first_usable(request, pool, end, attempts, failures)
-        if found is not None and charting == "auto" and found[0] == "xatlas" and time.monotonic() < end:
-            found, order = _fuller_planar(request, pool, end, found, order)
+        found, order, failures = _unwrapped(request, pool, end, charting, patch_faces)
     if found is None:
-        return _fallback(request, deadline, why, failures, start)
+        grid = _fallback(request, deadline, why, failures, start)
+        grid.warnings[:0] = warnings
+        return grid
     charted, atlas = found
     retried = f" (after: {'; '.join(failures)})" if failures else ""
     stats = {**_stats(request, atlas.faces, atlas.uv, start), **atlas.detail}
+    warnings = warnings + _retry_warning(charting, charted, failures) + _promise_warning(request, atlas, stats)
     return Atlas(atlas.vmapping, atlas.faces, atlas.uv, atlas.method, f"{why}; {charted} charts: {order}{retried}", stats,
-                 bare_warning(stats, size))
+                 warnings + bare_warning(stats, request.size))
+
+
+def _unwrapped(request: UnwrapRequest, pool: Pool, end: float, charting: str,
+               patch_faces: int | None) -> tuple[tuple[str, Unwrapped] | None, str, list[str]]:
+    """``((charting used, atlas) or None, why that charting, what failed)``: the unwrap's
+    attempts in ``pool`` by ``end`` (``time.monotonic()``)."""
+    attempts, order = _attempts(request.vertices, request.faces, charting, patch_faces)
+    failures: list[str] = []
+    found = _first_usable(request, pool, end, attempts, failures)
+    if found is not None and charting == "auto" and found[0] == "xatlas" and time.monotonic() < end:
+        found, order = _fuller_planar(request, pool, end, found, order)
+    return found, order, failures
+
+
+def _retry_warning(charting: str, charted: str, failures: list[str]) -> list[str]:
+    """A warning when the atlas' charting is not the first tried: what failed, what was used."""
+    if not failures:
+        return []
+    asked = f"charting={charting!r} was asked for, but " if charting not in ("auto", charted) else ""
+    return [f"{asked}the first unwrap failed ({'; '.join(failures)}): {charted} charts used instead"]
+
+
+def _promise_warning(request: UnwrapRequest, atlas: Unwrapped, stats: dict) -> list[str]:
+    """A warning when the packing left far more of the tile empty than its charts need
+    (:func:`texbake.atlas.uvcheck.packing_estimate` with the padding)."""
+    promised = packing_estimate(request.vertices, request.faces, atlas.faces, atlas.uv, request.padding / request.size)
+    used = stats["utilisation"]
+    if used >= PROMISE_SHARE * promised:
+        return []
+    return [f"utilisation {used:.3f} is far below the {promised:.2f} its {stats['charts']} charts promise (their area "
+            "over their padded bounding boxes): the packing left most of the tile empty"]
 
 
 def _check_settings(*, mode, charting, size, padding, deadline, workers) -> None:
@@ -176,25 +236,103 @@ def _stats(request: UnwrapRequest, faces: np.ndarray, uv: np.ndarray, start: flo
 def _keep(request: UnwrapRequest, uv, mode: str, start: float) -> tuple[Atlas | None, str]:
     """``(the atlas of the mesh's own UVs, why)`` when ``mode`` keeps them, else ``(None, why
     they are not kept)``; :class:`AtlasError` when ``mode`` is "keep" and they are not usable."""
-    vertices, faces = request.vertices, request.faces
-    problem = uv_problem(vertices, faces, uv)
-    overlapping = raster = None
-    if problem is None:  # inside the tile and not degenerate: do faces share texels?
-        raster = coverage(np.asarray(uv, dtype=np.float64), faces, min(request.size, OVERLAP_GRID))
-        share, most = overlap_of(raster[0])
-        if share > OVERLAP_LIMIT:
-            overlapping = (f"the mesh's UVs overlap: {share:.1%} of the covered texels lie under two or more "
-                           f"faces (up to {most})")
-    if problem is None and (overlapping is None or mode == "keep"):
-        uv = np.asarray(uv, dtype=np.float64)
-        vm = np.arange(len(vertices), dtype=np.int64)
-        reason = "the mesh's UVs are usable" if overlapping is None else "uv='keep'"
-        warnings = [] if overlapping is None else [f"{overlapping}: those texels show one face's texture on all of them"]
-        stats = _stats(request, faces, uv, start, raster)
-        return Atlas(vm, faces, uv, "kept", reason, stats, warnings + bare_warning(stats, request.size)), reason
-    if mode == "keep":
-        raise AtlasError(f"uv='keep' but {problem}")
-    return None, problem or overlapping or ""
+    problem, warnings, raster = _kept_problem(request, uv, mode)
+    if problem is not None:
+        return None, problem
+    uv = np.asarray(uv, dtype=np.float64)
+    vm = np.arange(len(request.vertices), dtype=np.int64)
+    reason = "the mesh's UVs are usable" if not warnings else "uv='keep'"
+    stats = _stats(request, request.faces, uv, start, raster)
+    warnings += _sparse_warning(request, request.faces, uv, stats)
+    return Atlas(vm, request.faces, uv, "kept", reason, stats, warnings + bare_warning(stats, request.size)), reason
+
+
+def _kept_problem(request: UnwrapRequest, uv, mode: str) -> tuple[str | None, list[str], tuple | None]:
+    """``(why the UVs of ``request``'s faces are not kept or None, warnings, their raster)``:
+    usable (:func:`uv_problem`) and, unless ``mode`` is "keep", not overlapping more than
+    ``OVERLAP_LIMIT`` on the bake's grid; :class:`AtlasError` when "keep" cannot keep them."""
+    problem = uv_problem(request.vertices, request.faces, uv)
+    if problem is not None:
+        if mode == "keep":
+            raise AtlasError(f"uv='keep' but {problem}")
+        return problem, [], None
+    raster = coverage(np.asarray(uv, dtype=np.float64), request.faces, min(request.size, OVERLAP_GRID))
+    share, most = overlap_of(raster[0])
+    if share <= OVERLAP_LIMIT:
+        return None, [], raster
+    overlapping = f"the mesh's UVs overlap: {share:.1%} of the covered texels lie under two or more faces (up to {most})"
+    if mode != "keep":
+        return overlapping, [], None
+    return None, [f"{overlapping}: those texels show one face's texture on all of them"], raster
+
+
+def _sparse_warning(request: UnwrapRequest, uv_faces: np.ndarray, uv: np.ndarray, stats: dict) -> list[str]:
+    """A warning when kept UVs use under ``SPARSE_SHARE`` of the tile an unwrap would
+    (estimated: :func:`texbake.atlas.uvcheck.packing_estimate` of their own islands)."""
+    estimate = packing_estimate(request.vertices, request.faces, uv_faces, uv, request.padding / request.size)
+    used = stats["utilisation"]
+    if used >= SPARSE_SHARE * estimate:
+        return []
+    return [f"the kept UVs use {used:.3f} of the tile; an unwrap would use about {estimate:.2f} (estimated from "
+            f"their islands packed at one texel density): uv='unwrap' gives {estimate / max(used, 1e-9):.1f}x the texels"]
+
+
+def _mixed(has_uv, uv, m: int) -> np.ndarray | None:
+    """``has_uv`` as an (m,) bool array when some faces have UVs and others not, else None."""
+    if has_uv is None or uv is None:
+        return None
+    has_uv = np.asarray(has_uv, dtype=bool)
+    if has_uv.shape != (m,):
+        raise AtlasError(f"expected has_uv of shape ({m},), one per face, got {has_uv.shape}")
+    return has_uv if has_uv.any() and not has_uv.all() else None
+
+
+def _keep_parts(request: UnwrapRequest, uv, has_uv: np.ndarray, without_uv, *, mode: str, deadline: float,
+                workers: int, charting: str, patch_faces: int | None, start: float) -> tuple[Atlas | None, str]:
+    """The mixed case: ``(the atlas keeping the UVs of the faces that have them and
+    unwrapping the others, why)``, or ``(None, why not)`` when those UVs are not kept.
+    :mod:`texbake.atlas.parts` puts the two into one tile."""
+    kept = UnwrapRequest(request.vertices, request.faces[has_uv], request.size, request.padding)
+    problem, warnings, _ = _kept_problem(kept, uv, mode)
+    if problem is not None:
+        return None, f"the UVs of the parts that have them cannot be kept: {problem}"
+    used, local = np.unique(request.faces[~has_uv], return_inverse=True)
+    sub = UnwrapRequest(request.vertices[used], local.reshape(-1, 3), request.size, request.padding)
+    end = time.monotonic() + deadline
+    with start_workers(workers, end) as pool:
+        found, order, failures = _unwrapped(sub, pool, end, charting, patch_faces)
+        if found is None:
+            vm, fa, u = grid_atlas(sub.vertices, sub.faces, sub.padding / sub.size)
+            found, order = ("grid", Unwrapped(vm, fa, u, "fallback-grid", {})), "both chartings failed"
+        try:
+            out = combine(request, has_uv, uv, found[1], used, pool, max(end - time.monotonic(), 0.0))
+        except XatlasFailed as exc:
+            if mode == "keep":
+                raise AtlasError(f"uv='keep' but the kept UVs and the other parts' charts could not be packed together: {exc}") from None
+            return None, f"the kept UVs and the other parts' charts could not be packed together: {exc}"
+    bad = unwrap_problem(out.vmapping, out.faces, out.uv, request.faces, len(request.vertices))
+    if bad is not None:
+        if mode == "keep":
+            raise AtlasError(f"uv='keep' but the kept UVs and the other parts' charts make an unusable atlas: {bad}")
+        return None, f"the kept UVs and the other parts' charts make an unusable atlas: {bad}"
+    named = _part_names(list(without_uv), int((~has_uv).sum()))
+    reason = f"the UVs of the parts that have them, {out.how}; {named}: {found[0]} charts: {order}"
+    stats = {**_stats(request, out.faces, out.uv, start), **found[1].detail, "kept_scale": out.scale,
+             "kept_faces": int(has_uv.sum())}
+    warnings += [f"{named}: unwrapped; the UVs of the other parts {out.how}"]
+    kept_uv = np.asarray(uv, dtype=np.float64)
+    kept_use = {"utilisation": float(uv_areas(kept_uv, kept.faces).sum())}  # as they came, before any scaling
+    warnings += _retry_warning(charting, found[0], failures) + _sparse_warning(kept, kept.faces, kept_uv, kept_use)
+    return Atlas(out.vmapping, out.faces, out.uv, "kept+" + found[1].method, reason, stats,
+                 warnings + bare_warning(stats, request.size)), reason
+
+
+def _part_names(names: list[str], faces: int) -> str:
+    """The parts without UVs in words: ``part 'wheel' (120 faces) has no UVs``."""
+    if not names:
+        return f"{faces:,} faces have no UVs"
+    quoted = ", ".join(repr(n) for n in names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
+    return f"part {quoted} ({faces:,} faces) has no UVs" if len(names) == 1 else f"parts {quoted} ({faces:,} faces) have no UVs"
 
 
 def _attempts(vertices, faces, charting: str, patch_faces: int | None) -> tuple[list[tuple[str, int | None]], str]:
