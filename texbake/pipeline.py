@@ -288,7 +288,8 @@ def _atlas(mesh: LoadedMesh, settings: BakeSettings, workers: int, store: AtlasC
     if found is not None and found.faces.shape == mesh.faces.shape and found.vmapping.max() < len(mesh.vertices):
         return found, key
     atlas = make_atlas(mesh.vertices, mesh.faces, mesh.uv, mode=settings.uv, size=size, deadline=settings.unwrap_deadline,
-                       workers=workers, charting=settings.charting, has_uv=mesh.has_uv, without_uv=mesh.without_uv)
+                       workers=workers, charting=settings.charting, has_uv=mesh.has_uv, part=mesh.part,
+                       part_names=mesh.part_names)
     if store is not None:
         store.put(key, atlas)
     return atlas, key

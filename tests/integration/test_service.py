@@ -83,7 +83,7 @@ def test_a_scene_with_uvs_on_some_parts_keeps_them_and_the_job_says_so(server, t
     assert job["state"] == "done", job["error"]
     assert job["report"]["atlas"]["method"].startswith("kept+") and job["report"]["atlas"]["kept_scale"] == 1.0
     assert job["warnings"] == job["report"]["warnings"]
-    assert job["warnings"][0].startswith("part 'ball' (320 faces) has no UVs: unwrapped"), job["warnings"]
+    assert job["warnings"][0].startswith("unwrapped: part 'ball' (320 faces) has no UVs"), job["warnings"]
 
 
 def test_bad_input_gets_4xx_with_a_reason(server, meshes, tmp_path):

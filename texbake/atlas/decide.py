@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -30,7 +31,17 @@ from .charts import prefer_planar
 from .fallback import grid_atlas
 from .pack import PATCH_FACES, Unwrapped, UnwrapRequest, XatlasFailed, start_workers, unwrap
 from .parts import combine
-from .uvcheck import OVERLAP_GRID, bare_warning, coverage, measure, overlap_of, packing_estimate, unwrap_problem, uv_problem
+from .uvcheck import (
+    OVERLAP_GRID,
+    bare_warning,
+    coverage,
+    coverage_counts,
+    measure,
+    overlap_of,
+    packing_estimate,
+    unwrap_problem,
+    uv_problem,
+)
 
 MODES = ("auto", "unwrap", "keep")
 CHARTINGS = ("auto", "xatlas", "planar")
@@ -70,7 +81,8 @@ def make_atlas(
     workers: int = 2,
     charting: str = "auto",
     has_uv: np.ndarray | None = None,
-    without_uv: list[str] | tuple[str, ...] = (),
+    part: np.ndarray | None = None,
+    part_names: list[str] | tuple[str, ...] = (),
     _patch_faces: int | None = PATCH_FACES,
 ) -> Atlas:
     """A UV atlas for a triangle mesh: its own UVs kept, or an unwrap.
@@ -83,10 +95,12 @@ def make_atlas(
         Triangles, indices in ``[0, n)``, m >= 1; cast to int64.
     uv : (n, 2) array_like of float, optional
         The mesh's per-vertex UVs, or None (NaN on the vertices of faces that have none).
-    has_uv, without_uv : (m,) array_like of bool and list of str, optional
-        Which faces have UVs when only some do (``LoadedMesh.has_uv``; None: all do if
-        ``uv`` is given), and the names of the parts without, for messages. "auto" and
-        "keep" then keep those faces' UVs and unwrap the others (:mod:`texbake.atlas.parts`).
+    has_uv, part, part_names : (m,) bool, (m,) int and list of str, optional
+        Which faces have UVs when only some do (None: all do if ``uv`` is given), each
+        face's part and the parts' names (``LoadedMesh``'s). UVs are then kept part by
+        part: "auto" keeps those of the parts whose UVs are usable and do not overlap
+        and unwraps the others, "keep" those of every part that has UVs
+        (:func:`_usable_parts`; :mod:`texbake.atlas.parts` puts both in one tile).
     mode : {"auto", "unwrap", "keep"}, optional
         "auto" keeps usable UVs (:func:`uv_problem`) that do not overlap (more than
         ``OVERLAP_LIMIT`` of the covered texel centres under two or more faces, on the
@@ -128,19 +142,27 @@ def make_atlas(
     start = time.perf_counter()
     _check_settings(mode=mode, charting=charting, size=size, padding=padding, deadline=deadline, workers=workers)
     request = UnwrapRequest(*_checked_mesh(vertices, faces), size, padding)
-    mixed = _mixed(has_uv, uv, len(request.faces))
-    if mode == "unwrap":
-        kept, why = None, "uv='unwrap'"
-    elif mixed is None:
-        kept, why = _keep(request, uv, mode, start)
-    else:
-        kept, why = _keep_parts(request, uv, mixed, without_uv, mode=mode, deadline=deadline, workers=workers,
-                                charting=charting, patch_faces=_patch_faces, start=start)
+    kept, why = _kept(request, uv, has_uv, part, part_names, mode=mode, deadline=deadline, workers=workers,
+                      charting=charting, patch_faces=_patch_faces, start=start)
     if kept is not None:
         return kept
     replaced = [f"the mesh's UVs were replaced by an unwrap: {why}"] if uv is not None and mode == "auto" else []
     return _unwrap(request, why, replaced, deadline=deadline, workers=workers, charting=charting,
                    patch_faces=_patch_faces, start=start)
+
+
+def _kept(request: UnwrapRequest, uv, has_uv, part, part_names, *, mode: str, **by_part: Any) -> tuple[Atlas | None, str]:
+    """``(the atlas keeping the mesh's UVs, why)``, whole or part by part, or ``(None, why
+    they are not kept)``."""
+    mixed = _mixed(has_uv, uv, len(request.faces))
+    several = part is not None and uv is not None and len(np.unique(part)) > 1
+    if mode == "unwrap":
+        return None, "uv='unwrap'"
+    if mixed is None and not (several and mode == "keep"):
+        kept, why = _keep(request, uv, mode, by_part["start"])
+        if kept is not None or not several:
+            return kept, why
+    return _keep_parts(request, uv, mixed, part, part_names, mode=mode, **by_part)
 
 
 def _unwrap(request: UnwrapRequest, why: str, warnings: list[str], *, deadline: float, workers: int, charting: str,
@@ -287,16 +309,19 @@ def _mixed(has_uv, uv, m: int) -> np.ndarray | None:
     return has_uv if has_uv.any() and not has_uv.all() else None
 
 
-def _keep_parts(request: UnwrapRequest, uv, has_uv: np.ndarray, without_uv, *, mode: str, deadline: float,
-                workers: int, charting: str, patch_faces: int | None, start: float) -> tuple[Atlas | None, str]:
-    """The mixed case: ``(the atlas keeping the UVs of the faces that have them and
-    unwrapping the others, why)``, or ``(None, why not)`` when those UVs are not kept.
-    :mod:`texbake.atlas.parts` puts the two into one tile."""
-    kept = UnwrapRequest(request.vertices, request.faces[has_uv], request.size, request.padding)
-    problem, warnings, _ = _kept_problem(kept, uv, mode)
-    if problem is not None:
-        return None, f"the UVs of the parts that have them cannot be kept: {problem}"
-    used, local = np.unique(request.faces[~has_uv], return_inverse=True)
+def _keep_parts(request: UnwrapRequest, uv, has_uv: np.ndarray | None, part: np.ndarray | None, part_names, *,
+                mode: str, deadline: float, workers: int, charting: str, patch_faces: int | None,
+                start: float) -> tuple[Atlas | None, str]:
+    """UVs part by part: ``(the atlas keeping the UVs of the parts :func:`_usable_parts`
+    keeps and unwrapping the others, why)``, or ``(None, why not)`` when no part's are
+    kept. :mod:`texbake.atlas.parts` puts the two into one tile."""
+    uv = np.asarray(uv, dtype=np.float64)
+    keep, unwrapped, warnings = _usable_parts(request, uv, has_uv, part, part_names, mode)
+    if keep.all():
+        return _keep(request, uv, mode, start)
+    if not keep.any():
+        return None, "; ".join(unwrapped)
+    used, local = np.unique(request.faces[~keep], return_inverse=True)
     sub = UnwrapRequest(request.vertices[used], local.reshape(-1, 3), request.size, request.padding)
     end = time.monotonic() + deadline
     with start_workers(workers, end) as pool:
@@ -305,34 +330,73 @@ def _keep_parts(request: UnwrapRequest, uv, has_uv: np.ndarray, without_uv, *, m
             vm, fa, u = grid_atlas(sub.vertices, sub.faces, sub.padding / sub.size)
             found, order = ("grid", Unwrapped(vm, fa, u, "fallback-grid", {})), "both chartings failed"
         try:
-            out = combine(request, has_uv, uv, found[1], used, pool, max(end - time.monotonic(), 0.0))
+            out = combine(request, keep, uv, found[1], used, pool, max(end - time.monotonic(), 0.0))
+            bad = unwrap_problem(out.vmapping, out.faces, out.uv, request.faces, len(request.vertices))
         except XatlasFailed as exc:
-            if mode == "keep":
-                raise AtlasError(f"uv='keep' but the kept UVs and the other parts' charts could not be packed together: {exc}") from None
-            return None, f"the kept UVs and the other parts' charts could not be packed together: {exc}"
-    bad = unwrap_problem(out.vmapping, out.faces, out.uv, request.faces, len(request.vertices))
+            bad = str(exc)
     if bad is not None:
         if mode == "keep":
-            raise AtlasError(f"uv='keep' but the kept UVs and the other parts' charts make an unusable atlas: {bad}")
-        return None, f"the kept UVs and the other parts' charts make an unusable atlas: {bad}"
-    named = _part_names(list(without_uv), int((~has_uv).sum()))
-    reason = f"the UVs of the parts that have them, {out.how}; {named}: {found[0]} charts: {order}"
+            raise AtlasError(f"uv='keep' but the kept UVs and the other parts' charts cannot share the tile: {bad}")
+        return None, f"the kept UVs and the other parts' charts cannot share the tile: {bad}"
+    named = "; ".join(unwrapped)
+    reason = f"the UVs of the parts that have usable ones, {out.how}; unwrapped: {named}: {found[0]} charts: {order}"
     stats = {**_stats(request, out.faces, out.uv, start), **found[1].detail, "kept_scale": out.scale,
-             "kept_faces": int(has_uv.sum())}
-    warnings += [f"{named}: unwrapped; the UVs of the other parts {out.how}"]
-    kept_uv = np.asarray(uv, dtype=np.float64)
-    kept_use = {"utilisation": float(uv_areas(kept_uv, kept.faces).sum())}  # as they came, before any scaling
-    warnings += _retry_warning(charting, found[0], failures) + _sparse_warning(kept, kept.faces, kept_uv, kept_use)
+             "kept_faces": int(keep.sum())}
+    kept = UnwrapRequest(request.vertices, request.faces[keep], request.size, request.padding)
+    as_they_came = {"utilisation": float(uv_areas(uv, kept.faces).sum())}  # before any scaling
+    warnings = [f"unwrapped: {named}; the UVs of the other parts {out.how}", *warnings,
+                *_retry_warning(charting, found[0], failures), *_sparse_warning(kept, kept.faces, uv, as_they_came)]
     return Atlas(out.vmapping, out.faces, out.uv, "kept+" + found[1].method, reason, stats,
                  warnings + bare_warning(stats, request.size)), reason
 
 
-def _part_names(names: list[str], faces: int) -> str:
-    """The parts without UVs in words: ``part 'wheel' (120 faces) has no UVs``."""
-    if not names:
-        return f"{faces:,} faces have no UVs"
-    quoted = ", ".join(repr(n) for n in names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
-    return f"part {quoted} ({faces:,} faces) has no UVs" if len(names) == 1 else f"parts {quoted} ({faces:,} faces) have no UVs"
+def _usable_parts(request: UnwrapRequest, uv: np.ndarray, has_uv: np.ndarray | None, part: np.ndarray | None,
+                  names, mode: str) -> tuple[np.ndarray, list[str], list[str]]:
+    """``(the faces whose UVs are kept (m,) bool, each part not kept and why, warnings)``.
+
+    Part by part, the largest first: a part's UVs are kept when usable (:func:`uv_problem`)
+    and, unless ``mode`` is "keep", when under ``OVERLAP_LIMIT`` of their texel centres lie
+    under two of its faces or under a part kept before it (two parts sharing one layout:
+    the first keeps it). :class:`AtlasError` when "keep" meets UVs that are not usable.
+    """
+    m = len(request.faces)
+    has = np.ones(m, dtype=bool) if has_uv is None else has_uv
+    group = 2 * (np.zeros(m, dtype=np.int64) if part is None else np.asarray(part, dtype=np.int64)) + has
+    ids, sizes = np.unique(group, return_counts=True)
+    grid = min(request.size, OVERLAP_GRID)
+    taken, keep = np.zeros((grid, grid), dtype=bool), np.zeros(m, dtype=bool)
+    unwrapped: list[str] = []
+    warnings: list[str] = []
+    for g in ids[np.argsort(-sizes, kind="stable")]:
+        faces = group == g
+        named = _named(names, int(g) // 2, int(faces.sum()))
+        if g % 2 == 0:
+            unwrapped.append(f"{named} {'has' if g // 2 < len(names) else 'have'} no UVs")
+            continue
+        problem = uv_problem(request.vertices, request.faces[faces], uv)
+        if problem is not None:
+            problem = problem.replace("the mesh's", "its")
+            if mode == "keep":
+                raise AtlasError(f"uv='keep' but {named}: {problem}")
+            unwrapped.append(f"{named}: {problem}")
+            continue
+        counts = coverage_counts(uv, request.faces[faces], grid)
+        covered = counts > 0
+        share = float(((counts > 1) | (covered & taken)).sum() / max(int(covered.sum()), 1))
+        if share > OVERLAP_LIMIT:
+            what = f"{named}: {share:.1%} of its UVs' texels lie under two of its faces or under a part kept before it"
+            if mode != "keep":
+                unwrapped.append(what)
+                continue
+            warnings.append(f"{what}: those texels show one face's texture on all of them")
+        taken |= covered
+        keep[faces] = True
+    return keep, unwrapped, warnings
+
+
+def _named(names, index: int, faces: int) -> str:
+    """A part in words: ``part 'wheel' (120 faces)``."""
+    return f"part {names[index]!r} ({faces:,} faces)" if index < len(names) else f"{faces:,} faces"
 
 
 def _attempts(vertices, faces, charting: str, patch_faces: int | None) -> tuple[list[tuple[str, int | None]], str]:

@@ -19,6 +19,7 @@ unwraps only the others.
 
 from __future__ import annotations
 
+import collections
 import hashlib
 import io
 import itertools
@@ -83,9 +84,11 @@ class LoadedMesh:
     has_uv : (m,) bool or None
         Which faces have UVs, when only some do (their parts had UVs); None when every
         face has them (``uv`` given) or none has (``uv`` None).
-    without_uv : list of str
-        The names of the parts that have no UVs when others have (a scene's node names,
-        else ``"part N"``), for messages.
+    part : (m,) int32 or None
+        Each face's part (index into ``part_names``) for a mesh of several parts (a
+        scene's meshes); None for one part. The atlas keeps or unwraps UVs part by part.
+    part_names : list of str
+        The parts' names (a scene's mesh names, with the node where a mesh is used twice).
     warnings : list of str
         What a user should know of the loading (one line each; the report collects them).
     """
@@ -99,8 +102,16 @@ class LoadedMesh:
     sha256: str
     removed_duplicate: int = 0
     has_uv: np.ndarray | None = None
-    without_uv: list[str] = field(default_factory=list)
+    part: np.ndarray | None = None
+    part_names: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+
+    @property
+    def without_uv(self) -> list[str]:
+        """The names of the parts whose faces have no UVs, when others have."""
+        if self.has_uv is None or self.part is None:
+            return []
+        return [self.part_names[i] for i in np.unique(self.part[~self.has_uv])]
 
 
 def load_mesh(path, *, max_faces: int = 5_000_000) -> LoadedMesh:
@@ -426,7 +437,7 @@ def _check_stl_header(head: bytes, size: int, where: str) -> None:
 
 def _parts(loaded):
     """(vertices, faces, uv or None, name) of every triangle mesh, transforms applied;
-    a scene's parts are named by their nodes."""
+    a scene's parts are named by their meshes."""
     import trimesh
 
     if isinstance(loaded, trimesh.Trimesh):
@@ -434,7 +445,9 @@ def _parts(loaded):
     if not isinstance(loaded, trimesh.Scene):
         return []
     parts = []
-    for node in loaded.graph.nodes_geometry:
+    nodes = loaded.graph.nodes_geometry
+    uses = collections.Counter(loaded.graph.transforms.node_data[node]["geometry"] for node in nodes)
+    for node in nodes:
         transform, name = _world_transform(loaded.graph, node), loaded.graph.transforms.node_data[node]["geometry"]
         g = loaded.geometry[name]
         if isinstance(g, trimesh.Trimesh):
@@ -443,7 +456,8 @@ def _parts(loaded):
             f = np.asarray(g.faces)
             if np.linalg.det(transform[:3, :3]) < 0:  # a mirroring node: keep faces outward
                 f = f[:, ::-1]
-            parts.append((v, f, _uv(g), str(node)))
+            # the mesh's name (trimesh names a glTF file's unnamed nodes at random), and its node's where it is used twice
+            parts.append((v, f, _uv(g), name if uses[name] == 1 else f"{name} at node {node}"))
     return parts
 
 
@@ -517,20 +531,18 @@ def _weld(vertices, faces, uv):
     return vertices[keep], rank[inverse][faces], None if uv is None else uv[keep]
 
 
-def _joined_uv(parts, face_parts) -> tuple[np.ndarray | None, np.ndarray | None, list[str]]:
-    """``(uv, has_uv, without_uv)`` of the parts ``(vertices, faces, uv or None, name)`` put
-    together: UVs with NaN rows for the parts that have none (None if none has any), which
-    faces have UVs (None if all or none do), and the names of the parts without."""
+def _joined_uv(parts, face_parts) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """``(uv, has_uv)`` of the parts ``(vertices, faces, uv or None, ...)`` put together:
+    UVs with NaN rows for the parts that have none (None if none has any), and which
+    faces have UVs (None if all or none do)."""
     given = [p[2] is not None for p in parts]
     if not any(given):
-        return None, None, []
+        return None, None
     uv = np.concatenate([np.asarray(p[2], dtype=np.float64) if p[2] is not None else np.full((len(p[0]), 2), np.nan)
                          for p in parts])
     if all(given):
-        return uv, None, []
-    has_uv = np.concatenate([np.full(len(f), g) for f, g in zip(face_parts, given, strict=True)])
-    names = [p[3] if len(p) > 3 else f"part {i}" for i, p in enumerate(parts)]
-    return uv, has_uv, [n for n, g in zip(names, given, strict=True) if not g]
+        return uv, None
+    return uv, np.concatenate([np.full(len(f), g) for f, g in zip(face_parts, given, strict=True)])
 
 
 def _validate(parts, name: str, where: str, sha256: str, max_faces: int) -> LoadedMesh:
@@ -554,7 +566,9 @@ def _validate(parts, name: str, where: str, sha256: str, max_faces: int) -> Load
         offset += len(v)
     vertices = np.concatenate(vertex_parts)
     faces = np.concatenate(face_parts)
-    uv, has_uv, without_uv = _joined_uv(parts, face_parts)
+    uv, has_uv = _joined_uv(parts, face_parts)
+    part = np.concatenate([np.full(len(f), i, dtype=np.int32) for i, f in enumerate(face_parts)]) if len(parts) > 1 else None
+    names = [p[3] if len(p) > 3 else f"part {i}" for i, p in enumerate(parts)]
     vertices, faces, uv = _weld(vertices, faces, uv)
     if not np.isfinite(vertices).all():
         bad = int((~np.isfinite(vertices)).any(axis=1).sum())
@@ -569,12 +583,13 @@ def _validate(parts, name: str, where: str, sha256: str, max_faces: int) -> Load
         raise MeshError(where, f"all {len(faces)} faces are degenerate (zero area at the scale of the bounding-box diagonal {diag:.3g})")
     unique = _without_duplicates(faces[keep])
     faces_kept = faces[keep][unique]
+    part = None if part is None else part[keep][unique]
     if has_uv is not None:
         has_uv = has_uv[keep][unique]
         if has_uv.all() or not has_uv.any():  # the parts with (or without) UVs were all degenerate
-            uv, has_uv, without_uv = (uv, None, []) if has_uv.all() else (None, None, [])
+            uv, has_uv = (uv, None) if has_uv.all() else (None, None)
     return LoadedMesh(vertices, faces_kept, uv, name, where, int((~keep).sum()), sha256, int(keep.sum()) - len(unique),
-                      has_uv, without_uv)
+                      has_uv, part, names)
 
 
 def _without_duplicates(faces: np.ndarray) -> np.ndarray:

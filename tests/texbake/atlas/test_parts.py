@@ -22,8 +22,9 @@ def scenes(tmp_path_factory):
     return {name: load_mesh(folder / f"{name}.glb") for name in ("full", "corner")}
 
 
-def atlas_of(m, mode="auto", size=512):
-    return make_atlas(m.vertices, m.faces, m.uv, mode=mode, size=size, has_uv=m.has_uv, without_uv=m.without_uv)
+def atlas_of(m, mode="auto", size=512, uv=None):
+    return make_atlas(m.vertices, m.faces, m.uv if uv is None else uv, mode=mode, size=size, has_uv=m.has_uv, part=m.part,
+                      part_names=m.part_names)
 
 
 def similarity(src, dst):
@@ -50,7 +51,7 @@ def test_a_layout_with_room_beside_it_is_kept_in_place(scenes, mode):
     assert np.array_equal(a.uv[a.faces[m.has_uv]], m.uv[m.faces[m.has_uv]])  # to the bit
     ball, crate = a.uv[a.faces[~m.has_uv]].reshape(-1, 2), m.uv[m.faces[m.has_uv]].reshape(-1, 2)
     assert (ball.min(axis=0) > crate.max(axis=0) + 2 / 512).any()  # in a strip beside the crate's layout, a padding away
-    assert a.warnings[0] == ("part 'ball' (320 faces) has no UVs: unwrapped; the UVs of the other parts kept in place; "
+    assert a.warnings[0] == ("unwrapped: part 'ball' (320 faces) has no UVs; the UVs of the other parts kept in place; "
                              "the other parts' charts packed beside them")
 
 
@@ -75,12 +76,12 @@ def test_unusable_kept_uvs_are_replaced_in_auto_and_refused_by_keep(scenes):
     m = scenes["full"]
     uv = m.uv.copy()
     uv[np.unique(m.faces[m.has_uv])] *= 3.0  # the crate's layout leaves the tile
-    a = make_atlas(m.vertices, m.faces, uv, size=256, has_uv=m.has_uv, without_uv=m.without_uv)
+    a = atlas_of(m, size=256, uv=uv)
     assert not a.method.startswith("kept")
-    assert a.warnings[0].startswith("the mesh's UVs were replaced by an unwrap: the UVs of the parts that have them "
-                                    "cannot be kept: the mesh's UVs leave the unit square")
-    with pytest.raises(AtlasError, match="uv='keep' but the mesh's UVs leave the unit square"):
-        make_atlas(m.vertices, m.faces, uv, mode="keep", size=256, has_uv=m.has_uv, without_uv=m.without_uv)
+    assert a.warnings[0] == ("the mesh's UVs were replaced by an unwrap: part 'ball' (320 faces) has no UVs; "  # the largest first
+                             "part 'crate' (12 faces): its UVs leave the unit square (range 0 to 2.91)")
+    with pytest.raises(AtlasError, match=r"uv='keep' but part 'crate' \(12 faces\): its UVs leave the unit square"):
+        atlas_of(m, "keep", 256, uv)
 
 
 def test_unwrap_unwraps_every_part(scenes):
@@ -94,3 +95,26 @@ def test_a_mask_of_the_wrong_shape_is_refused(scenes):
     m = scenes["corner"]
     with pytest.raises(AtlasError, match="has_uv of shape"):
         make_atlas(m.vertices, m.faces, m.uv, has_uv=m.has_uv[:-1])
+
+
+def test_of_two_parts_sharing_one_layout_the_first_keeps_it(tmp_path):
+    """Two crates with the same UVs (a layout two parts share, as wheels do): "auto" keeps
+    the first's and unwraps the second; "keep" keeps both, warning of the overlap."""
+    import trimesh
+
+    mixed_uv_scene(tmp_path / "one.glb", 0.5)
+    crate = trimesh.load(tmp_path / "one.glb").geometry["crate"]
+    scene = trimesh.Scene()
+    scene.add_geometry(crate, node_name="left", geom_name="left")
+    scene.add_geometry(crate.copy().apply_translation((2, 0, 0)), node_name="right", geom_name="right")
+    scene.export(tmp_path / "two.glb")
+    m = load_mesh(tmp_path / "two.glb")
+    assert m.has_uv is None and sorted(m.part_names) == ["left", "right"]
+    a = atlas_of(m)
+    first = m.part == 0  # of parts of one size, the first in the file keeps the layout
+    assert a.method.startswith("kept+") and np.array_equal(a.uv[a.faces[first]], m.uv[m.faces[first]])
+    assert a.warnings[0].startswith(f"unwrapped: part {m.part_names[1]!r} (12 faces): 100.0% of its UVs' texels lie under two "
+                                    "of its faces or under a part kept before it; the UVs of the other parts kept in place")
+    check(a, m)
+    both = atlas_of(m, "keep")
+    assert both.method == "kept" and "overlap" in both.warnings[0]
