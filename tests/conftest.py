@@ -44,6 +44,33 @@ def run_cli(*args, cwd=None, timeout=300):
     )
 
 
+def mixed_uv_scene(path: Path, scale: float = 1.0) -> dict:
+    """Write a glTF scene (``path``: .glb or .gltf) of two parts, made with trimesh:
+    ``crate``, a unit box whose 12 triangles each lie in a cell of a 4 x 3 grid of the UV
+    square (the grid scaled by ``scale`` towards the origin), and ``ball``, an icosphere
+    beside it with no UVs. Returns the crate's ``{"positions": (12, 3, 3), "uv": (12, 3, 2)}``
+    per face corner, in face order, to compare with what a load keeps."""
+    import numpy as np
+    import trimesh
+    from trimesh.visual import TextureVisuals
+
+    box = trimesh.creation.box(extents=(1, 1, 1))
+    box.unmerge_vertices()  # each triangle its own corners: its own UV island
+    uv = np.zeros((len(box.vertices), 2))
+    for i, face in enumerate(box.faces):
+        row, col = divmod(i // 2, 4)
+        x, y, s = col * 0.25 * scale, row / 3 * scale, 0.22 * scale
+        uv[face] = [(x, y), (x + s, y), (x + s, y + s)] if i % 2 == 0 else [(x, y), (x + s, y + s), (x, y + s)]
+    box.visual = TextureVisuals(uv=uv)
+    ball = trimesh.creation.icosphere(subdivisions=2)
+    ball.apply_translation((3, 0, 0))
+    scene = trimesh.Scene()
+    scene.add_geometry(box, node_name="crate", geom_name="crate")
+    scene.add_geometry(ball, node_name="ball", geom_name="ball")
+    scene.export(path)
+    return {"positions": box.vertices[box.faces], "uv": uv[box.faces]}
+
+
 def glb_with_image_uri(uri):
     doc = json.dumps({"asset": {"version": "2.0"}, "images": [{"uri": uri}]}).encode()
     doc += b" " * (-len(doc) % 4)

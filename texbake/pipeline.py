@@ -72,6 +72,8 @@ class BakeResult:
         The bake's report (``report.json``; ``texbake.output.report``).
     settings : BakeSettings
         The settings it was baked with, preset resolved.
+    warnings : list of str
+        What a user should know of this bake, one line each: ``report["warnings"]``.
     """
 
     images: dict[str, np.ndarray]
@@ -80,6 +82,10 @@ class BakeResult:
     mesh: BakedMesh
     report: dict = field(default_factory=dict)
     settings: BakeSettings = field(default_factory=BakeSettings)
+
+    @property
+    def warnings(self) -> list[str]:
+        return self.report.get("warnings", [])
 
     def save(self, folder, *, fmt: str | None = None, bits: int | None = None, obj: bool | None = None):
         """Write the maps, ``<name>.glb`` (and OBJ+MTL if ``obj``) and ``report.json``;
@@ -283,8 +289,9 @@ def _atlas(mesh: LoadedMesh, settings: BakeSettings, workers: int, store: AtlasC
     found = None if store is None else store.get(key)
     if found is not None and found.faces.shape == mesh.faces.shape and found.vmapping.max() < len(mesh.vertices):
         return found, key
-    atlas = make_atlas(mesh.vertices, mesh.faces, mesh.uv, mode=settings.uv, size=size,
-                       deadline=settings.unwrap_deadline, workers=workers, charting=settings.charting)
+    atlas = make_atlas(mesh.vertices, mesh.faces, mesh.uv, mode=settings.uv, size=size, deadline=settings.unwrap_deadline,
+                       workers=workers, charting=settings.charting, has_uv=mesh.has_uv, part=mesh.part,
+                       part_names=mesh.part_names)
     if store is not None:
         store.put(key, atlas)
     return atlas, key

@@ -75,6 +75,18 @@ def test_a_normal_map_and_a_flame_sequence_over_http(server, meshes):
     assert duck["state"] == "done" and len(duck["warnings"]) == 1 and "overlap" in duck["warnings"][0], duck
 
 
+def test_a_scene_with_uvs_on_some_parts_keeps_them_and_the_job_says_so(server, tmp_path):
+    from conftest import mixed_uv_scene
+
+    url, *_ = server
+    mixed_uv_scene(tmp_path / "scene.glb", 0.5)
+    job = wait(url, upload(url, tmp_path / "scene.glb", {"uv": "keep", "size": 64}).json()["id"])
+    assert job["state"] == "done", job["error"]
+    assert job["report"]["atlas"]["method"].startswith("kept+") and job["report"]["atlas"]["kept_scale"] == 1.0
+    assert job["warnings"] == job["report"]["warnings"]
+    assert job["warnings"][0].startswith("unwrapped: part 'ball' (320 faces) has no UVs"), job["warnings"]
+
+
 def test_bad_input_gets_4xx_with_a_reason(server, meshes, tmp_path):
     url, *_ = server
     r = upload(url, meshes / "bunny.ply", {"texture": {"name": "marble", "frequncy": 3}})

@@ -278,3 +278,18 @@ def test_the_first_compile_says_so_once(meshes, tmp_path, monkeypatch, texture):
                         lines[0]), lines[0]
     again = run_cli("bake", meshes / "suzanne.ply", "--texture", texture, "--size", 16, "--quiet", "--out", tmp_path / "b")
     assert again.returncode == 0 and again.stderr == "", again.stderr
+
+
+def test_uv_keep_on_a_scene_with_uvs_on_some_parts_keeps_them_and_says_which_part_has_none(tmp_path):
+    """--uv keep keeps the crate's UVs, unwraps the ball and says so on stderr, one line
+    each, ``texbake: warning: <mesh>: ...``; the report holds the same lines."""
+    from conftest import mixed_uv_scene
+
+    mixed_uv_scene(tmp_path / "scene.glb", 0.5)
+    r = run_cli("bake", tmp_path / "scene.glb", "--size", 64, "--uv", "keep", "--no-cache", "--out", tmp_path / "o")
+    assert r.returncode == 0, r.stderr
+    report = json.loads((tmp_path / "o" / "report.json").read_text())
+    assert report["atlas"]["method"].startswith("kept+") and report["atlas"]["kept_scale"] == 1.0
+    warned = [line for line in _lines(r.stderr) if line.startswith("texbake: warning:")]
+    assert warned == [f"texbake: warning: {tmp_path / 'scene.glb'}: {w}" for w in report["warnings"]]
+    assert "part 'ball' (320 faces) has no UVs" in warned[0]

@@ -87,6 +87,22 @@ def test_uvs_outside_the_unit_square_are_unwrapped(meshes):
     result = texbake.bake_mesh(meshes / "BoxTextured.glb", "checker", size=64)
     assert result.report["atlas"]["method"] == "planar"  # a box: its sides are flat
     assert "unit square" in result.report["atlas"]["reason"]
+    assert result.warnings == result.report["warnings"] == [
+        "the mesh's UVs were replaced by an unwrap: the mesh's UVs leave the unit square (range 0 to 6)"]
+
+
+def test_the_report_collects_every_stages_warnings_in_their_order(meshes):
+    """The load's, the atlas', the transfer's: one list, ``report["warnings"]``."""
+    from texbake.mesh import load_mesh
+
+    mesh = load_mesh(meshes / "BoxTextured.glb")
+    mesh.warnings.append("a warning of the load")
+    far = trimesh.creation.icosphere(subdivisions=1)
+    far.apply_translation([10, 0, 0])
+    result = texbake.bake_mesh(mesh, "checker", size=32, source=far, cage=0.1, margin=0)
+    assert result.warnings[0] == "a warning of the load"
+    assert result.warnings[1].startswith("the mesh's UVs were replaced by an unwrap")
+    assert result.warnings[2].startswith("transfer: ") and len(result.warnings) == 3
 
 
 def test_transfer_from_a_subdivided_mesh():

@@ -9,6 +9,7 @@ What the rest of texbake uses is named here; the modules are this folder's own:
   and :class:`Sides`, a double-sided mesh's front and back faces;
 - ``pack``: the unwrap in xatlas' worker processes (charting, packing, refitting), and
   ``packworker``, the worker process itself;
+- ``parts``: one tile for UVs kept on some parts and the unwrap of the others;
 - ``fallback``: the grid atlas, one cell per triangle;
 - ``cache``: atlases kept on disk across bakes (:class:`AtlasCache`, :func:`atlas_key`).
 

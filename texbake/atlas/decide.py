@@ -9,14 +9,18 @@ charts (:mod:`texbake.atlas.charts`: CAD parts and large meshes) or xatlas' own 
 and packs the charts with xatlas in worker processes under one deadline
 (:mod:`texbake.atlas.pack`). When one charting fails (crash, deadline, bad UVs) the other
 is tried; only when both have does every triangle get its own cell of a grid
-(:mod:`texbake.atlas.fallback`, "fallback-grid"). ``Atlas.reason`` says what was chosen,
-why, and what failed before it.
+(:mod:`texbake.atlas.fallback`, "fallback-grid"). A mesh whose parts have UVs only in part
+keeps those and unwraps the rest (:func:`_keep_parts`, :mod:`texbake.atlas.parts`).
+``Atlas.reason`` says what was chosen, why, and what failed before it; ``Atlas.warnings``
+what a user should know, one line each (the report, the command line, the service and
+the page show them).
 """
 
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -26,12 +30,25 @@ from ..workers import Pool
 from .charts import Sides, prefer_planar
 from .fallback import grid_atlas
 from .pack import PATCH_FACES, Unwrapped, UnwrapRequest, XatlasFailed, start_workers, unwrap
-from .uvcheck import OVERLAP_GRID, bare_warning, coverage, measure, overlap_of, unwrap_problem, uv_problem
+from .parts import combine
+from .uvcheck import (
+    OVERLAP_GRID,
+    bare_warning,
+    coverage,
+    coverage_counts,
+    measure,
+    overlap_of,
+    packing_estimate,
+    unwrap_problem,
+    uv_problem,
+)
 
 MODES = ("auto", "unwrap", "keep")
 CHARTINGS = ("auto", "xatlas", "planar")
 OVERLAP_LIMIT = 0.01  # a mesh's UVs under which more of the covered texels overlap are not kept
 PLANAR_GAIN = 1.3  # "auto" takes planar charts over xatlas' on a small organic mesh when they use this much more texture
+SPARSE_SHARE = 0.5  # a warning when kept UVs use less than this share of the tile an unwrap would use
+PROMISE_SHARE = 0.4  # a warning when an unwrap's utilisation is under this share of what its charts promise
 
 
 @dataclass
@@ -45,7 +62,7 @@ class Atlas:
     vmapping: np.ndarray  # (k,) int64: atlas vertex -> mesh vertex
     faces: np.ndarray  # (m, 3) int64: faces in atlas-vertex indices, same order as the mesh's
     uv: np.ndarray  # (k, 2) float64 in [0, 1], OpenGL convention (v up)
-    method: str  # "kept" | "planar" | "xatlas" | "xatlas-patches" | "fallback-grid"
+    method: str  # "kept" | "planar" | "xatlas" | "xatlas-patches" | "fallback-grid", or "kept+" one of those (UVs kept in part)
     reason: str  # why this method (and what failed before it)
     stats: dict = field(default_factory=dict)  # charts, utilisation, stretch, overlap, seconds
     warnings: list[str] = field(default_factory=list)  # what a user should know of this atlas
@@ -63,6 +80,9 @@ def make_atlas(
     deadline: float = 120.0,
     workers: int = 2,
     charting: str = "auto",
+    has_uv: np.ndarray | None = None,
+    part: np.ndarray | None = None,
+    part_names: list[str] | tuple[str, ...] = (),
     _patch_faces: int | None = PATCH_FACES,
 ) -> Atlas:
     """A UV atlas for a triangle mesh: its own UVs kept, or an unwrap.
@@ -74,7 +94,13 @@ def make_atlas(
     faces : (m, 3) array_like of int
         Triangles, indices in ``[0, n)``, m >= 1; cast to int64.
     uv : (n, 2) array_like of float, optional
-        The mesh's per-vertex UVs, or None.
+        The mesh's per-vertex UVs, or None (NaN on the vertices of faces that have none).
+    has_uv, part, part_names : (m,) bool, (m,) int and list of str, optional
+        Which faces have UVs when only some do (None: all do if ``uv`` is given), each
+        face's part and the parts' names (``LoadedMesh``'s). UVs are then kept part by
+        part: "auto" keeps those of the parts whose UVs are usable and do not overlap
+        and unwraps the others, "keep" those of every part that has UVs
+        (:func:`_usable_parts`; :mod:`texbake.atlas.parts` puts both in one tile).
     mode : {"auto", "unwrap", "keep"}, optional
         "auto" keeps usable UVs (:func:`uv_problem`) that do not overlap (more than ``OVERLAP_LIMIT``
         of the covered texel centres under two or more faces, on the bake's grid) and unwraps otherwise,
@@ -94,9 +120,14 @@ def make_atlas(
     -------
     Atlas
         ``reason``: why the UVs were not kept, the charting used and why, what failed.
-        ``stats``: :func:`texbake.atlas.uvcheck.measure`'s, ``seconds``, ``patches`` or ``planar_charts`` and
-        ``flat_share``, ``double_sided_faces`` (back faces on their front faces' texels). ``warnings``: overlapping
-        UVs kept, the fallback grid, over ``BARE_LIMIT`` of the surface on charts with no texel centre.
+        ``stats``: :func:`texbake.atlas.uvcheck.measure`'s, ``seconds``, ``patches`` or
+        ``planar_charts`` and ``flat_share``, ``double_sided_faces`` (back faces on their
+        front faces' texels). ``warnings`` (one line each, what a user
+        should know): the mesh's UVs replaced and why, kept UVs that use under
+        ``SPARSE_SHARE`` of what an unwrap would, overlapping UVs kept, parts unwrapped
+        beside kept UVs, an unwrap that failed before the one used, utilisation under
+        ``PROMISE_SHARE`` of what the charts promise, the fallback grid, over
+        ``BARE_LIMIT`` of the surface on charts with no texel centre.
 
     Raises
     ------
@@ -111,27 +142,83 @@ def make_atlas(
     _check_settings(mode=mode, charting=charting, size=size, padding=padding, deadline=deadline, workers=workers)
     request = UnwrapRequest(*_checked_mesh(vertices, faces), size, padding)
     if len((sides := Sides.of(request.faces)).back):  # double-sided: one side is mapped, the other shares its texels
-        return _both_sides(sides, make_atlas(request.vertices, request.faces[sides.front], uv, mode=mode, size=size, padding=padding,
-                                             deadline=deadline, workers=workers, charting=charting, _patch_faces=_patch_faces))
-    why = "uv='unwrap'"
-    if mode != "unwrap":
-        kept, why = _keep(request, uv, mode, start)
-        if kept is not None:
-            return kept
+        front = sides.front
+        return _both_sides(sides, make_atlas(request.vertices, request.faces[front], uv, mode=mode, size=size, padding=padding,
+                                             deadline=deadline, workers=workers, charting=charting,
+                                             has_uv=None if has_uv is None else np.asarray(has_uv)[front],
+                                             part=None if part is None else np.asarray(part)[front], part_names=part_names,
+                                             _patch_faces=_patch_faces))
+    kept, why = _kept(request, uv, has_uv, part, part_names, mode=mode, deadline=deadline, workers=workers,
+                      charting=charting, patch_faces=_patch_faces, start=start)
+    if kept is not None:
+        return kept
+    replaced = [f"the mesh's UVs were replaced by an unwrap: {why}"] if uv is not None and mode == "auto" else []
+    return _unwrap(request, why, replaced, deadline=deadline, workers=workers, charting=charting,
+                   patch_faces=_patch_faces, start=start)
+
+
+def _kept(request: UnwrapRequest, uv, has_uv, part, part_names, *, mode: str, **by_part: Any) -> tuple[Atlas | None, str]:
+    """``(the atlas keeping the mesh's UVs, why)``, whole or part by part, or ``(None, why
+    they are not kept)``."""
+    mixed = _mixed(has_uv, uv, len(request.faces))
+    several = part is not None and uv is not None and len(np.unique(part)) > 1
+    if mode == "unwrap":
+        return None, "uv='unwrap'"
+    if mixed is None and not (several and mode == "keep"):
+        kept, why = _keep(request, uv, mode, by_part["start"])
+        if kept is not None or not several:
+            return kept, why
+    return _keep_parts(request, uv, mixed, part, part_names, mode=mode, **by_part)
+
+
+def _unwrap(request: UnwrapRequest, why: str, warnings: list[str], *, deadline: float, workers: int, charting: str,
+            patch_faces: int | None, start: float) -> Atlas:
+    """The atlas of an unwrap (or the fallback grid), its reason starting with ``why`` (the
+    UVs not kept) and its warnings with ``warnings``."""
     end = time.monotonic() + deadline
-    attempts, order = _attempts(request.vertices, request.faces, charting, _patch_faces)
-    failures: list[str] = []
     with start_workers(workers, end) as pool:  # one set of workers for every attempt
-        found = _first_usable(request, pool, end, attempts, failures)
-        if found is not None and charting == "auto" and found[0] == "xatlas" and time.monotonic() < end:
-            found, order = _fuller_planar(request, pool, end, found, order)
+        found, order, failures = _unwrapped(request, pool, end, charting, patch_faces)
     if found is None:
-        return _fallback(request, deadline, why, failures, start)
+        grid = _fallback(request, deadline, why, failures, start)
+        grid.warnings[:0] = warnings
+        return grid
     charted, atlas = found
     retried = f" (after: {'; '.join(failures)})" if failures else ""
     stats = {**_stats(request, atlas.faces, atlas.uv, start), **atlas.detail}
+    warnings = warnings + _retry_warning(charting, charted, failures) + _promise_warning(request, atlas, stats)
     return Atlas(atlas.vmapping, atlas.faces, atlas.uv, atlas.method, f"{why}; {charted} charts: {order}{retried}", stats,
-                 bare_warning(stats, size))
+                 warnings + bare_warning(stats, request.size))
+
+
+def _unwrapped(request: UnwrapRequest, pool: Pool, end: float, charting: str,
+               patch_faces: int | None) -> tuple[tuple[str, Unwrapped] | None, str, list[str]]:
+    """``((charting used, atlas) or None, why that charting, what failed)``: the unwrap's
+    attempts in ``pool`` by ``end`` (``time.monotonic()``)."""
+    attempts, order = _attempts(request.vertices, request.faces, charting, patch_faces)
+    failures: list[str] = []
+    found = _first_usable(request, pool, end, attempts, failures)
+    if found is not None and charting == "auto" and found[0] == "xatlas" and time.monotonic() < end:
+        found, order = _fuller_planar(request, pool, end, found, order)
+    return found, order, failures
+
+
+def _retry_warning(charting: str, charted: str, failures: list[str]) -> list[str]:
+    """A warning when the atlas' charting is not the first tried: what failed, what was used."""
+    if not failures:
+        return []
+    asked = f"charting={charting!r} was asked for, but " if charting not in ("auto", charted) else ""
+    return [f"{asked}the first unwrap failed ({'; '.join(failures)}): {charted} charts used instead"]
+
+
+def _promise_warning(request: UnwrapRequest, atlas: Unwrapped, stats: dict) -> list[str]:
+    """A warning when the packing left far more of the tile empty than its charts need
+    (:func:`texbake.atlas.uvcheck.packing_estimate` with the padding)."""
+    promised = packing_estimate(request.vertices, request.faces, atlas.faces, atlas.uv, request.padding / request.size)
+    used = stats["utilisation"]
+    if used >= PROMISE_SHARE * promised:
+        return []
+    return [f"utilisation {used:.3f} is far below the {promised:.2f} its {stats['charts']} charts promise (their area "
+            "over their padded bounding boxes): the packing left most of the tile empty"]
 
 
 def _both_sides(sides: Sides, atlas: Atlas) -> Atlas:
@@ -187,25 +274,145 @@ def _stats(request: UnwrapRequest, faces: np.ndarray, uv: np.ndarray, start: flo
 def _keep(request: UnwrapRequest, uv, mode: str, start: float) -> tuple[Atlas | None, str]:
     """``(the atlas of the mesh's own UVs, why)`` when ``mode`` keeps them, else ``(None, why
     they are not kept)``; :class:`AtlasError` when ``mode`` is "keep" and they are not usable."""
-    vertices, faces = request.vertices, request.faces
-    problem = uv_problem(vertices, faces, uv)
-    overlapping = raster = None
-    if problem is None:  # inside the tile and not degenerate: do faces share texels?
-        raster = coverage(np.asarray(uv, dtype=np.float64), faces, min(request.size, OVERLAP_GRID))
-        share, most = overlap_of(raster[0])
+    problem, warnings, raster = _kept_problem(request, uv, mode)
+    if problem is not None:
+        return None, problem
+    uv = np.asarray(uv, dtype=np.float64)
+    vm = np.arange(len(request.vertices), dtype=np.int64)
+    reason = "the mesh's UVs are usable" if not warnings else "uv='keep'"
+    stats = _stats(request, request.faces, uv, start, raster)
+    warnings += _sparse_warning(request, request.faces, uv, stats)
+    return Atlas(vm, request.faces, uv, "kept", reason, stats, warnings + bare_warning(stats, request.size)), reason
+
+
+def _kept_problem(request: UnwrapRequest, uv, mode: str) -> tuple[str | None, list[str], tuple | None]:
+    """``(why the UVs of ``request``'s faces are not kept or None, warnings, their raster)``:
+    usable (:func:`uv_problem`) and, unless ``mode`` is "keep", not overlapping more than
+    ``OVERLAP_LIMIT`` on the bake's grid; :class:`AtlasError` when "keep" cannot keep them."""
+    problem = uv_problem(request.vertices, request.faces, uv)
+    if problem is not None:
+        if mode == "keep":
+            raise AtlasError(f"uv='keep' but {problem}")
+        return problem, [], None
+    raster = coverage(np.asarray(uv, dtype=np.float64), request.faces, min(request.size, OVERLAP_GRID))
+    share, most = overlap_of(raster[0])
+    if share <= OVERLAP_LIMIT:
+        return None, [], raster
+    overlapping = f"the mesh's UVs overlap: {share:.1%} of the covered texels lie under two or more faces (up to {most})"
+    if mode != "keep":
+        return overlapping, [], None
+    return None, [f"{overlapping}: those texels show one face's texture on all of them"], raster
+
+
+def _sparse_warning(request: UnwrapRequest, uv_faces: np.ndarray, uv: np.ndarray, stats: dict) -> list[str]:
+    """A warning when kept UVs use under ``SPARSE_SHARE`` of the tile an unwrap would
+    (estimated: :func:`texbake.atlas.uvcheck.packing_estimate` of their own islands)."""
+    estimate = packing_estimate(request.vertices, request.faces, uv_faces, uv, request.padding / request.size)
+    used = stats["utilisation"]
+    if used >= SPARSE_SHARE * estimate:
+        return []
+    return [f"the kept UVs use {used:.3f} of the tile; an unwrap would use about {estimate:.2f} (estimated from "
+            f"their islands packed at one texel density): uv='unwrap' gives {estimate / max(used, 1e-9):.1f}x the texels"]
+
+
+def _mixed(has_uv, uv, m: int) -> np.ndarray | None:
+    """``has_uv`` as an (m,) bool array when some faces have UVs and others not, else None."""
+    if has_uv is None or uv is None:
+        return None
+    has_uv = np.asarray(has_uv, dtype=bool)
+    if has_uv.shape != (m,):
+        raise AtlasError(f"expected has_uv of shape ({m},), one per face, got {has_uv.shape}")
+    return has_uv if has_uv.any() and not has_uv.all() else None
+
+
+def _keep_parts(request: UnwrapRequest, uv, has_uv: np.ndarray | None, part: np.ndarray | None, part_names, *,
+                mode: str, deadline: float, workers: int, charting: str, patch_faces: int | None,
+                start: float) -> tuple[Atlas | None, str]:
+    """UVs part by part: ``(the atlas keeping the UVs of the parts :func:`_usable_parts`
+    keeps and unwrapping the others, why)``, or ``(None, why not)`` when no part's are
+    kept. :mod:`texbake.atlas.parts` puts the two into one tile."""
+    uv = np.asarray(uv, dtype=np.float64)
+    keep, unwrapped, warnings = _usable_parts(request, uv, has_uv, part, part_names, mode)
+    if keep.all():
+        return _keep(request, uv, mode, start)
+    if not keep.any():
+        return None, "; ".join(unwrapped)
+    used, local = np.unique(request.faces[~keep], return_inverse=True)
+    sub = UnwrapRequest(request.vertices[used], local.reshape(-1, 3), request.size, request.padding)
+    end = time.monotonic() + deadline
+    with start_workers(workers, end) as pool:
+        found, order, failures = _unwrapped(sub, pool, end, charting, patch_faces)
+        if found is None:
+            vm, fa, u = grid_atlas(sub.vertices, sub.faces, sub.padding / sub.size)
+            found, order = ("grid", Unwrapped(vm, fa, u, "fallback-grid", {})), "both chartings failed"
+        try:
+            out = combine(request, keep, uv, found[1], used, pool, max(end - time.monotonic(), 0.0))
+            bad = unwrap_problem(out.vmapping, out.faces, out.uv, request.faces, len(request.vertices))
+        except XatlasFailed as exc:
+            bad = str(exc)
+    if bad is not None:
+        if mode == "keep":
+            raise AtlasError(f"uv='keep' but the kept UVs and the other parts' charts cannot share the tile: {bad}")
+        return None, f"the kept UVs and the other parts' charts cannot share the tile: {bad}"
+    named = "; ".join(unwrapped)
+    reason = f"the UVs of the parts that have usable ones, {out.how}; unwrapped: {named}: {found[0]} charts: {order}"
+    stats = {**_stats(request, out.faces, out.uv, start), **found[1].detail, "kept_scale": out.scale,
+             "kept_faces": int(keep.sum())}
+    kept = UnwrapRequest(request.vertices, request.faces[keep], request.size, request.padding)
+    as_they_came = {"utilisation": float(uv_areas(uv, kept.faces).sum())}  # before any scaling
+    warnings = [f"unwrapped: {named}; the UVs of the other parts {out.how}", *warnings,
+                *_retry_warning(charting, found[0], failures), *_sparse_warning(kept, kept.faces, uv, as_they_came)]
+    return Atlas(out.vmapping, out.faces, out.uv, "kept+" + found[1].method, reason, stats,
+                 warnings + bare_warning(stats, request.size)), reason
+
+
+def _usable_parts(request: UnwrapRequest, uv: np.ndarray, has_uv: np.ndarray | None, part: np.ndarray | None,
+                  names, mode: str) -> tuple[np.ndarray, list[str], list[str]]:
+    """``(the faces whose UVs are kept (m,) bool, each part not kept and why, warnings)``.
+
+    Part by part, the largest first: a part's UVs are kept when usable (:func:`uv_problem`)
+    and, unless ``mode`` is "keep", when under ``OVERLAP_LIMIT`` of their texel centres lie
+    under two of its faces or under a part kept before it (two parts sharing one layout:
+    the first keeps it). :class:`AtlasError` when "keep" meets UVs that are not usable.
+    """
+    m = len(request.faces)
+    has = np.ones(m, dtype=bool) if has_uv is None else has_uv
+    group = 2 * (np.zeros(m, dtype=np.int64) if part is None else np.asarray(part, dtype=np.int64)) + has
+    ids, sizes = np.unique(group, return_counts=True)
+    grid = min(request.size, OVERLAP_GRID)
+    taken, keep = np.zeros((grid, grid), dtype=bool), np.zeros(m, dtype=bool)
+    unwrapped: list[str] = []
+    warnings: list[str] = []
+    for g in ids[np.argsort(-sizes, kind="stable")]:
+        faces = group == g
+        named = _named(names, int(g) // 2, int(faces.sum()))
+        if g % 2 == 0:
+            unwrapped.append(f"{named} {'has' if g // 2 < len(names) else 'have'} no UVs")
+            continue
+        problem = uv_problem(request.vertices, request.faces[faces], uv)
+        if problem is not None:
+            problem = problem.replace("the mesh's", "its")
+            if mode == "keep":
+                raise AtlasError(f"uv='keep' but {named}: {problem}")
+            unwrapped.append(f"{named}: {problem}")
+            continue
+        counts = coverage_counts(uv, request.faces[faces], grid)
+        covered = counts > 0
+        share = float(((counts > 1) | (covered & taken)).sum() / max(int(covered.sum()), 1))
         if share > OVERLAP_LIMIT:
-            overlapping = (f"the mesh's UVs overlap: {share:.1%} of the covered texels lie under two or more "
-                           f"faces (up to {most})")
-    if problem is None and (overlapping is None or mode == "keep"):
-        uv = np.asarray(uv, dtype=np.float64)
-        vm = np.arange(len(vertices), dtype=np.int64)
-        reason = "the mesh's UVs are usable" if overlapping is None else "uv='keep'"
-        warnings = [] if overlapping is None else [f"{overlapping}: those texels show one face's texture on all of them"]
-        stats = _stats(request, faces, uv, start, raster)
-        return Atlas(vm, faces, uv, "kept", reason, stats, warnings + bare_warning(stats, request.size)), reason
-    if mode == "keep":
-        raise AtlasError(f"uv='keep' but {problem}")
-    return None, problem or overlapping or ""
+            what = f"{named}: {share:.1%} of its UVs' texels lie under two of its faces or under a part kept before it"
+            if mode != "keep":
+                unwrapped.append(what)
+                continue
+            warnings.append(f"{what}: those texels show one face's texture on all of them")
+        taken |= covered
+        keep[faces] = True
+    return keep, unwrapped, warnings
+
+
+def _named(names, index: int, faces: int) -> str:
+    """A part in words: ``part 'wheel' (120 faces)``."""
+    return f"part {names[index]!r} ({faces:,} faces)" if index < len(names) else f"{faces:,} faces"
 
 
 def _attempts(vertices, faces, charting: str, patch_faces: int | None) -> tuple[list[tuple[str, int | None]], str]:

@@ -257,3 +257,38 @@ def bare_warning(stats: dict, size: int) -> list[str]:
         return []
     return [f"{share:.0%} of the surface lies on charts that hold no texel centre at {size}x{size}: they show "
             "only the margin's colours (bake larger, or unwrap)"]
+
+
+BOX_PACKING = 0.9  # the share of the tile a packer fills with boxes (estimates; xatlas packs the charts' shapes)
+
+
+def packing_estimate(vertices: np.ndarray, faces: np.ndarray, uv_faces: np.ndarray, uv: np.ndarray,
+                     padding: float) -> float:
+    """The utilisation a packing of a layout's islands (charts) would reach, estimated
+    without packing: each island brought to one texel density (UV area = surface area),
+    its axis-aligned bounding box grown by ``padding`` (tile units), the boxes scaled
+    together until they fill ``BOX_PACKING`` of the tile; the islands' area at that scale.
+
+    For an unwrap (islands at one density already) it says what its charts promise; for
+    kept UVs, what repacking or unwrapping would give (an unwrap cuts other charts, but of
+    like shapes). Rotated islands' boxes are larger than a packer's, so it errs low.
+    """
+    label = chart_labels(uv_faces, len(uv))
+    k = int(label.max()) + 1
+    a3 = np.bincount(label, areas(vertices, faces), minlength=k)
+    auv = np.bincount(label, uv_areas(uv, uv_faces), minlength=k)
+    corners = uv[uv_faces]  # (m, 3, 2)
+    lo, hi = np.full((k, 2), np.inf), np.full((k, 2), -np.inf)
+    np.minimum.at(lo, label, corners.min(axis=1))
+    np.maximum.at(hi, label, corners.max(axis=1))
+    ok = (auv > 0) & (a3 > 0)
+    if not ok.any():
+        return 0.0
+    grow = np.sqrt(a3[ok] / auv[ok])  # each island to one density
+    w, h = (hi - lo)[ok, 0] * grow, (hi - lo)[ok, 1] * grow
+    # boxes at scale g: sum((g w + p)(g h + p)) = BOX_PACKING, a quadratic in g
+    qa, qb, qc = float((w * h).sum()), padding * float((w + h).sum()), ok.sum() * padding**2 - BOX_PACKING
+    if qc >= 0 or qa <= 0:
+        return 0.0
+    g = (-qb + np.sqrt(qb * qb - 4 * qa * qc)) / (2 * qa)
+    return float(min(1.0, g * g * a3[ok].sum()))

@@ -120,7 +120,8 @@ def prepare_mesh(mesh_or_path, *, size: int = 1024, uv: str = "auto", workers: i
     from ..pipeline import as_mesh
 
     mesh = as_mesh(mesh_or_path, 5_000_000, "mesh")
-    atlas = make_atlas(mesh.vertices, mesh.faces, mesh.uv, mode=uv, size=size, workers=workers)
+    atlas = make_atlas(mesh.vertices, mesh.faces, mesh.uv, mode=uv, size=size, workers=workers, has_uv=mesh.has_uv,
+                       part=mesh.part, part_names=mesh.part_names)
     if atlas.method == "kept":
         return mesh
     return dataclasses.replace(mesh, vertices=mesh.vertices[atlas.vmapping], faces=atlas.faces, uv=atlas.uv)

@@ -11,17 +11,22 @@ a :class:`~texbake.errors.MeshError` naming the file; zero-area faces are remove
 
 Vertices that are equal in position *and* UV are merged (file formats and trimesh split
 every face corner), so UV seams survive and a closed surface stays connected.
+
+UVs are kept per part: in a scene where some parts have UVs and others have none, the
+parts that have them keep them (``LoadedMesh.has_uv`` says which faces), and the atlas
+unwraps only the others.
 """
 
 from __future__ import annotations
 
+import collections
 import hashlib
 import io
 import itertools
 import json
 import re
 import struct
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
 import numpy as np
@@ -63,8 +68,8 @@ class LoadedMesh:
     faces : (m, 3) int64
         Indices into ``vertices``, m >= 1; zero-area faces removed.
     uv : (n, 2) float64 or None
-        Per-vertex texture coordinates as loaded (OpenGL convention: v up), or None when
-        some part of the mesh has none.
+        Per-vertex texture coordinates as loaded (OpenGL convention: v up); NaN on the
+        vertices of parts that have none; None when no part has any.
     name : str
         The file's stem, or the name given for an in-memory mesh.
     path : str
@@ -77,6 +82,16 @@ class LoadedMesh:
         back face, and a copy with other UVs is mapped twice: both stay.
     sha256 : str
         Hex digest of the file's bytes, or of the arrays of an in-memory mesh.
+    has_uv : (m,) bool or None
+        Which faces have UVs, when only some do (their parts had UVs); None when every
+        face has them (``uv`` given) or none has (``uv`` None).
+    part : (m,) int32 or None
+        Each face's part (index into ``part_names``) for a mesh of several parts (a
+        scene's meshes); None for one part. The atlas keeps or unwraps UVs part by part.
+    part_names : list of str
+        The parts' names (a scene's mesh names, with the node where a mesh is used twice).
+    warnings : list of str
+        What a user should know of the loading (one line each; the report collects them).
     """
 
     vertices: np.ndarray
@@ -87,6 +102,17 @@ class LoadedMesh:
     removed_degenerate: int
     sha256: str
     removed_duplicate: int = 0
+    has_uv: np.ndarray | None = None
+    part: np.ndarray | None = None
+    part_names: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def without_uv(self) -> list[str]:
+        """The names of the parts whose faces have no UVs, when others have."""
+        if self.has_uv is None or self.part is None:
+            return []
+        return [self.part_names[i] for i in np.unique(self.part[~self.has_uv])]
 
 
 def load_mesh(path, *, max_faces: int = 5_000_000) -> LoadedMesh:
@@ -415,15 +441,18 @@ def _check_stl_header(head: bytes, size: int, where: str) -> None:
 
 
 def _parts(loaded):
-    """(vertices, faces, uv or None) of every triangle mesh, transforms applied."""
+    """(vertices, faces, uv or None, name) of every triangle mesh, transforms applied;
+    a scene's parts are named by their meshes."""
     import trimesh
 
     if isinstance(loaded, trimesh.Trimesh):
-        return [(loaded.vertices, loaded.faces, _uv(loaded))]
+        return [(loaded.vertices, loaded.faces, _uv(loaded), "mesh")]
     if not isinstance(loaded, trimesh.Scene):
         return []
     parts = []
-    for node in loaded.graph.nodes_geometry:
+    nodes = loaded.graph.nodes_geometry
+    uses = collections.Counter(loaded.graph.transforms.node_data[node]["geometry"] for node in nodes)
+    for node in nodes:
         transform, name = _world_transform(loaded.graph, node), loaded.graph.transforms.node_data[node]["geometry"]
         g = loaded.geometry[name]
         if isinstance(g, trimesh.Trimesh):
@@ -432,7 +461,8 @@ def _parts(loaded):
             f = np.asarray(g.faces)
             if np.linalg.det(transform[:3, :3]) < 0:  # a mirroring node: keep faces outward
                 f = f[:, ::-1]
-            parts.append((v, f, _uv(g)))
+            # the mesh's name (trimesh names a glTF file's unnamed nodes at random), and its node's where it is used twice
+            parts.append((v, f, _uv(g), name if uses[name] == 1 else f"{name} at node {node}"))
     return parts
 
 
@@ -479,14 +509,20 @@ def _weld(vertices, faces, uv):
 
     Exact equality only: corners that differ in UV stay separate (UV seams survive), and
     a welded surface keeps its connectivity for the unwrap and the normals. Rows are
-    grouped by a 64-bit hash of their bits, then checked for exact equality.
+    grouped by a 64-bit hash of their bits, then checked for exact equality. A vertex
+    without UVs (NaN, from a part that has none) merges only with others without them.
     """
-    rows = vertices if uv is None else np.hstack([vertices, uv])
+    if uv is None:
+        rows = vertices
+    else:
+        missing = np.isnan(uv).all(axis=1)
+        rows = np.hstack([vertices, np.where(missing[:, None], 0.0, uv), missing[:, None].astype(np.float64)])
     if not np.isfinite(rows).all():
         return vertices, faces, uv  # rejected (vertices) or judged by the atlas (UVs)
     rows = np.ascontiguousarray(rows + 0.0)  # -0.0 and 0.0 are the same coordinate
     bits = rows.view(np.uint64)
-    weights = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9, 0xD6E8FEB86659FD93, 0xFF51AFD7ED558CCD], dtype=np.uint64)
+    weights = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9, 0xD6E8FEB86659FD93, 0xFF51AFD7ED558CCD,
+                        0x94D049BB133111EB], dtype=np.uint64)
     key = (bits * weights[: rows.shape[1]]).sum(axis=1, dtype=np.uint64)
     _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
     inverse = inverse.ravel()
@@ -500,6 +536,20 @@ def _weld(vertices, faces, uv):
     return vertices[keep], rank[inverse][faces], None if uv is None else uv[keep]
 
 
+def _joined_uv(parts, face_parts) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """``(uv, has_uv)`` of the parts ``(vertices, faces, uv or None, ...)`` put together:
+    UVs with NaN rows for the parts that have none (None if none has any), and which
+    faces have UVs (None if all or none do)."""
+    given = [p[2] is not None for p in parts]
+    if not any(given):
+        return None, None
+    uv = np.concatenate([np.asarray(p[2], dtype=np.float64) if p[2] is not None else np.full((len(p[0]), 2), np.nan)
+                         for p in parts])
+    if all(given):
+        return uv, None
+    return uv, np.concatenate([np.full(len(f), g) for f, g in zip(face_parts, given, strict=True)])
+
+
 def _validate(parts, name: str, where: str, sha256: str, max_faces: int) -> LoadedMesh:
     """One checked mesh from ``(vertices, faces, uv or None)`` parts."""
     parts = [p for p in parts if len(p[1])]
@@ -508,8 +558,8 @@ def _validate(parts, name: str, where: str, sha256: str, max_faces: int) -> Load
     n_faces = sum(len(p[1]) for p in parts)
     if n_faces > max_faces:
         raise MeshError(where, f"{n_faces} faces is more than the limit of {max_faces}")
-    vertex_parts, face_parts, uvs, offset = [], [], [], 0
-    for v, f, uv in parts:
+    vertex_parts, face_parts, offset = [], [], 0
+    for v, f, *_ in parts:
         v = np.asarray(v, dtype=np.float64)
         f = np.asarray(f)
         if f.ndim != 2 or f.shape[1] != 3:
@@ -518,11 +568,12 @@ def _validate(parts, name: str, where: str, sha256: str, max_faces: int) -> Load
             raise MeshError(where, f"face index {int(f.max()) if f.max() >= len(v) else int(f.min())} out of range ({len(v)} vertices)")
         vertex_parts.append(v)
         face_parts.append(f.astype(np.int64) + offset)
-        uvs.append(uv)
         offset += len(v)
     vertices = np.concatenate(vertex_parts)
     faces = np.concatenate(face_parts)
-    uv = None if any(u is None for u in uvs) else np.concatenate(uvs)
+    uv, has_uv = _joined_uv(parts, face_parts)
+    part = np.concatenate([np.full(len(f), i, dtype=np.int32) for i, f in enumerate(face_parts)]) if len(parts) > 1 else None
+    names = [p[3] if len(p) > 3 else f"part {i}" for i, p in enumerate(parts)]
     vertices, faces, uv = _weld(vertices, faces, uv)
     if not np.isfinite(vertices).all():
         bad = int((~np.isfinite(vertices)).any(axis=1).sum())
@@ -535,16 +586,22 @@ def _validate(parts, name: str, where: str, sha256: str, max_faces: int) -> Load
     keep = area2 > 1e-30 * diag * diag
     if not keep.any():
         raise MeshError(where, f"all {len(faces)} faces are degenerate (zero area at the scale of the bounding-box diagonal {diag:.3g})")
-    faces, duplicates = _without_duplicates(faces[keep])
-    return LoadedMesh(vertices, faces, uv, name, where, int((~keep).sum()), sha256, duplicates)
+    unique = _without_duplicates(faces[keep])
+    faces_kept = faces[keep][unique]
+    part = None if part is None else part[keep][unique]
+    if has_uv is not None:
+        has_uv = has_uv[keep][unique]
+        if has_uv.all() or not has_uv.any():  # the parts with (or without) UVs were all degenerate
+            uv, has_uv = (uv, None) if has_uv.all() else (None, None)
+    return LoadedMesh(vertices, faces_kept, uv, name, where, int((~keep).sum()), sha256, int(keep.sum()) - len(unique),
+                      has_uv, part, names)
 
 
-def _without_duplicates(faces: np.ndarray) -> tuple[np.ndarray, int]:
-    """``faces`` (of welded vertices) without those that repeat an earlier face's corners in
-    the same winding, and how many went: a doubled face takes atlas space twice and splits charts."""
+def _without_duplicates(faces: np.ndarray) -> np.ndarray:
+    """The indices, in order, of ``faces`` (of welded vertices) less those that repeat an
+    earlier face's corners in the same winding: a doubled face takes atlas space twice and
+    splits charts."""
     start = np.argmin(faces, axis=1)  # each face rotated to start at its smallest corner
     corners = np.take_along_axis(faces, (start[:, None] + np.arange(3)) % 3, axis=1)
     _, first = np.unique(corners, axis=0, return_index=True)
-    if len(first) == len(faces):
-        return faces, 0
-    return faces[np.sort(first)], len(faces) - len(first)
+    return np.sort(first)

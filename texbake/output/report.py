@@ -114,7 +114,7 @@ def bake_report(settings: BakeSettings, mesh: LoadedMesh, atlas: Atlas, tally: B
             "transfer_missed": tally.transfer_missed,
         },
         "error_estimate": tally.error_estimate,
-        "warnings": list(atlas.warnings) + _transfer_warning(tally),
+        "warnings": [*mesh.warnings, *atlas.warnings, *_transfer_warning(tally)],  # each stage's, in their order
         "skipped": _skipped(source, atlas, tally),
         "seconds": {k: round(v, 4) for k, v in tally.seconds.items()},
         "versions": library_versions(),

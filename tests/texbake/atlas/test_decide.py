@@ -103,7 +103,8 @@ def test_overlapping_uvs_are_unwrapped_or_kept_with_a_warning():
     v, f, uv = load("Duck.glb")
     a = make_atlas(v, f, uv, size=1024)
     assert a.method.startswith("xatlas") and a.reason.startswith("the mesh's UVs overlap: 94.4% of the covered texels")
-    assert a.stats["overlap"] < 0.01 and a.warnings == []
+    assert a.stats["overlap"] < 0.01
+    assert a.warnings == [f"the mesh's UVs were replaced by an unwrap: {a.reason.split('; ')[0]}"]  # said where the user looks
     check_atlas(a, v, f)
     kept = make_atlas(v, f, uv, mode="keep", size=1024)
     assert kept.method == "kept" and kept.stats["overlap"] > 0.9
@@ -266,6 +267,7 @@ def test_a_crashing_xatlas_charting_gives_planar_charts(failing_worker, how, cod
     assert time.monotonic() - start < 10
     assert a.method == "planar"
     assert a.reason.endswith(f"(after: xatlas crashed (exit code {code}))")
+    assert a.warnings == [f"the first unwrap failed (xatlas crashed (exit code {code})): planar charts used instead"]
     check_atlas(a, s.vertices, s.faces)
     assert overlap(a) == 0
     ok, why = run_xatlas_in_child(s.vertices.astype(np.float32), s.faces, deadline=30.0)
@@ -385,3 +387,32 @@ def test_a_double_sided_mesh_keeps_uvs_that_map_both_sides_to_the_same_texels():
     assert a.method == "kept" and a.stats["double_sided_faces"] == len(f), a.reason
     assert a.reason == f"the mesh's UVs are usable; {len(f)} back faces share their front faces' texels"
     assert np.array_equal(v[a.vmapping][a.faces], v[doubled]) and np.array_equal(a.uv[a.faces[len(f):]], uv[doubled[len(f):]])
+
+
+def test_kept_uvs_that_use_little_of_the_tile_are_kept_with_the_figure_an_unwrap_would_give():
+    """Suzanne's own layout shrunk into a corner: kept (usable), with a warning giving its
+    utilisation and the estimate of an unwrap's (its own layout, as it came, uses 0.441)."""
+    from texbake.mesh import load_mesh
+
+    m = load_mesh(MESHES / "suzanne_blender_uv.obj")  # welded: its 207 islands, not a triangle each
+    a = make_atlas(m.vertices, m.faces, m.uv * 0.5, size=1024)
+    assert a.method == "kept"
+    assert len(a.warnings) == 1, a.warnings
+    used, estimate = map(float, re.match(r"the kept UVs use ([\d.]+) of the tile; an unwrap would use about ([\d.]+)",
+                                         a.warnings[0]).groups())
+    assert used == pytest.approx(0.441 * 0.25, abs=1e-3) and 0.35 < estimate < 0.5  # measured: 0.43
+    assert make_atlas(m.vertices, m.faces, m.uv, size=1024).warnings == []  # as it came: no warning
+
+
+def test_utilisation_far_below_the_charts_promise_is_warned_of():
+    from texbake.atlas.decide import _promise_warning
+    from texbake.atlas.pack import Unwrapped, UnwrapRequest
+
+    s = trimesh.creation.icosphere(2)
+    a = make_atlas(s.vertices, s.faces, mode="unwrap", size=256)
+    request = UnwrapRequest(np.asarray(s.vertices, float), np.asarray(s.faces, np.int64), 256, 2)
+    packed = Unwrapped(a.vmapping, a.faces, a.uv, a.method, {})
+    assert _promise_warning(request, packed, a.stats) == []
+    shrunk = Unwrapped(a.vmapping, a.faces, a.uv * 0.4, a.method, {})  # a packer that left most of the tile empty
+    (warning,) = _promise_warning(request, shrunk, {**a.stats, "utilisation": a.stats["utilisation"] * 0.16})
+    assert warning.startswith(f"utilisation {a.stats['utilisation'] * 0.16:.3f} is far below the ")

@@ -125,17 +125,20 @@ def test_mirroring_node_keeps_faces_outward():
     assert (outward > 0).all()
 
 
-def test_scene_parts_are_joined_and_uvs_kept_only_if_all_have_them():
+def test_scene_parts_are_joined_and_each_keeps_its_uvs():
     a = trimesh.creation.box()
     a.visual = trimesh.visual.TextureVisuals(uv=np.zeros((len(a.vertices), 2)))
     b = trimesh.creation.box()
     cloud = trimesh.PointCloud(np.random.default_rng(0).random((5, 3)))
-    both = trimesh.Scene([a, b.copy(), cloud])
-    m = mesh_from_trimesh(both)
-    assert len(m.faces) == 12 and m.removed_duplicate == 12 and m.uv is None  # b lies exactly on a
+    m = mesh_from_trimesh(trimesh.Scene([b, b.copy(), cloud]))
+    assert len(m.faces) == 12 and m.removed_duplicate == 12 and m.uv is None  # the copy lies exactly on b
+    # b lies on a, but a has UVs and b none: both stay (as a copy with other UVs does)
+    m = mesh_from_trimesh(trimesh.Scene([a, b.copy(), cloud]))
+    assert len(m.faces) == 24 and m.removed_duplicate == 0 and m.has_uv.tolist() == [True] * 12 + [False] * 12
+    assert len(m.without_uv) == 1 and (m.uv[np.unique(m.faces[:12])] == 0).all() and np.isnan(m.uv[np.unique(m.faces[12:])]).all()
     b.visual = trimesh.visual.TextureVisuals(uv=np.ones((len(b.vertices), 2)))
     m = mesh_from_trimesh(trimesh.Scene([a, b]))
-    assert m.uv is not None and len(m.uv) == len(m.vertices)
+    assert m.uv is not None and len(m.uv) == len(m.vertices) and m.has_uv is None and m.without_uv == []
     with pytest.raises(MeshError, match="<mesh>: no faces"):
         mesh_from_trimesh(trimesh.Scene([cloud]))
 

@@ -117,3 +117,30 @@ def test_a_deep_tree_loads_in_time_linear_in_its_depth(tmp_path):
     mesh = load_mesh(path)
     assert time.monotonic() - began < 20
     assert len(mesh.faces) == 500
+
+
+@pytest.mark.parametrize("suffix", [".glb", ".gltf"])
+def test_a_scene_keeps_the_uvs_of_the_parts_that_have_them(tmp_path, suffix):
+    """A crate with UVs beside a ball without: the crate's faces keep their UVs (to float32),
+    the ball's are marked as having none, named, and not welded to the crate's."""
+    from conftest import mixed_uv_scene
+
+    crate = mixed_uv_scene(tmp_path / f"scene{suffix}")
+    m = load_mesh(tmp_path / f"scene{suffix}")
+    assert m.has_uv is not None and m.has_uv.sum() == 12 and (~m.has_uv).sum() == 320
+    assert m.without_uv == ["ball"] and m.warnings == []
+    kept = m.faces[m.has_uv]
+    assert np.array_equal(m.vertices[kept], crate["positions"])
+    assert np.allclose(m.uv[kept], crate["uv"], atol=1e-7, rtol=0)
+    assert np.isnan(m.uv[np.unique(m.faces[~m.has_uv])]).all()
+    assert np.isfinite(m.uv[np.unique(kept)]).all()
+    assert len(m.vertices) == 36 + 162  # the crate's corners split by UV; the ball's welded among themselves
+
+
+def test_a_scene_whose_parts_all_have_uvs_or_none_has_no_mask(tmp_path):
+    both = trimesh.Scene()
+    both.add_geometry(trimesh.creation.icosphere(1), node_name="a")
+    both.add_geometry(trimesh.creation.box(), node_name="b")
+    both.export(tmp_path / "none.glb")
+    m = load_mesh(tmp_path / "none.glb")
+    assert m.uv is None and m.has_uv is None and m.without_uv == []
