@@ -156,7 +156,9 @@ def uv_problem(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray | None) -
     faces = np.asarray(faces)
     if len(faces) == 0:
         return "the mesh has no faces"
-    used = uv[np.unique(faces)]
+    mask = np.zeros(n, dtype=bool)
+    mask[faces] = True  # the UVs faces use: linear, where np.unique would sort every corner
+    used = uv[mask]
     if not np.isfinite(used).all():
         return "the mesh's UVs are not finite"
     lo, hi = used.min(), used.max()
@@ -214,7 +216,7 @@ def atlas_stats(vertices, faces, uv_faces, uv) -> dict:
     with anisotropic distortion and with uneven texel density between faces (faces with
     zero UV area are left out).
     """
-    charts = len(np.unique(chart_labels(uv_faces, len(uv))))
+    charts = int(chart_labels(uv_faces, len(uv)).max()) + 1  # numbered 0, 1, ... (each one's first node is a face)
 
     ps, pt, det = uv_jacobian(vertices, faces, uv, uv_faces)  # dP/du, dP/dv
     ok = np.abs(det) > 0  # faces of zero UV area are left out
