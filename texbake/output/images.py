@@ -317,7 +317,7 @@ class _PngRows:
         self._first: bytes | None = None  # the first row's bytes
         self._rest = zlib.adler32(b"")  # the rows after it, filtered
         self._rest_bytes = 0
-        self._above: np.ndarray | None = None
+        self._above = np.zeros(0, dtype=np.uint8)  # the last row added
 
     def add(self, band: np.ndarray) -> None:
         """The next ``(rows, w, c)`` uint8 or uint16 rows."""
