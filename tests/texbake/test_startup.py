@@ -21,8 +21,8 @@ import sys
 
 import pytest
 
-# CPU seconds: the imports of a default bake, numba and llvmlite left out (measured 0.45
-# to 0.50 CPU-s under a load of 5 to 11 on the 2 cores; the goal, 0.25 s, holds for a
+# CPU seconds: the imports of a default bake, numba and llvmlite left out (measured 0.46
+# to 0.50 CPU-s under a load of 5 to 13 on the 2 cores; the goal, 0.25 s, is for a
 # quiet machine). A module such as SciPy, trimesh or OpenImageIO imported before it is
 # needed costs 0.1 s or more.
 BUDGET_S = 0.6
@@ -43,8 +43,8 @@ import importlib._bootstrap as bootstrap, json, sys, time
 plain, open_, rows = bootstrap._find_and_load, [], []
 
 def importers():
-    if open_:
-        return [name for name, _ in open_]
+    if open_:  # inside another import: its importers, then it
+        return open_[-1][2] + [open_[-1][0]]
     frame = sys._getframe(2)
     while frame is not None:
         if any(f"/{p}/" in frame.f_code.co_filename for p in ("numba", "llvmlite")):
@@ -56,7 +56,7 @@ def timed(name, import_):
     if name in sys.modules:
         return plain(name, import_)
     outer = importers()
-    open_.append([name, 0.0])
+    open_.append([name, 0.0, outer])
     start = time.thread_time()
     try:
         return plain(name, import_)
