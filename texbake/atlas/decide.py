@@ -258,7 +258,9 @@ def _checked_mesh(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
         raise AtlasError("the mesh has no faces")
     if faces.min() < 0 or faces.max() >= len(vertices):
         raise AtlasError("the mesh's faces index missing vertices")
-    if not np.isfinite(vertices[np.unique(faces)]).all():
+    used = np.zeros(len(vertices), dtype=bool)
+    used[faces] = True  # linear, where np.unique would sort every corner
+    if not np.isfinite(vertices[used]).all():
         raise AtlasError("the mesh's vertices are not finite")
     return vertices, faces
 

@@ -156,7 +156,9 @@ def uv_problem(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray | None) -
     faces = np.asarray(faces)
     if len(faces) == 0:
         return "the mesh has no faces"
-    used = uv[np.unique(faces)]
+    mask = np.zeros(n, dtype=bool)
+    mask[faces] = True  # the UVs faces use: linear, where np.unique would sort every corner
+    used = uv[mask]
     if not np.isfinite(used).all():
         return "the mesh's UVs are not finite"
     lo, hi = used.min(), used.max()
@@ -214,7 +216,13 @@ def atlas_stats(vertices, faces, uv_faces, uv) -> dict:
     with anisotropic distortion and with uneven texel density between faces (faces with
     zero UV area are left out).
     """
-    charts = len(np.unique(chart_labels(uv_faces, len(uv))))
+    return _stats_and_parts(vertices, faces, uv_faces, uv)[0]
+
+
+def _stats_and_parts(vertices, faces, uv_faces, uv) -> tuple[dict, np.ndarray, np.ndarray]:
+    """``(atlas_stats, (m,) 3D areas, (m,) chart of each face)``: the parts :func:`measure` uses again."""
+    chart = chart_labels(uv_faces, len(uv))
+    charts = int(chart.max()) + 1  # numbered 0, 1, ... (each one's first node is a face)
 
     ps, pt, det = uv_jacobian(vertices, faces, uv, uv_faces)  # dP/du, dP/dv
     ok = np.abs(det) > 0  # faces of zero UV area are left out
@@ -226,7 +234,7 @@ def atlas_stats(vertices, faces, uv_faces, uv) -> dict:
         stretch = float(np.sqrt((a_3d[ok] * l2sq[ok]).sum() / w3 * wuv / w3))
     else:
         stretch = float("inf")
-    return {"charts": int(charts), "utilisation": float(a_uv.sum()), "stretch": stretch}
+    return {"charts": charts, "utilisation": float(a_uv.sum()), "stretch": stretch}, a_3d, chart
 
 
 def measure(vertices: np.ndarray, faces: np.ndarray, uv_faces: np.ndarray, uv: np.ndarray, size: int,
@@ -237,12 +245,11 @@ def measure(vertices: np.ndarray, faces: np.ndarray, uv_faces: np.ndarray, uv: n
     texel centre at ``size``: their texels are all margin; None above 8192). ``raster``:
     :func:`coverage` of the layout on that grid, when already made."""
     grid = min(size, OVERLAP_GRID)
-    stats = atlas_stats(vertices, faces, uv_faces, uv)
+    stats, a3, chart = _stats_and_parts(vertices, faces, uv_faces, uv)
     counts, covering = raster if raster is not None else coverage(uv, uv_faces, grid)
     stats["overlap"], _ = overlap_of(counts)
     stats["bare_area"] = None
     if size <= 8192:
-        a3, chart = areas(vertices, faces), chart_labels(uv_faces, len(uv))
         held = np.zeros(chart.max() + 1, dtype=bool)
         held[chart[covering if grid == size else covering_faces(uv, uv_faces, size)]] = True
         stats["bare_area"] = float(a3[~held[chart]].sum() / max(a3.sum(), 1e-300))

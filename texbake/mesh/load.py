@@ -32,6 +32,7 @@ from pathlib import Path, PurePosixPath
 import numpy as np
 
 from ..errors import MeshError, ParameterError
+from .grouping import first_order_ranks, group_rows
 from .objfile import read_obj
 from .plyfile import read_ply
 from .uvgeometry import areas
@@ -529,10 +530,8 @@ def _weld(vertices, faces, uv):
     if not np.array_equal(rows[first[inverse]], rows):  # a hash collision: sort exactly
         _, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
         inverse = inverse.ravel()
-    order = np.argsort(first)  # keep vertices in file order
-    rank = np.empty_like(order)
-    rank[order] = np.arange(len(order))
-    keep = first[order]
+    rank = first_order_ranks(first, len(rows))  # keep vertices in file order
+    keep = np.sort(first)
     return vertices[keep], rank[inverse][faces], None if uv is None else uv[keep]
 
 
@@ -603,5 +602,5 @@ def _without_duplicates(faces: np.ndarray) -> np.ndarray:
     splits charts."""
     start = np.argmin(faces, axis=1)  # each face rotated to start at its smallest corner
     corners = np.take_along_axis(faces, (start[:, None] + np.arange(3)) % 3, axis=1)
-    _, first = np.unique(corners, axis=0, return_index=True)
+    first = group_rows(corners)[0]
     return np.sort(first)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from .components import connected_components
+from .grouping import group_rows
 from .uvgeometry import edges
 
 HARD_EDGE_DEGREES = 60.0
@@ -29,32 +30,28 @@ def split_normals(vertices: np.ndarray, faces: np.ndarray, angle: float = HARD_E
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
     m = len(faces)
-    rows = np.ascontiguousarray(vertices + 0.0).view(np.dtype((np.void, 24))).ravel()  # + 0.0: -0.0 is 0.0
-    _, position = np.unique(rows, return_inverse=True)  # one id per position (a 1D sort of the rows' bytes)
-    position = position.ravel()[faces]  # (m, 3) position id of each corner
+    position = group_rows(vertices)[1][faces]  # (m, 3) position id of each corner (-0.0 is 0.0)
     _, e1, e2 = edges(vertices, faces)
     weighted = np.cross(e1, e2)  # (m, 3) normal times twice the area
     length = np.linalg.norm(weighted, axis=1, keepdims=True)
     unit = np.divide(weighted, length, out=np.zeros_like(weighted), where=length > 0)
 
-    # Each face edge (corner c to corner c + 1), keyed by its two positions, sorted
-    a, b = position, np.roll(position, -1, axis=1)
-    key = np.stack([np.minimum(a, b), np.maximum(a, b)], axis=2).reshape(-1, 2)  # (3m, 2)
-    corner_a = (np.arange(m)[:, None] * 3 + np.arange(3)).ravel()  # corner at a
-    corner_b = (np.arange(m)[:, None] * 3 + (np.arange(3) + 1) % 3).ravel()  # corner at b
-    order = np.argsort(key[:, 0] * (int(position.max()) + 1) + key[:, 1], kind="stable")
-    key, corner_a, corner_b = key[order], corner_a[order], corner_b[order]
-    same = np.flatnonzero((key[1:] == key[:-1]).all(axis=1))  # consecutive half-edges on one edge
-    f, g = corner_a[same] // 3, corner_a[same + 1] // 3
-    soft = np.einsum("ij,ij->i", unit[f], unit[g]) >= np.cos(np.radians(angle))
-    # the corners of f and g at each end of a soft edge are in one fan (the edge's two
+    # Each face edge (from corner c to corner c + 1: half-edge c), keyed by its two
+    # positions as one number, sorted; half-edges of one edge are then neighbours
+    start, end = position.ravel(), np.roll(position, -1, axis=1).ravel()  # (3m,) positions
+    key = np.minimum(start, end) * (int(start.max()) + 1) + np.maximum(start, end)
+    order = np.argsort(key, kind="stable")
+    key = key[order]
+    same = np.flatnonzero(key[1:] == key[:-1])  # consecutive half-edges on one edge
+    h, k = order[same], order[same + 1]
+    soft = np.einsum("ij,ij->i", unit[h // 3], unit[k // 3]) >= np.cos(np.radians(angle))
+    h, k = h[soft], k[soft]
+    # the corners of the two faces at each end of a soft edge are in one fan (the
     # half-edges may run either way: match the corners by position)
-    pa = position.ravel()[corner_a[same]]
-    ga, gb = corner_a[same + 1], corner_b[same + 1]
-    g_at_pa = np.where(position.ravel()[ga] == pa, ga, gb)
-    g_at_pb = np.where(position.ravel()[ga] == pa, gb, ga)
-    left = np.concatenate([corner_a[same][soft], corner_b[same][soft]])
-    right = np.concatenate([g_at_pa[soft], g_at_pb[soft]])
+    h_end, k_end = _next_corner(h), _next_corner(k)
+    forward = start[k] == start[h]
+    left = np.concatenate([h, h_end])
+    right = np.concatenate([np.where(forward, k, k_end), np.where(forward, k_end, k)])
     fan = connected_components(3 * m, left, right)  # (3m,) fan of each corner
 
     corner_weight = np.repeat(weighted, 3, axis=0)
@@ -68,3 +65,8 @@ def split_normals(vertices: np.ndarray, faces: np.ndarray, angle: float = HARD_E
     fans = int(fan.max()) + 1
     unique, first, inverse = np.unique(faces.ravel() * fans + fan, return_index=True, return_inverse=True)
     return unique // fans, inverse.reshape(m, 3), normal[fan[first]]
+
+
+def _next_corner(corner: np.ndarray) -> np.ndarray:
+    """The corner after each of ``corner`` (flat indices ``3 * face + c``) in its face."""
+    return corner - corner % 3 + (corner % 3 + 1) % 3

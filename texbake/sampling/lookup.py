@@ -20,7 +20,7 @@ import numba as nb
 import numpy as np
 
 from ..errors import ParameterError
-from ..mesh import uv_inverse
+from ..mesh import group_rows, uv_inverse
 from .rays import Scene
 
 _DOWN = np.array([0.0, 0.0, -1.0], dtype=np.float32)  # the direction of every lookup ray
@@ -259,7 +259,7 @@ def uv_neighbours(uv: np.ndarray, faces: np.ndarray, usable: np.ndarray) -> np.n
     across = np.full((m, 3), -1, dtype=np.int64)
     if m == 0:
         return across
-    _, weld = np.unique(np.asarray(uv, dtype=np.float64), axis=0, return_inverse=True)
+    weld = group_rows(np.asarray(uv, dtype=np.float64))[1]  # one id per UV position
     corner = weld.ravel()[np.asarray(faces, dtype=np.int64)]  # (m, 3) welded corners
     a, b = corner[:, [1, 2, 0]].ravel(), corner[:, [2, 0, 1]].ravel()  # edge opposite corner c
     key = np.minimum(a, b) * (int(weld.max()) + 1) + np.maximum(a, b)

@@ -3,9 +3,12 @@
 A spec is a pydantic model chosen by its ``name``; unknown parameters and out-of-range
 values are rejected with a message naming them. The same spec serves the library, the
 command line and the service (as JSON).
-"""
 
-from __future__ import annotations
+Annotations here are plain (no ``from __future__ import annotations``): pydantic would
+evaluate every string annotation again as each model class is made, the larger part of
+this module's import. The models build their validators on first use (``defer_build``):
+a bake validates one texture, not all of them.
+"""
 
 import dataclasses
 import functools
@@ -31,7 +34,7 @@ class Transform(BaseModel):
     so a larger ``scale`` gives larger features and the field moves with the object.
     """
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True)
 
     scale: Annotated[float, Field(gt=0)] | tuple[float, float, float] = 1.0
     rotate: Vec3 = Field((0.0, 0.0, 0.0), description="XYZ Euler angles, degrees")
@@ -57,7 +60,7 @@ class Transform(BaseModel):
 
 
 class _Texture(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True)
 
     name: str  # each texture's own Literal: the discriminator
     transform: Transform = Transform()
@@ -162,7 +165,7 @@ def _check_knots(knots, values) -> None:
 class ColourMap(BaseModel):
     """A spline colour curve: colours at increasing knots, Catmull-Rom in between."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True)
 
     knots: tuple[float, ...] = (0.0, 1.0)
     colours: tuple[Colour, ...] = ((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
@@ -182,7 +185,7 @@ class ColourMap(BaseModel):
 class Curve(BaseModel):
     """A scalar spline curve (one colour channel)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True)
 
     knots: tuple[float, ...]
     values: tuple[float, ...]
@@ -196,7 +199,7 @@ class Curve(BaseModel):
 class NoiseBasis(BaseModel):
     """Which noise: the lecture's lattice (value) noise or Perlin's gradient noise."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True)
 
     basis: Literal["value", "perlin"] = "value"
     interpolation: Literal["linear", "cubic", "catmull-rom"] = Field("linear", description="value noise only")
@@ -386,9 +389,15 @@ def turbulence_args(params: TurbulenceParams) -> dict:
 
 TextureSpec = Annotated[Position | Checker | Noise | Turbulence | FBm | Marble | Wood | Flame, Field(discriminator="name")]
 TEXTURE_CLASSES: tuple[type[_Texture], ...] = get_args(get_args(TextureSpec)[0])
-_ADAPTER = TypeAdapter(TextureSpec)
 
 TEXTURES = {cls.model_fields["name"].default: cls for cls in TEXTURE_CLASSES}
+
+
+@functools.cache
+def _adapter() -> TypeAdapter:
+    """The validator of the union of every texture, built on first use: building it
+    builds every texture's schema, while a bake validates one texture (by its class)."""
+    return TypeAdapter(TextureSpec)
 
 
 @functools.cache
@@ -404,11 +413,8 @@ def _describe(name: str, error: ValidationError) -> str:
     """The problems of a spec of texture ``name``, written for a person, each path from the
     spec's top: ``marble has no parameter 'octaves' (it has: ...)``, ``turbulence.octaves:
     expected a whole number from 1 to 30, got 99``; ``; `` between several."""
-    errors = []
-    for e in error.errors(include_url=False):  # without the union's tag (the name)
-        errors.append({**e, "loc": e["loc"][1:] if e["loc"] and e["loc"][0] == name else e["loc"]})
     parts = [f"{field}: {problem}" if field else problem if problem.startswith(name) else f"{name}: {problem}"
-             for field, problem in describe(errors, _schema(name), subject=name)]
+             for field, problem in describe(error.errors(include_url=False), _schema(name), subject=name)]
     return "; ".join(parts)
 
 
@@ -468,7 +474,7 @@ def catalogue() -> list[dict]:
 
 def json_schema() -> dict:
     """The JSON Schema of a texture spec (all textures, discriminated by ``name``)."""
-    return _ADAPTER.json_schema()
+    return _adapter().json_schema()
 
 
 MAX_NESTING = 32  # of JSON text given as a spec: deeper is refused before parsing (json.loads recurses)
@@ -516,7 +522,7 @@ def parse_spec(value) -> _Texture:
     if not isinstance(value["name"], str) or value["name"] not in TEXTURES:  # a dict would not even hash
         raise TextureError(_unknown(value["name"]))
     try:
-        return _ADAPTER.validate_python(value)
+        return TEXTURES[value["name"]].model_validate(value)  # the union's choice, without building the others
     except ValidationError as exc:
         raise TextureError(_describe(value["name"], exc)) from None
 
