@@ -1,7 +1,7 @@
 """Names a package lends from its modules, imported on first use.
 
 A stage folder's ``__init__`` names what the rest of texbake may use. Importing those
-names eagerly would load every module of the folder (trimesh, OpenImageIO, numba) for
+names eagerly would load every module of the folder (trimesh, OpenImageIO, SciPy) for
 any one of them: the unwrap's worker process, ``--help`` and the service's API process
 import light modules of folders whose other modules are heavy.
 """

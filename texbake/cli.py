@@ -89,12 +89,9 @@ def _bake_one(mesh: str, out: str, given: dict, source: str | None = None, worke
     """Bake and save one mesh with the settings ``given`` (as the command line or a manifest
     line has them), atlases kept in ``cache``, ``progress`` called with the fraction done;
     returns the report (runs in batch worker processes too)."""
-    from .compiling import watch_compiles
     from .pipeline import bake_mesh
     from .settings import BakeSettings
     from .textures.spec import with_overrides
-
-    watch_compiles()
 
     given = dict(given)
     overrides = given.pop("set", None) or []
@@ -404,10 +401,7 @@ def report(
 ):
     """Error against run time: bake under a sweep of quality settings, measure each against a converged reference."""
     from .checks.sweep import markdown, run_sweep, write_all
-    from .compiling import watch_compiles
     from .textures.spec import with_overrides
-
-    watch_compiles()
 
     if not 8 <= size <= 8192:
         _fail(f"size: expected a whole number from 8 to 8192, got {size}")
@@ -463,9 +457,6 @@ def stability(
     from rich.table import Table
 
     from .checks.stability import run_cases, selected
-    from .compiling import watch_compiles
-
-    watch_compiles()
 
     if select and not selected(select):
         _fail(f"case: no stability case matches {', '.join(map(repr, select))}")

@@ -7,10 +7,9 @@ They return ``(n, c)`` float64 linear values.
 
 from __future__ import annotations
 
-import numba as nb  # pip install numba
 import numpy as np
 
-from .kernels import in_pieces
+from .. import _native
 
 # Relative nudge applied before ``floor`` so that a surface lying exactly on a lattice
 # plane (z = 0, a cube centred at the origin) falls consistently on one side of it
@@ -73,9 +72,9 @@ def checker_parity(
         inside = (t >= c[0] - slack[0]) & (t <= c[1] + slack[1])  # (n, 3): cut only where the point is inside
         lo, hi = np.where(inside, c[0], -np.inf), np.where(inside, c[1], np.inf)
     out = np.empty(len(t))
-    t, ex, ey = np.ascontiguousarray(t), np.ascontiguousarray(ex), np.ascontiguousarray(ey)
-    lo, hi = np.ascontiguousarray(lo), np.ascontiguousarray(hi)
-    in_pieces(len(t), lambda a, b: _checker_kernel(t[a:b], ex[a:b], ey[a:b], lo[a:b], hi[a:b], SPLIT, out[a:b]))
+    # each point's mean over SPLIT x SPLIT pieces of its footprint, each over its box cut to
+    # [lo, hi]; an axis with no width (or cut to nothing) is point-sampled (native/textures.cpp)
+    _native.checker_parity(*(np.ascontiguousarray(a) for a in (t, ex, ey, lo, hi)), SPLIT, out)
     return out
 
 
@@ -83,52 +82,6 @@ def checker_parity(
 # 1-sample checker's RMSE on Suzanne at 512^2 is 1.39x that of 16 point samples with 1
 # (one box around the whole footprint), 0.67x with 2, 0.58x with 4.
 SPLIT = 4
-
-
-@nb.njit(cache=True, nogil=True)
-def _checker_kernel(t, ex, ey, lo, hi, split, out):
-    """``out[i]``: mean of the signed checker (unit cells) over the footprint of point ``i``,
-    ``split x split`` sub-parallelograms each averaged over its bounding box cut to
-    ``[lo, hi]``; an axis with no width (or cut to nothing) is point-sampled."""
-    for i in range(t.shape[0]):
-        oblique = False
-        crosses = False  # does the footprint's whole box reach over a cell plane?
-        sign = 1.0
-        for k in range(3):
-            oblique = oblique or (ex[i, k] != 0.0 and ey[i, k] != 0.0)
-            half = (abs(ex[i, k]) + abs(ey[i, k])) * 0.5
-            x0, x1 = max(t[i, k] - half, lo[i, k]), min(t[i, k] + half, hi[i, k])
-            cell = np.floor(min(max(t[i, k], x0), max(x0, x1)))
-            crosses = crosses or (x1 > x0 and np.floor(x0) != np.floor(x1))
-            sign *= 1.0 - 2.0 * (cell - 2.0 * np.floor(0.5 * cell))
-        if not crosses:  # inside one cell: the mean is its sign (most texels)
-            out[i] = sign
-            continue
-        m = split if oblique else 1  # along the axes one box is exact
-        total = 0.0
-        for a in range(m):
-            for b in range(m):
-                fa, fb = (a + 0.5) / m - 0.5, (b + 0.5) / m - 0.5
-                prod = 1.0
-                for k in range(3):
-                    centre = t[i, k] + fa * ex[i, k] + fb * ey[i, k]
-                    half = (abs(ex[i, k]) + abs(ey[i, k])) * 0.5 / m
-                    x0, x1 = max(centre - half, lo[i, k]), min(centre + half, hi[i, k])
-                    if x1 - x0 > 1e-12:
-                        mean = (_triangle1(x1) - _triangle1(x0)) / (x1 - x0)
-                        prod *= min(1.0, max(-1.0, mean))  # far out, x0, x1 round: keep the mean a mean
-                    else:
-                        x = min(max(centre, x0), max(x0, x1))
-                        cell = np.floor(x)
-                        prod *= 1.0 - 2.0 * (cell - 2.0 * np.floor(0.5 * cell))
-                total += prod
-        out[i] = total / (m * m)
-
-
-@nb.njit(cache=True, inline="always")
-def _triangle1(t):
-    u = t - 2.0 * np.floor(0.5 * t)
-    return 1.0 - abs(u - 1.0)
 
 
 def checker(points, box, color_even, color_odd, dpdx=None, dpdy=None, clip=None) -> np.ndarray:

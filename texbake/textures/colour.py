@@ -1,6 +1,7 @@
-"""Colour maps: a spline colour curve tabulated once, looked up per point (numba); and
-the mean colour of a filtered wave, tabulated against its phase spread; and the marble's
-colour in one pass (:func:`marble_colours`). The kernels are in ``kernels.py``.
+"""Colour maps: a spline colour curve tabulated once, looked up per point; and the mean
+colour of a filtered wave, tabulated against its phase spread; and the marble's colour in
+one pass (:func:`marble_colours`). The tables are made here, the lookups are compiled C++
+(``native/colour.hpp``, bound as ``texbake._native``).
 
 A filtered texture gives the mean of its scalar over the texel; the colour map of that
 mean is not the mean colour (a wide footprint would converge to colour(mean), not
@@ -16,7 +17,7 @@ import functools
 
 import numpy as np
 
-from . import kernels
+from .. import _native
 from .solid import spline
 
 SIZE = 4096  # samples of the curve; linear interpolation between them errs < 2e-5 (1.9e-5 on the marble map)
@@ -39,7 +40,7 @@ def colours(knots, colour_list, values: np.ndarray) -> np.ndarray:
     v = np.ascontiguousarray(values, dtype=np.float64).reshape(-1)
     out = np.empty((len(v), 3))
     lo, step = _knot_steps(knots)
-    kernels.in_pieces(len(v), lambda a, b: kernels.colour_kernel(v[a:b], samples, lo, step, out[a:b]))
+    _native.colour_map(v, samples, lo, step, out)
     return out
 
 
@@ -82,7 +83,7 @@ def wave_colours(knots, colour_list, phase: np.ndarray, spread: np.ndarray) -> n
     ph = np.ascontiguousarray(phase, dtype=np.float64).reshape(-1)
     sp = np.ascontiguousarray(spread, dtype=np.float64).reshape(-1)
     out = np.empty((len(ph), 3))
-    kernels.in_pieces(len(ph), lambda a, b: kernels.wave_kernel(ph[a:b], sp[a:b], waves, MAX_SPREAD, out[a:b]))
+    _native.wave_colours(ph, sp, waves, MAX_SPREAD, out)
     return out
 
 
@@ -102,9 +103,8 @@ def marble_colours(points, width, knots, colour_list, *, axis=0, frequency=6.0, 
     key = (tuple(knots), tuple(tuple(c) for c in colour_list))
     sines, waves = sine_table(*key), wave_table(*key)
     cap = octave_count(octaves, gain, max_octaves, basis=basis, seed=seed)
-    args = (int(axis), float(frequency), float(amplitude), float(scale), float(offset), *tables(seed), *_derived_tables(seed),
-            BASES.index(basis), INTERPOLATIONS.index(interpolation), cap.evaluated, float(lacunarity), float(gain),
-            basis_mean(basis, seed), float(cap.capped), float(cap.norm), sines, waves, MAX_SPREAD)
     out = np.empty((len(p), 3))
-    kernels.in_pieces(len(p), lambda a, b: kernels.marble_kernel(p[a:b], w[a:b], *args, out[a:b]))
+    _native.marble(p, w, *tables(seed), *_derived_tables(seed), BASES.index(basis), INTERPOLATIONS.index(interpolation), cap.evaluated,
+                   float(lacunarity), float(gain), basis_mean(basis, seed), float(scale), float(offset), int(axis), float(frequency),
+                   float(amplitude), float(cap.capped), float(cap.norm), sines, waves, MAX_SPREAD, out)
     return out

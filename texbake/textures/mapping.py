@@ -78,10 +78,9 @@ def place_and_evaluate(spec, points: np.ndarray, dpdx: np.ndarray | None, dpdy: 
 def _affine(points: np.ndarray, origin: np.ndarray, scale: float) -> np.ndarray:
     """``(points - origin) * scale`` for ``(n, 3)`` points, the same bits, in one pass
     (numpy's broadcast over rows of three is several times slower)."""
-    from . import kernels
+    from .. import _native
 
     p = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
-    o = np.asarray(origin, dtype=np.float64).reshape(3)
     out = np.empty_like(p)
-    kernels.in_pieces(len(p), lambda a, b: kernels.affine_kernel(p[a:b], o, float(scale), out[a:b]))
+    _native.affine(p, np.ascontiguousarray(origin, dtype=np.float64).reshape(3), float(scale), out)
     return out

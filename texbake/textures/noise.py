@@ -1,7 +1,7 @@
 """Lattice noise after Perlin and Peachey, Perlin's improved gradient noise, and their
 octave sums (turbulence, fBm) filtered by the texel footprint.
 
-Footprint filtering (``kernels.octave_kernel``): every octave is evaluated at the point and
+Footprint filtering (``texbake._native.octave_sum``): every octave is evaluated at the point and
 shrunk towards its mean by the share of it a box filter over the footprint keeps
 (:func:`box_keep`, :func:`fade_factor`); octaves whose lattice cells are finer than
 1/``DROP_CELLS`` (1/8) of the footprint are skipped and add their mean. The octave count
@@ -18,8 +18,9 @@ fraction, so there is no ``+10000`` offset and no ``(int)`` truncation: the resu
 right for negative coordinates and keeps its precision far from the origin. The tables
 have 256 entries, so the noise repeats every 256 cells in each axis.
 
-Hot loops are numba kernels over flat arrays (compiled once, cached on disk), all in
-``kernels.py``; this module holds the tables and the calls.
+The octave sums are compiled C++ (``native/noise.hpp``, ``native/octaves.hpp``, bound as
+``texbake._native``: the GIL released, one thread a core); this module holds the tables and
+the calls.
 """
 
 from __future__ import annotations
@@ -29,8 +30,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import kernels
-from .kernels import DROP_CELLS, box_keep, fade_factor
+from .. import _native
+from .._native import DROP_CELLS, box_keep, fade_factor
 
 __all__ = ["BASES", "DROP_CELLS", "INTERPOLATIONS", "OctaveCount", "basis_mean", "box_keep", "fade_factor", "noise", "octave_count",
            "octave_sum", "tables"]
@@ -41,8 +42,29 @@ BASES = ("value", "perlin")
 
 @functools.cache
 def _derived_tables(seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """``kernels.hash_tables`` of the seed's tables: ``(noise2 (512,), hash4 (65536,) uint32)``."""
-    return kernels.hash_tables(*tables(seed))
+    """:func:`hash_tables` of the seed's tables: ``(noise2 (512,), hash4 (65536,) uint32)``."""
+    noise2, hash4 = hash_tables(*tables(seed))
+    noise2.flags.writeable = hash4.flags.writeable = False  # cached: shared by every caller
+    return noise2, hash4
+
+
+def hash_tables(noise: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(noise2 (512,) float64, hash4 (65536,) uint32)`` of a seed's ``noiseTable`` and
+    ``indexTable``, the tables value noise reads in the octave sums: ``hash4`` holds, for a
+    lattice row ``(j, k)`` (``j * 256 + k``), the four hashes ``PERM(j + PERM(k))``,
+    ``PERM(j + 1 + PERM(k))``, ``PERM(j + PERM(k + 1))`` and ``PERM(j + 1 + PERM(k + 1))``, a
+    byte each of one uint32: one load for the four rows of a cell; ``noise2`` holds
+    ``noiseTable[PERM(h)]`` twice over, so a row's corners ``i`` and ``i + 1`` are
+    ``noise2[row + i]`` and ``noise2[row + i + 1]``. Nine loads a cell instead of twelve,
+    the lecture's values exactly."""
+    def perm(x):
+        return index[x & 255]
+
+    j, k = np.divmod(np.arange(65536), 256)
+    rows = [perm(j + dj + perm(k + dk)) for dj, dk in ((0, 0), (1, 0), (0, 1), (1, 1))]
+    hash4 = (rows[0] | rows[1] << 8 | rows[2] << 16 | rows[3] << 24).astype(np.uint32)
+    noise2 = np.tile(noise[index], 2)
+    return noise2, hash4
 
 
 @functools.cache
@@ -93,14 +115,11 @@ def octave_sum(
     """
     p = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
     w = np.zeros(len(p)) if width is None else np.ascontiguousarray(width, dtype=np.float64).reshape(-1)
-    noise_table, index_table = tables(seed)
-    noise2, hash4 = _derived_tables(seed)
     out = np.empty(len(p))
     cap = octave_count(octaves, gain, max_octaves, basis=basis, seed=seed)
-    mean = basis_mean(basis, seed)
-    args = (float(scale), float(offset), noise_table, index_table, noise2, hash4, BASES.index(basis),
-            INTERPOLATIONS.index(interpolation), cap.evaluated, float(lacunarity), float(gain), bool(signed), mean)
-    kernels.in_pieces(len(p), lambda lo, hi: kernels.octave_kernel(p[lo:hi], w[lo:hi], *args, out[lo:hi]))
+    _native.octave_sum(p, w, *tables(seed), *_derived_tables(seed), BASES.index(basis), INTERPOLATIONS.index(interpolation),
+                       cap.evaluated, float(lacunarity), float(gain), bool(signed), basis_mean(basis, seed), float(scale), float(offset),
+                       out)
     if cap.evaluated < octaves and not signed:  # the capped octaves add their mean (signed octaves have mean 0)
         out += cap.capped
     return out

@@ -237,7 +237,7 @@ class Turbulence(_Texture, TurbulenceParams):
 
     Each octave is shrunk towards its mean by the share a box filter over the footprint
     keeps of it; octaves finer than 1/8 of the footprint are skipped (their mean added;
-    see ``kernels.octave_kernel``).
+    see ``noise.octave_sum``).
     """
 
     name: Literal["turbulence"] = "turbulence"

@@ -1,0 +1,288 @@
+// The texture kernels (texbake/textures/): octave sums of lattice and Perlin noise filtered
+// by the footprint, the marble in one pass, colour maps, the filtered checkerboard, the
+// bake's affine placement. Each takes NumPy arrays and writes into out (allocated by the
+// caller, so that nothing here needs the GIL), releases the GIL and runs on one thread a
+// core (parallel_for). A point's value depends on nothing but the point: not on the piece
+// or the block it is in, nor on the instruction set (no FMA contraction: CMakeLists.txt).
+#include <nanobind/nanobind.h>
+#include <nanobind/ndarray.h>
+
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+#include "colour.hpp"
+#include "octaves.hpp"
+#include "parallel.hpp"
+
+namespace nb = nanobind;
+
+// The hot loops are compiled twice, for AVX2 and for the x86-64 baseline, and the loader
+// picks one (function multi-versioning); both round alike.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(TEXBAKE_NO_CLONES)
+#define TEXBAKE_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define TEXBAKE_CLONES
+#endif
+
+namespace texbake::textures {
+
+using std::ptrdiff_t;
+using noise::Block;
+using noise::Octaves;
+
+template <class T, class... Shape>
+using In = nb::ndarray<const T, nb::c_contig, nb::device::cpu, Shape...>;
+template <class T, class... Shape>
+using Out = nb::ndarray<T, nb::c_contig, nb::device::cpu, Shape...>;
+using Points = In<double, nb::shape<-1, 3>>;
+using Values = In<double, nb::ndim<1>>;
+using OutValues = Out<double, nb::ndim<1>>;
+using OutColours = Out<double, nb::shape<-1, 3>>;
+
+// -- the kernels over a piece [lo, hi) ---------------------------------------------------
+
+TEXBAKE_CLONES void octave_range(const Octaves& o, const double* points, const double* width, double* out, ptrdiff_t lo,
+                                 ptrdiff_t hi) {
+  Block b{};
+  for (ptrdiff_t start = lo; start < hi; start += noise::BLOCK) {
+    const ptrdiff_t m = noise::block_octaves(o, points, width, start, hi, b);
+    std::copy(b.acc, b.acc + m, out + start);
+  }
+}
+
+// Perlin's marble: the colour of 0.5 + 0.5 sin(phase), phase = frequency * p[axis] +
+// amplitude * turbulence (the octave sum plus capped, the mean of the octaves left out,
+// over norm), or with a footprint the mean colour over the phase's spread
+// frequency * width / sqrt(12)
+struct Marble {
+  Octaves o;
+  int axis;
+  double frequency, amplitude, capped, norm, spread_per_width;
+  colour::Sines sines;
+  colour::Waves waves;
+};
+
+// the colours of a block's points without a phase spread, their turbulence in b.acc: the
+// phases and the table's rows in a loop the compiler vectorises, the loads in a scalar one
+TEXBAKE_INLINE void sine_block(const Marble& k, const double* points, const double* width, ptrdiff_t start, ptrdiff_t m, Block& b,
+                       double* out) {
+  int32_t* rows = reinterpret_cast<int32_t*>(b.cell);
+  for (ptrdiff_t i = 0; i < m; ++i) {
+    const double phase = k.frequency * points[3 * (start + i) + k.axis] + k.amplitude * ((b.acc[i] + k.capped) / k.norm);
+    colour::sine_row(k.sines, phase, rows[i], b.tx[i]);
+  }
+  for (ptrdiff_t i = 0; i < m; ++i) {
+    if (!(k.spread_per_width * width[start + i] > 0.0)) colour::sine_colour(k.sines, rows[i], b.tx[i], out + 3 * (start + i));
+  }
+}
+
+TEXBAKE_CLONES void marble_range(const Marble& k, const double* points, const double* width, double* out, ptrdiff_t lo,
+                                 ptrdiff_t hi) {
+  Block b{};
+  for (ptrdiff_t start = lo; start < hi; start += noise::BLOCK) {
+    const ptrdiff_t m = noise::block_octaves(k.o, points, width, start, hi, b);
+    ptrdiff_t sampled = 0;  // points without a spread: the colour of their phase
+    for (ptrdiff_t i = 0; i < m; ++i) {
+      const double spread = k.spread_per_width * width[start + i];
+      if (spread > 0.0) {  // the mean colour over the texel, not the colour of the mean
+        const double phase = k.frequency * points[3 * (start + i) + k.axis] + k.amplitude * ((b.acc[i] + k.capped) / k.norm);
+        colour::wave_colour(k.waves, phase, spread, out + 3 * (start + i));
+      } else {
+        ++sampled;
+      }
+    }
+    if (sampled) sine_block(k, points, width, start, m, b, out);
+  }
+}
+
+inline double square_wave(double cell) { return 1.0 - 2.0 * (cell - 2.0 * std::floor(0.5 * cell)); }
+
+// the integral from 0 to t of the square wave (+1 on [0, 1), -1 on [1, 2), period 2)
+inline double triangle_wave(double t) {
+  const double u = t - 2.0 * std::floor(0.5 * t);
+  return 1.0 - std::fabs(u - 1.0);
+}
+
+// the signed checker's mean over split x split pieces of the footprint, each over its
+// bounding box cut to [lo, hi] (basic.checker_parity); an axis with no width is sampled
+inline double checker_pieces(const double* t, const double* ex, const double* ey, const double* lo, const double* hi, int m) {
+  double total = 0.0;
+  for (int a = 0; a < m; ++a) {
+    for (int b = 0; b < m; ++b) {
+      const double fa = (a + 0.5) / m - 0.5, fb = (b + 0.5) / m - 0.5;
+      double prod = 1.0;
+      for (int k = 0; k < 3; ++k) {
+        const double centre = t[k] + fa * ex[k] + fb * ey[k];
+        const double half = (std::fabs(ex[k]) + std::fabs(ey[k])) * 0.5 / m;
+        const double x0 = std::max(centre - half, lo[k]), x1 = std::min(centre + half, hi[k]);
+        if (x1 - x0 > 1e-12) {
+          const double mean = (triangle_wave(x1) - triangle_wave(x0)) / (x1 - x0);
+          prod *= std::min(1.0, std::max(-1.0, mean));  // far out, x0, x1 round: keep the mean a mean
+        } else {
+          prod *= square_wave(std::floor(std::min(std::max(centre, x0), std::max(x0, x1))));
+        }
+      }
+      total += prod;
+    }
+  }
+  return total / (m * m);
+}
+
+inline double checker_point(const double* t, const double* ex, const double* ey, const double* lo, const double* hi, int split) {
+  bool oblique = false, crosses = false;  // crosses: does the footprint's whole box reach over a cell plane?
+  double sign = 1.0;
+  for (int k = 0; k < 3; ++k) {
+    oblique = oblique || (ex[k] != 0.0 && ey[k] != 0.0);
+    const double half = (std::fabs(ex[k]) + std::fabs(ey[k])) * 0.5;
+    const double x0 = std::max(t[k] - half, lo[k]), x1 = std::min(t[k] + half, hi[k]);
+    crosses = crosses || (x1 > x0 && std::floor(x0) != std::floor(x1));
+    sign *= square_wave(std::floor(std::min(std::max(t[k], x0), std::max(x0, x1))));
+  }
+  if (!crosses) return sign;  // inside one cell: the mean is its sign (most texels)
+  return checker_pieces(t, ex, ey, lo, hi, oblique ? split : 1);  // along the axes one box is exact
+}
+
+struct Checker {
+  const double *t, *ex, *ey, *lo, *hi;
+  int split;
+};
+
+TEXBAKE_CLONES void checker_range(const Checker& c, double* out, ptrdiff_t lo, ptrdiff_t hi) {
+  for (ptrdiff_t i = lo; i < hi; ++i) out[i] = checker_point(c.t + 3 * i, c.ex + 3 * i, c.ey + 3 * i, c.lo + 3 * i, c.hi + 3 * i, c.split);
+}
+
+// -- checks and bindings -------------------------------------------------------------------
+
+void same_rows(ptrdiff_t n, ptrdiff_t rows, const char* name) {
+  if (rows != n) throw std::invalid_argument(std::string(name) + ": " + std::to_string(rows) + " rows for " + std::to_string(n) + " points");
+}
+
+noise::Tables noise_tables(const Values& noise, const In<int64_t, nb::ndim<1>>& index, const Values& noise2,
+                           const In<uint32_t, nb::ndim<1>>& hash4) {
+  if (noise.shape(0) != 256 || index.shape(0) != 256 || noise2.shape(0) != 512 || hash4.shape(0) != 65536)
+    throw std::invalid_argument("noise tables: expected 256, 256, 512 and 65536 entries");
+  for (ptrdiff_t i = 0; i < 256; ++i) {
+    if (index.data()[i] < 0 || index.data()[i] > 255) throw std::invalid_argument("indexTable: entries must be in [0, 255]");
+  }
+  return {noise.data(), index.data(), noise2.data(), hash4.data()};
+}
+
+Octaves octaves(const noise::Tables& t, int basis, int interp, int count, double lacunarity, double gain, bool signed_,
+                double basis_mean, double scale, double offset) {
+  if (basis < 0 || basis > 1 || interp < 0 || interp > 2) throw std::invalid_argument("basis in {0, 1}, interpolation in {0, 1, 2}");
+  return {t, basis, interp, count, lacunarity, gain, signed_ ? 2.0 : 1.0, signed_ ? 2.0 * basis_mean - 1.0 : basis_mean,
+          noise::top_frequency(count, lacunarity), scale, offset};
+}
+
+void octave_sum(const Points& points, const Values& width, const Values& noise, const In<int64_t, nb::ndim<1>>& index,
+                const Values& noise2, const In<uint32_t, nb::ndim<1>>& hash4, int basis, int interp, int count, double lacunarity,
+                double gain, bool signed_, double basis_mean, double scale, double offset, OutValues out) {
+  const ptrdiff_t n = points.shape(0);
+  same_rows(n, width.shape(0), "width");
+  same_rows(n, out.shape(0), "out");
+  const Octaves o = octaves(noise_tables(noise, index, noise2, hash4), basis, interp, count, lacunarity, gain, signed_, basis_mean,
+                            scale, offset);
+  const double *p = points.data(), *w = width.data();
+  double* dst = out.data();
+  parallel_for(n, [&](ptrdiff_t lo, ptrdiff_t hi) { octave_range(o, p, w, dst, lo, hi); });
+}
+
+void marble(const Points& points, const Values& width, const Values& noise, const In<int64_t, nb::ndim<1>>& index,
+            const Values& noise2, const In<uint32_t, nb::ndim<1>>& hash4, int basis, int interp, int count, double lacunarity,
+            double gain, double basis_mean, double scale, double offset, int axis, double frequency, double amplitude,
+            double capped, double norm, const In<double, nb::shape<-1, 3>>& sines, const In<double, nb::shape<-1, -1, 3>>& waves,
+            double max_spread, OutColours out) {
+  const ptrdiff_t n = points.shape(0);
+  same_rows(n, width.shape(0), "width");
+  same_rows(n, out.shape(0), "out");
+  if (axis < 0 || axis > 2 || sines.shape(0) < 2 || waves.shape(0) < 2 || waves.shape(1) < 1)
+    throw std::invalid_argument("marble: axis in {0, 1, 2}, at least 2 sine rows and 2 spreads");
+  const Marble k{octaves(noise_tables(noise, index, noise2, hash4), basis, interp, count, lacunarity, gain, false, basis_mean,
+                         scale, offset),
+                 axis, frequency, amplitude, capped, norm, frequency / std::sqrt(12.0),
+                 {sines.data(), ptrdiff_t(sines.shape(0)) - 1},
+                 {waves.data(), ptrdiff_t(waves.shape(0)), ptrdiff_t(waves.shape(1)), max_spread}};
+  const double *p = points.data(), *w = width.data();
+  double* dst = out.data();
+  parallel_for(n, [&](ptrdiff_t lo, ptrdiff_t hi) { marble_range(k, p, w, dst, lo, hi); });
+}
+
+void colour_map(const Values& values, const In<double, nb::shape<-1, 3>>& samples, double lo, double step, OutColours out) {
+  same_rows(values.shape(0), out.shape(0), "out");
+  if (samples.shape(0) < 2) throw std::invalid_argument("colour_map: at least 2 samples");
+  const colour::Curve c{samples.data(), ptrdiff_t(samples.shape(0)), lo, step};
+  const double* v = values.data();
+  double* dst = out.data();
+  parallel_for(values.shape(0), [&](ptrdiff_t a, ptrdiff_t b) {
+    for (ptrdiff_t i = a; i < b; ++i) colour::map_colour(c, v[i], dst + 3 * i);
+  });
+}
+
+void wave_colours(const Values& phase, const Values& spread, const In<double, nb::shape<-1, -1, 3>>& table, double max_spread,
+                  OutColours out) {
+  same_rows(phase.shape(0), spread.shape(0), "spread");
+  same_rows(phase.shape(0), out.shape(0), "out");
+  if (table.shape(0) < 2 || table.shape(1) < 1) throw std::invalid_argument("wave_colours: at least 2 spreads and 1 phase");
+  const colour::Waves w{table.data(), ptrdiff_t(table.shape(0)), ptrdiff_t(table.shape(1)), max_spread};
+  const double *ph = phase.data(), *sp = spread.data();
+  double* dst = out.data();
+  parallel_for(phase.shape(0), [&](ptrdiff_t a, ptrdiff_t b) {
+    for (ptrdiff_t i = a; i < b; ++i) colour::wave_colour(w, ph[i], sp[i], dst + 3 * i);
+  });
+}
+
+void checker_parity(const Points& t, const Points& ex, const Points& ey, const Points& lo, const Points& hi, int split, OutValues out) {
+  const ptrdiff_t n = t.shape(0);
+  same_rows(n, ex.shape(0), "ex");
+  same_rows(n, ey.shape(0), "ey");
+  same_rows(n, lo.shape(0), "lo");
+  same_rows(n, hi.shape(0), "hi");
+  same_rows(n, out.shape(0), "out");
+  if (split < 1) throw std::invalid_argument("checker_parity: split must be at least 1");
+  const Checker c{t.data(), ex.data(), ey.data(), lo.data(), hi.data(), split};
+  double* dst = out.data();
+  parallel_for(n, [&](ptrdiff_t a, ptrdiff_t b) { checker_range(c, dst, a, b); });
+}
+
+void affine(const Points& points, const In<double, nb::shape<3>>& origin, double scale, OutColours out) {
+  same_rows(points.shape(0), out.shape(0), "out");
+  const double *p = points.data(), *o = origin.data();
+  double* dst = out.data();
+  parallel_for(points.shape(0), [&](ptrdiff_t a, ptrdiff_t b) {
+    for (ptrdiff_t i = 3 * a; i < 3 * b; i += 3) {
+      for (int k = 0; k < 3; ++k) dst[i + k] = (p[i + k] - o[k]) * scale;
+    }
+  });
+}
+
+}  // namespace texbake::textures
+
+void bind_textures(nb::module_& m) {
+  namespace t = texbake::textures;
+  using nb::arg;
+  const auto release = nb::call_guard<nb::gil_scoped_release>();
+  m.attr("DROP_CELLS") = texbake::noise::DROP_CELLS;
+  m.def("box_keep", &texbake::noise::box_keep, arg("s"),
+        "The share of a noise octave that a box filter s lattice cells wide keeps (1 at 0, (1.5 / s)^2 from 4 on).");
+  m.def("fade_factor", &texbake::noise::fade_factor, arg("s"),
+        "box_keep(s), or 0 once the octave's cells are under 1/DROP_CELLS of the footprint (s >= DROP_CELLS, or NaN).");
+  m.def("octave_sum", &t::octave_sum, arg("points"), arg("width"), arg("noise"), arg("index"), arg("noise2"), arg("hash4"),
+        arg("basis"), arg("interpolation"), arg("octaves"), arg("lacunarity"), arg("gain"), arg("signed"), arg("basis_mean"),
+        arg("scale"), arg("offset"), arg("out").noconvert(), release,
+        "out[i]: the sum of octaves gain^k n(lacunarity^k q), q = points[i] * scale + offset, each shrunk towards its mean by "
+        "the share of it a box filter over the footprint width[i] * |scale| keeps (texbake.textures.noise.octave_sum).");
+  m.def("marble", &t::marble, arg("points"), arg("width"), arg("noise"), arg("index"), arg("noise2"), arg("hash4"), arg("basis"),
+        arg("interpolation"), arg("octaves"), arg("lacunarity"), arg("gain"), arg("basis_mean"), arg("scale"), arg("offset"),
+        arg("axis"), arg("frequency"), arg("amplitude"), arg("capped"), arg("norm"), arg("sines"), arg("waves"), arg("max_spread"),
+        arg("out").noconvert(), release, "out (n, 3): Perlin's marble colours in one pass (texbake.textures.colour.marble_colours).");
+  m.def("colour_map", &t::colour_map, arg("values"), arg("samples"), arg("lo"), arg("step"), arg("out").noconvert(), release,
+        "out (n, 3): the tabulated colour curve samples (m, 3) at values, knots from lo, step samples a unit.");
+  m.def("wave_colours", &t::wave_colours, arg("phase"), arg("spread"), arg("table"), arg("max_spread"), arg("out").noconvert(),
+        release, "out (n, 3): the wave table (spreads, phases, 3) at each phase and spread, bilinear.");
+  m.def("checker_parity", &t::checker_parity, arg("t"), arg("ex"), arg("ey"), arg("lo"), arg("hi"), arg("split"),
+        arg("out").noconvert(), release, "out (n,): the signed checker's mean (unit cells) over each point's footprint.");
+  m.def("affine", &t::affine, arg("points"), arg("origin"), arg("scale"), arg("out").noconvert(), release,
+        "out (n, 3) = (points - origin) * scale.");
+}
