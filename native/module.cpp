@@ -7,9 +7,27 @@
 namespace nb = nanobind;
 
 void bind_textures(nb::module_& m);
+namespace texbake {
+void bind_accumulate(nb::module_&);
+void bind_build_info(nb::module_&);
+void bind_components(nb::module_&);
+void bind_images(nb::module_&);
+void bind_lookup(nb::module_&);
+void bind_margin(nb::module_&);
+void bind_surface(nb::module_&);
+void bind_uvcheck(nb::module_&);
+}  // namespace texbake
 
 NB_MODULE(_native, m) {
   m.doc() = "texbake's compiled kernels (C++, nanobind); the GIL is released inside each";
   m.def("cores", &texbake::cores, "the threads a kernel runs on (one a core)");
   bind_textures(m);
+  texbake::bind_build_info(m);
+  texbake::bind_components(m);
+  texbake::bind_uvcheck(m);
+  texbake::bind_lookup(m);
+  texbake::bind_surface(m);
+  texbake::bind_accumulate(m);
+  texbake::bind_margin(m);
+  texbake::bind_images(m);
 }

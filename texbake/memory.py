@@ -6,7 +6,7 @@ threads; :func:`check_fits` compares it with the memory there is (or a limit) an
 :class:`~texbake.errors.ParameterError`. What a bake holds at its peak (the tiles', or the
 writer's after them, whichever is more):
 
-- the process itself: Python, numpy, numba's kernels, Embree, OpenImageIO (``BASE``);
+- the process itself: Python, numpy, the compiled kernels, Embree, OpenImageIO (``BASE``);
 - per face: the mesh, its atlas, the lookup's layout and the surface's per-face arrays;
 - per texel: each map (3 channels of float32, or float16 for images over ``HALF_TEXELS``
   texels written as 8 bits: ``texbake.maps.accumulate``), and two bytes: the sample

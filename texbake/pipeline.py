@@ -304,7 +304,7 @@ def _bake_tiles(sampler: Sampler, maps: Maps, settings: BakeSettings, timer: Tim
     Returns ``[samples looked up, lookup rays cast, transfer rays that missed]`` summed
     over the tiles, and whether the lookups came from ``lookups`` (a cache and the key
     of this bake's lookups; kept there otherwise; then no ray is cast). Tiles run in threads:
-    the ray casts (texbake.sampling.rays) and the numba kernels release the GIL, numpy mostly does,
+    the ray casts (texbake.sampling.rays) and the compiled kernels release the GIL, numpy mostly does,
     so the stages of two tiles overlap; each tile writes its own rows.
     """
     (width, height), samples = settings.width_height, settings.samples

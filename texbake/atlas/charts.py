@@ -7,7 +7,7 @@ whose texel density falls off with the cosine of the angle to its projection dir
 at most ``ANGLE_LIMIT``. The charts are laid out side by side, apart, one UV mesh for
 xatlas' packer (``texbake.atlas.packworker.pack``), which places them all at one density.
 
-numpy and numba (:mod:`texbake.mesh.components`, :mod:`texbake.atlas.uvcheck`).
+numpy and the compiled kernels (:mod:`texbake.mesh.components`, :mod:`texbake.atlas.uvcheck`).
 """
 
 from __future__ import annotations

@@ -175,7 +175,7 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
     bake = functools.partial(_bake, base, spec, workers)
 
     references, checks, info = _references(bake, sorted({s.size for s in settings}), reference_samples, say)
-    # The first bake of each setting (untimed: it also warms numba's kernels) gives the errors.
+    # The first bake of each setting (untimed: it also pays the imports and first-use costs) gives the errors.
     baked = {}
     for setting in settings:
         result = bake(**setting.kwargs())

@@ -16,9 +16,9 @@ from __future__ import annotations
 
 from contextlib import nullcontext
 
-import numba as nb
 import numpy as np
 
+from .. import _native
 from ..formats import DEFAULT_BITS
 from ..sampling import Samples, Tile
 from ..settings import BakeSettings
@@ -78,44 +78,23 @@ class Maps:
         for name, v in values.items():
             block = self.images[name][tile.start : tile.stop].reshape(rows * width, 3)
             block[:] = 0
-            block[where] = v if self.samples == 1 else _run_means(texel, np.asarray(v, dtype=np.float64), count)
+            block[where] = v if self.samples == 1 else _run_means(v, np.asarray(count))
         hits = self.hits[tile.start : tile.stop].reshape(rows * width)
         hits[:] = 0
         hits[where] = count
 
 
-@nb.njit(cache=True, nogil=True)
-def _runs(texel):  # pragma: no cover - compiled
+def _runs(texel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(texels (k,) int64, counts (k,) int64)``: the texel and the length of each of the
-    ``k`` runs of equal values of a non-decreasing ``texel`` ``(n,)``. No GIL."""
-    n = texel.shape[0]
-    k = 0
-    for i in range(n):
-        if i == 0 or texel[i] != texel[i - 1]:
-            k += 1
-    where = np.empty(k, dtype=np.int64)
-    count = np.zeros(k, dtype=np.int64)
-    r = -1
-    for i in range(n):
-        if i == 0 or texel[i] != texel[i - 1]:
-            r += 1
-            where[r] = texel[i]
-        count[r] += 1
-    return where, count
+    ``k`` runs of equal values of a non-decreasing ``texel`` ``(n,)`` int64 (compiled: no GIL)."""
+    where, count = np.empty(len(texel), dtype=np.int64), np.empty(len(texel), dtype=np.int64)
+    k = _native.runs(np.ascontiguousarray(texel, dtype=np.int64), where, count)
+    return where[:k], count[:k]
 
 
-@nb.njit(cache=True, nogil=True)
-def _run_means(texel, v, count):  # pragma: no cover - compiled
-    """``(k, 3)`` float64: the mean of ``v`` ``(n, 3)`` float64 over each run of equal
-    ``texel`` (:func:`_runs`' ``count`` samples each), summed in order (as ``np.bincount``
-    sums). No GIL."""
-    out = np.zeros((count.shape[0], 3))
-    i = 0
-    for r in range(count.shape[0]):
-        for _ in range(count[r]):
-            for c in range(3):
-                out[r, c] += v[i, c]
-            i += 1
-        for c in range(3):
-            out[r, c] /= count[r]
+def _run_means(v: np.ndarray, count: np.ndarray) -> np.ndarray:
+    """``(k, 3)`` float64: the mean of ``v`` ``(n, 3)`` float64 over each run of
+    :func:`_runs`' ``count`` samples, summed in order (as ``np.bincount`` sums; compiled: no GIL)."""
+    out = np.empty((len(count), 3))
+    _native.run_means(np.ascontiguousarray(v, dtype=np.float64), np.ascontiguousarray(count), out)
     return out

@@ -3,7 +3,7 @@
 "extend" gives each empty texel within ``margin`` texels (Euclidean) of a chart the value
 of the nearest covered texel. Work is done in row bands with a halo of ``margin`` rows,
 so memory stays bounded for large images, and bands run in threads (the feature
-transform is a numba kernel that releases the GIL).
+transform is compiled, ``texbake._native``, and releases the GIL).
 
 The nearest covered texel is found by an exact Euclidean feature transform, Maurer, Qi
 and Raghavan's ("A linear time algorithm for computing exact Euclidean distance
@@ -22,8 +22,9 @@ from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
 
-import numba as nb  # pip install numba
 import numpy as np
+
+from .. import _native
 
 
 def extend(images, covered: np.ndarray, margin: int, band: int = 256, workers: int = 2) -> np.ndarray:
@@ -64,91 +65,16 @@ def extend(images, covered: np.ndarray, margin: int, band: int = 256, workers: i
     return filled
 
 
-@nb.njit(cache=True, nogil=True)
-def feature_transform(covered):  # pragma: no cover - compiled
+def feature_transform(covered: np.ndarray) -> np.ndarray:
     """``(2, h, w)`` int32: the row (``[0]``) and column (``[1]``) of the covered texel
     nearest to each texel of ``covered`` ``(h, w)`` bool; a covered texel is its own. The
     same array as ``scipy.ndimage.distance_transform_edt(~covered, return_indices=True)[1]``,
     ties included. Where nothing is covered, rows are -1 and columns 0 (as SciPy's). No GIL.
 
-    SciPy's two passes: first along each column, then along each row of the result.
+    SciPy's two passes (``native/margin.cpp``): first along each column, then along each
+    row of the result; the columns, then the rows, shared among the cores.
     """
-    h, w = covered.shape
-    ft = np.zeros((2, h, w), dtype=np.int32)
-    _nearest_in_columns(covered, ft)
-    near = np.empty(w, dtype=np.int64)
-    stack = np.empty(w, dtype=np.int64)
-    for r in range(h):
-        _nearest_along_row(ft[0, r], ft[1, r], r, near, stack)
+    covered = np.ascontiguousarray(covered, dtype=np.bool_)
+    ft = np.empty((2, *covered.shape), dtype=np.int32)
+    _native.feature_transform(covered, ft)
     return ft
-
-
-@nb.njit(cache=True, nogil=True)
-def _nearest_in_columns(covered, ft):  # pragma: no cover - compiled
-    """The first pass, in ``ft`` ``(2, h, w)`` int32 (zeros): for each texel the nearest
-    covered texel of its column, the upper one of two equally near (row -1 and column 0
-    where the column has none).
-
-    SciPy runs ``_VoronoiFT`` down each column; on one line nothing is ever popped off its
-    stack and the nearest feature wins, the first of equal ones, which is what two sweeps
-    (the last covered row above, the next below) give, row by row in memory order."""
-    h, w = covered.shape
-    last = np.full(w, -1, dtype=np.int64)
-    for r in range(h):  # downwards: the nearest covered row at or above
-        for c in range(w):
-            if covered[r, c]:
-                last[c] = r
-            ft[0, r, c] = last[c]
-    last[:] = -1
-    for r in range(h - 1, -1, -1):  # upwards: the one at or below, where it is nearer
-        for c in range(w):
-            if covered[r, c]:
-                last[c] = r
-            above, below = ft[0, r, c], last[c]
-            if below >= 0 and (above < 0 or below - r < r - above):
-                ft[0, r, c] = below
-            if ft[0, r, c] >= 0:
-                ft[1, r, c] = c
-
-
-@nb.njit(cache=True, nogil=True)
-def _nearest_along_row(rows, cols, r, near, stack):  # pragma: no cover - compiled
-    """The second pass on row ``r`` (SciPy's ``_VoronoiFT`` along axis 1), in place: on
-    entry ``rows`` ``(w,)`` int32 holds each column's nearest covered row (-1: none), on
-    exit ``rows`` and ``cols`` hold the nearest covered texel of the row's texels, the
-    first in column order of equally near ones. ``near`` and ``stack`` ``(w,)`` int64 are
-    scratch. The sums are SciPy's, in integers (exact, as its doubles are here)."""
-    w = rows.shape[0]
-    for i in range(w):
-        near[i] = rows[i]
-    top = -1  # the columns whose nearest texels can be the nearest of some texel of the row
-    for i in range(w):
-        if near[i] < 0:
-            continue
-        t = near[i] - r
-        wr = t * t
-        while top >= 1:  # pop the candidates that the new one and the one before hide
-            v, u = stack[top], stack[top - 1]
-            a, b = v - u, i - v
-            c = a + b
-            tu, tv = near[u] - r, near[v] - r
-            if c * tv * tv - b * tu * tu - a * wr - a * b * c <= 0:
-                break
-            top -= 1
-        top += 1
-        stack[top] = i
-    if top < 0:
-        return
-    k = 0
-    for j in range(w):
-        s, t = stack[k] - j, near[stack[k]] - r
-        best = s * s + t * t
-        while k < top:
-            s, t = stack[k + 1] - j, near[stack[k + 1]] - r
-            d = s * s + t * t
-            if best <= d:
-                break
-            best = d
-            k += 1
-        rows[j] = near[stack[k]]
-        cols[j] = stack[k]

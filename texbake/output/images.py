@@ -48,6 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import _native
 from ..errors import OutputError, ParameterError
 from ..formats import DEFAULT_BITS, bits_problem, image_format
 from .atomic import replacing
@@ -81,7 +82,9 @@ def srgb_decode(encoded: np.ndarray) -> np.ndarray:
 # -- exact 8-bit sRGB encoding, fast ------------------------------------------------------
 # A table over 2**20 linear levels gives round(255 * oetf(x)) off by one level for about
 # 1e-4 of the values (those close to a rounding threshold); each value is then moved to
-# the exact code by comparing it with the thresholds on either side of the table's code.
+# the exact code by comparing it with the thresholds on either side of the table's code
+# (compiled: ``native/images.cpp``, one pass, rows on the cores, no GIL; numpy's version
+# made five temporaries and took as long as the compression).
 
 _LUT_LEVELS = 1 << 20
 
@@ -97,38 +100,6 @@ def _srgb8_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     above = np.append(t32, np.float32(np.inf))  # threshold to reach code + 1
     below = np.insert(t32, 0, np.float32(-np.inf))  # threshold of the code itself
     return table, above, below
-
-
-@functools.cache
-def _encode8_kernel():
-    """:func:`_encode8`, compiled (numba is imported here: the settings import this module)."""
-    import numba
-
-    return numba.njit(cache=True, nogil=True)(_encode8)
-
-
-def _encode8(pixels, colour, table, above, below, out):  # pragma: no cover - compiled
-    """``out`` (h, w, c) uint8 = the 8-bit codes of ``pixels`` (h, w, c) float: its first
-    ``colour`` channels sRGB-encoded exactly (``round(255 * srgb_encode(x))``: the table's
-    code, moved by one where ``x`` lies beyond the thresholds ``above``/``below``), the
-    others ``round(255 * x)``; each value first rounded to float32, NaN taken as 0 and
-    the rest clipped to [0, 1]. One pass: numpy's version made five temporaries and took
-    as long as the compression."""
-    scale, half, top = np.float32(table.shape[0] - 1), np.float32(0.5), np.float32(255.0)
-    h, w, c = pixels.shape
-    for i in range(h):
-        for j in range(w):
-            for k in range(c):
-                x = np.float32(pixels[i, j, k])
-                if not x > 0:  # NaN too
-                    x = np.float32(0.0)
-                elif x > 1:
-                    x = np.float32(1.0)
-                if k < colour:
-                    code = np.int64(table[np.int32(x * scale + half)])
-                    out[i, j, k] = code + (x >= above[code]) - (x < below[code])
-                else:
-                    out[i, j, k] = np.uint8(np.rint(x * top))
 
 
 def _band_rows(width: int) -> int:
@@ -158,9 +129,9 @@ def _encode(pixels: np.ndarray, fmt: str, bits: int, given: str) -> np.ndarray:
     if bits == 8:
         if pixels.dtype == np.bool_:
             pixels = pixels.view(np.uint8)
-        elif pixels.dtype not in (np.float32, np.float64):  # float16 (maps of 8192² and more): numba has no such type
+        elif pixels.dtype not in (np.float32, np.float64):  # float16 (maps of 8192² and more): widened here
             pixels = pixels.astype(np.float32)  # a band: bounded
-        _encode8_kernel()(pixels, colour if given == "linear" else 0, *_srgb8_tables(), out)
+        _native.encode8(pixels, colour if given == "linear" else 0, *_srgb8_tables(), out)
         return out
     band = np.clip(np.nan_to_num(pixels.astype(np.float32), nan=0.0), 0.0, 1.0)
     if given == "linear":

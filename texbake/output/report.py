@@ -18,18 +18,30 @@ if TYPE_CHECKING:  # for the annotations only: the report reads these objects, i
     from ..mesh import LoadedMesh
     from ..settings import BakeSettings
 
-_LIBRARIES = ("texbake", "numpy", "scipy", "trimesh", "xatlas", "embreex", "OpenImageIO", "numba", "pydantic")
+_LIBRARIES = ("texbake", "numpy", "scipy", "trimesh", "xatlas", "embreex", "OpenImageIO", "pydantic")
 
 
 def library_versions() -> dict[str, str | None]:
-    """Installed versions of the libraries a bake uses (None where one is missing)."""
+    """Installed versions of the libraries a bake uses (None where one is missing), and
+    ``kernels``: how the compiled kernels were built (:func:`kernels_build`)."""
     versions: dict[str, str | None] = {"python": platform.python_version()}
     for name in _LIBRARIES:
         try:
             versions[name] = metadata.version(name)
         except metadata.PackageNotFoundError:
             versions[name] = None
+    versions["kernels"] = kernels_build()
     return versions
+
+
+def kernels_build() -> str:
+    """The compiled kernels' (``texbake._native``) compiler, flags and build type, e.g.
+    ``gcc 12.2.0, -O3 -ffp-contract=off -fno-math-errno -Wall -Wextra (Release, nanobind 3.1.0)``: the
+    images depend on them as they did on numba's version."""
+    from .. import _native
+
+    info = _native.build_info()
+    return f"{info['compiler']}, {info['flags']} ({info['build_type']}, nanobind {info['nanobind']})"
 
 
 def write_json(path: Path, data: dict) -> None:

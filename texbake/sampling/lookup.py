@@ -5,7 +5,8 @@ one vertical ray is cast per texel; the texel's other samples walk from that fac
 UV edges to the face that holds them, and only those the walk does not place are cast
 (:meth:`UVLookup.locate`). Embree answers only the face; the
 barycentric coordinates are then solved in float64 from the sample's UV position, so that
-their precision does not depend on Embree's float32 arithmetic.
+their precision does not depend on Embree's float32 arithmetic. The per-sample loops are
+compiled (``native/lookup.cpp``; no GIL: the tile threads overlap them).
 
 Image convention: texel ``(row, col)`` of an image of ``width x height`` texels has its
 centre at ``u = (col + 0.5) / width``, ``v = 1 - (row + 0.5) / height`` (row 0 at the top,
@@ -16,9 +17,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numba as nb
 import numpy as np
 
+from .. import _native
 from ..errors import ParameterError
 from ..mesh import group_rows, uv_inverse
 from .rays import Scene
@@ -75,21 +76,9 @@ def sample_uv(tile: Tile, texels: np.ndarray, width: int, height: int, offsets: 
     ``(t * s, 2)`` float64, texel-major: the ``s`` samples of a texel are contiguous.
     """
     out = np.empty((len(texels) * len(offsets), 2))
-    _sample_uv(np.asarray(texels, dtype=np.int64), tile.start, width, height, np.asarray(offsets, dtype=np.float64), out)
+    _native.sample_uv(np.ascontiguousarray(texels, dtype=np.int64), tile.start, width, height,
+                      np.ascontiguousarray(offsets, dtype=np.float64), out)
     return out
-
-
-@nb.njit(cache=True, nogil=True)
-def _sample_uv(texels, start, width, height, offsets, out):  # pragma: no cover - compiled
-    """``out[t * s + k]``: ``((col + dx_k) / width, 1 - (row + dy_k) / height)`` for texel
-    ``t`` at ``(row, col)`` of the image (its tile's ``start`` row added). No GIL."""
-    s = offsets.shape[0]
-    for t in range(texels.shape[0]):
-        row = float(texels[t] // width + start)
-        col = float(texels[t] % width)
-        for k in range(s):
-            out[t * s + k, 0] = (col + offsets[k, 0]) / width
-            out[t * s + k, 1] = 1.0 - (row + offsets[k, 1]) / height
 
 
 class UVLookup:
@@ -107,7 +96,8 @@ class UVLookup:
         self._scene = Scene(flat, faces, recentre=False)  # UVs in [0, 1]: cast as they are
 
         # Per-face inverse of the UV edge matrix, for float64 barycentrics.
-        self._origin, self._inv, ok = uv_inverse(uv, faces)  # (m, 2), (m, 2, 2), (m,)
+        origin, inv, ok = uv_inverse(uv, faces)  # (m, 2), (m, 2, 2), (m,)
+        self._origin, self._inv = np.ascontiguousarray(origin), np.ascontiguousarray(inv)
         self.degenerate = ~ok
         self._any_degenerate = bool(self.degenerate.any())
         self._across = uv_neighbours(uv, faces, ok)  # (m, 3): the face across each edge
@@ -117,7 +107,9 @@ class UVLookup:
 
     def candidates(self, tile: Tile, width: int, height: int) -> np.ndarray:
         """Indices of the texels of ``tile`` whose square some face's UV triangle touches
-        (:func:`_touched`: exactly, with a margin of ``TOUCH_MARGIN`` texels).
+        (exactly, with a margin of ``TOUCH_MARGIN`` texels: in texel units a square misses
+        a triangle when it lies wholly beyond one of the triangle's edges or outside its
+        box, the separating axes).
 
         Only their samples can be hit, so only their rays are cast. Returns ``(t,)``
         int64 texel indices within the tile (row-major).
@@ -127,7 +119,7 @@ class UVLookup:
         bottom = np.floor(self._rows[:, 1] * height + TOUCH_MARGIN)
         near = np.flatnonzero((bottom >= tile.start) & (top < tile.stop))
         touched = np.zeros(rows * width, dtype=np.bool_)
-        _touched(self._tri, near, width, height, tile.start, rows, TOUCH_MARGIN, touched)
+        _native.touched(self._tri, near, width, height, tile.start, rows, TOUCH_MARGIN, touched)
         return np.flatnonzero(touched)
 
     def faces_at(self, uv: np.ndarray) -> np.ndarray:
@@ -148,21 +140,23 @@ class UVLookup:
 
         Rays only where needed: one for each texel's first sample; its other samples take
         the face of that sample that contains them, found from it by a short walk across
-        UV edges (:func:`_walk`: most lie inside it, the rest in a neighbour); only the
-        samples the walk does not place (across a chart's border, or a miss) are cast.
+        UV edges (most lie inside it, the rest in a neighbour: at each step the walk crosses
+        the edge the sample is furthest beyond, at most ``WALK_STEPS`` times, and takes the
+        first face that holds it); only the samples the walk does not place (across a
+        chart's border, or a miss) are cast.
         """
         uv = np.ascontiguousarray(uv, dtype=np.float64)
         bary = np.zeros((len(uv), 3))
         inside = np.zeros(len(uv), dtype=np.bool_)
         if samples == 1:
             face = self.faces_at(uv)
-            _barycentric(uv, face, self._origin, self._inv, bary, inside)
+            _native.barycentric(uv, face, self._origin, self._inv, bary, inside)
             return face, bary, len(uv)
         if len(uv) % samples:
             raise ValueError(f"locate: {len(uv)} points are not whole texels of {samples} samples")
         first = self.faces_at(uv[::samples])
-        face = np.repeat(first, samples)
-        _walk(uv, face, self._origin, self._inv, self._across, WALK_STEPS, bary, inside)
+        face = np.repeat(first, samples).astype(np.int32, copy=False)
+        _native.walk(uv, face, self._origin, self._inv, self._across, WALK_STEPS, bary, inside)
         inside[::samples] = True  # cast already
         redo = np.flatnonzero(~inside)
         if len(redo):
@@ -178,8 +172,8 @@ class UVLookup:
         error outside it).
         """
         bary = np.zeros((len(uv), 3))
-        _barycentric(np.ascontiguousarray(uv, dtype=np.float64), np.asarray(face), self._origin, self._inv, bary,
-                     np.zeros(len(uv), dtype=np.bool_))
+        _native.barycentric(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(face, dtype=np.int32),
+                            self._origin, self._inv, bary, np.zeros(len(uv), dtype=np.bool_))
         return bary
 
 
@@ -192,55 +186,11 @@ def hits(face: np.ndarray, bary: np.ndarray) -> tuple[np.ndarray, np.ndarray, np
     bary = np.ascontiguousarray(bary, dtype=np.float64)
     k = int(np.count_nonzero(face >= 0))
     index, found, coords = np.empty(k, dtype=np.int64), np.empty(k, dtype=np.int32), np.empty((k, 3))
-    _hits(face, bary, index, found, coords)
+    _native.hits(face, bary, index, found, coords)
     return index, found, coords
 
 
-@nb.njit(cache=True, nogil=True)
-def _hits(face, bary, index, found, coords):  # pragma: no cover - compiled
-    j = 0
-    for i in range(face.shape[0]):
-        if face[i] >= 0:
-            index[j], found[j] = i, face[i]
-            coords[j, 0], coords[j, 1], coords[j, 2] = bary[i, 0], bary[i, 1], bary[i, 2]
-            j += 1
-
-
 TOUCH_MARGIN = 1e-3  # texels: a face touches a texel this close (Embree's float32 UVs: 1e-3 texels at 16384)
-
-
-@nb.njit(cache=True, nogil=True)
-def _touched(tri, near, width, height, start, rows, margin, touched):  # pragma: no cover - compiled
-    """Set ``touched`` ``(rows * width,)`` where the square of texel ``(r, c)`` of the
-    tile from image row ``start`` comes within ``margin`` texels of one of the UV
-    triangles ``tri[near]`` (``tri`` ``(k, 3, 2)``, none degenerate). In texel units
-    (``x = u * width``, ``y = (1 - v) * height``) a square misses a triangle when it lies
-    wholly beyond one of the triangle's edges or outside its box (separating axes). No GIL."""
-    xs, ys = np.empty(3), np.empty(3)
-    for f in near:
-        for k in range(3):
-            xs[k] = tri[f, k, 0] * width
-            ys[k] = (1.0 - tri[f, k, 1]) * height - start
-        area = (xs[1] - xs[0]) * (ys[2] - ys[0]) - (ys[1] - ys[0]) * (xs[2] - xs[0])
-        sign = 1.0 if area > 0 else -1.0
-        # the box in texels, clamped to the tile as floats (a UV far outside [0, 1] is no integer)
-        c0 = int(np.floor(min(max(min(xs[0], xs[1], xs[2]) - margin, 0.0), width - 1.0)))
-        c1 = int(np.floor(min(max(max(xs[0], xs[1], xs[2]) + margin, -1.0), width - 1.0)))
-        r0 = int(np.floor(min(max(min(ys[0], ys[1], ys[2]) - margin, 0.0), rows - 1.0)))
-        r1 = int(np.floor(min(max(max(ys[0], ys[1], ys[2]) + margin, -1.0), rows - 1.0)))
-        for r in range(r0, r1 + 1):
-            for c in range(c0, c1 + 1):
-                x, y = c + 0.5, r + 0.5
-                inside = True
-                for k in range(3):
-                    ax, ay = xs[k], ys[k]
-                    ex, ey = xs[(k + 1) % 3] - ax, ys[(k + 1) % 3] - ay
-                    reach = 0.5 * (abs(ex) + abs(ey))  # the square's half-extent along the edge's normal
-                    if sign * (ex * (y - ay) - ey * (x - ax)) + reach < -margin * 2.0 * reach:
-                        inside = False
-                        break
-                if inside:
-                    touched[r * width + c] = True
 
 
 WALK_STEPS = 4  # faces a sample's walk visits past its texel's first face before a ray is cast
@@ -270,60 +220,3 @@ def uv_neighbours(uv: np.ndarray, faces: np.ndarray, usable: np.ndarray) -> np.n
     across.ravel()[lo] = hi // 3
     across.ravel()[hi] = lo // 3
     return across
-
-
-@nb.njit(cache=True, nogil=True)
-def _walk(uv, face, origin, inv, across, steps, bary, inside):  # pragma: no cover - compiled
-    """Each point ``i`` with ``face[i] >= 0``: its barycentrics in that face; if it lies
-    outside, the walk steps to the face across the edge it is furthest beyond, at most
-    ``steps`` times, and takes the first face that contains it (``face[i]``, ``bary[i]``,
-    ``inside[i]`` True). A point the walk does not place keeps its face, clamped
-    coordinates in it, and ``inside`` False. No GIL."""
-    for i in range(face.shape[0]):
-        f = face[i]
-        if f < 0:
-            continue
-        for step in range(steps + 1):
-            b0, b1, b2 = _coordinates(uv, i, f, origin, inv)
-            if b0 >= 0.0 and b1 >= 0.0 and b2 >= 0.0:
-                face[i] = f
-                inside[i] = True
-                bary[i, 0], bary[i, 1], bary[i, 2] = _clamped(b0, b1, b2)
-                break
-            if step == 0:  # the texel's face, clamped: what the point keeps if no face is found
-                bary[i, 0], bary[i, 1], bary[i, 2] = _clamped(b0, b1, b2)
-            c = 0 if b0 <= b1 and b0 <= b2 else (1 if b1 <= b2 else 2)
-            f = across[f, c]
-            if f < 0:
-                break
-
-
-@nb.njit(cache=True, nogil=True, inline="always")
-def _coordinates(uv, i, f, origin, inv):  # pragma: no cover - compiled
-    """``(b0, b1, b2)``: point ``i`` of ``uv`` in face ``f`` (:func:`uv_inverse`'s ``origin``, ``inv``), unclamped."""
-    dx, dy = uv[i, 0] - origin[f, 0], uv[i, 1] - origin[f, 1]
-    b1 = inv[f, 0, 0] * dx + inv[f, 0, 1] * dy
-    b2 = inv[f, 1, 0] * dx + inv[f, 1, 1] * dy
-    return 1.0 - b1 - b2, b1, b2
-
-
-@nb.njit(cache=True, nogil=True, inline="always")
-def _clamped(b0, b1, b2):  # pragma: no cover - compiled
-    """Barycentrics clamped into the triangle and renormalised."""
-    b0, b1, b2 = min(max(b0, 0.0), 1.0), min(max(b1, 0.0), 1.0), min(max(b2, 0.0), 1.0)
-    total = b0 + b1 + b2
-    return b0 / total, b1 / total, b2 / total
-
-
-@nb.njit(cache=True, nogil=True)
-def _barycentric(uv, face, origin, inv, bary, inside):  # pragma: no cover - compiled
-    """Fill ``bary`` (n, 3) with each point's coordinates in its face, clamped into the
-    triangle and renormalised, and ``inside`` (n,) with whether the point lies in it
-    unclamped; rows of face -1 are left as they are. No GIL: tiles overlap."""
-    for i in range(face.shape[0]):
-        f = face[i]
-        if f < 0:
-            continue
-        b0, b1, b2 = _coordinates(uv, i, f, origin, inv)
-        inside[i] = b0 >= 0.0 and b1 >= 0.0 and b2 >= 0.0
-        bary[i, 0], bary[i, 1], bary[i, 2] = _clamped(b0, b1, b2)

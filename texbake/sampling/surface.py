@@ -6,16 +6,17 @@ A texel sample (face, barycentric coordinates) becomes a surface point in object
 texel down. They are the columns of the per-face UV-to-surface Jacobian divided by the
 image size. A face whose UV triangle is degenerate gets a zero (finite) footprint.
 Where a normal map is baked, each sample also gets the output mesh's tangent frame
-(``texbake.mesh.tangents``), interpolated as a glTF viewer does.
+(``texbake.mesh.tangents``), interpolated as a glTF viewer does. The per-sample pass is
+compiled (``native/surface.cpp``; no GIL: the tile threads overlap it).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numba as nb
 import numpy as np
 
+from .. import _native
 from ..mesh import edges, sample_frames, uv_jacobian
 
 # Footprints are clamped to this many object-space units per texel (finite, never NaN).
@@ -67,7 +68,7 @@ class SurfaceMap:
                  frame: tuple[np.ndarray, np.ndarray] | None = None):
         vertices = np.asarray(vertices, dtype=np.float64)
         faces = np.asarray(faces, dtype=np.int64)
-        self._p0, self._e1, self._e2 = edges(vertices, faces)
+        self._p0, self._e1, self._e2 = (np.ascontiguousarray(a) for a in edges(vertices, faces))
         dpdu, dpdv, _ = uv_jacobian(vertices, faces, uv, uv_faces)
         # One texel right is du = 1/width; one texel down is dv = -1/height.
         self._dpdx = np.clip(dpdu / width, -_MAX_FOOTPRINT, _MAX_FOOTPRINT)
@@ -75,7 +76,7 @@ class SurfaceMap:
         # (m, 3, 3) corner normals, only when asked for (shading and transfer rays need them)
         self._vn: np.ndarray | None = None
         if isinstance(normals, np.ndarray):
-            self._vn = np.asarray(normals, dtype=np.float64).reshape(len(faces), 3, 3)
+            self._vn = np.ascontiguousarray(normals, dtype=np.float64).reshape(len(faces), 3, 3)
         elif normals:
             self._vn = vertex_normals(vertices, faces)[faces]
         self._frame = frame
@@ -90,41 +91,13 @@ class SurfaceMap:
         points = np.empty((n, 3))
         dpdx, dpdy = (np.empty((n, 3)), np.empty((n, 3))) if footprints else (None, None)
         normals = None if self._vn is None else np.empty((n, 3))
-        _interpolate(np.ascontiguousarray(face, dtype=np.int64), np.ascontiguousarray(bary, dtype=np.float64), self._p0,
-                     self._e1, self._e2, self._dpdx, self._dpdy, self._vn if self._vn is not None else _NO_NORMALS,
-                     points, _NO_SAMPLES if dpdx is None else dpdx, _NO_SAMPLES if dpdy is None else dpdy,
-                     normals if normals is not None else _NO_SAMPLES)
+        _native.interpolate(np.ascontiguousarray(face, dtype=np.int64), np.ascontiguousarray(bary, dtype=np.float64), self._p0,
+                            self._e1, self._e2, self._dpdx, self._dpdy, self._vn if self._vn is not None else _NO_NORMALS,
+                            points, _NO_SAMPLES if dpdx is None else dpdx, _NO_SAMPLES if dpdy is None else dpdy,
+                            normals if normals is not None else _NO_SAMPLES)
         frame = None if self._frame is None else sample_frames(self._frame[0][face], self._frame[1][face], bary)
         return SurfaceSamples(points, normals, dpdx, dpdy, frame)
 
 
 _NO_NORMALS = np.zeros((0, 3, 3))  # stand-ins for the arrays of a map without normals
 _NO_SAMPLES = np.zeros((0, 3))
-
-
-@nb.njit(cache=True, nogil=True)
-def _interpolate(face, bary, p0, e1, e2, face_dpdx, face_dpdy, corner_normals, points, dpdx, dpdy, normals):  # pragma: no cover - compiled
-    """Fill ``points`` (n, 3), ``dpdx``, ``dpdy`` (n, 3, or no rows: none) and, when
-    ``corner_normals`` (m, 3, 3) has rows, ``normals`` (n, 3: unit, zero where they
-    cancel) of the samples at ``face`` (n,), ``bary`` (n, 3): one pass, no temporaries,
-    no GIL (tiles overlap)."""
-    with_normals = corner_normals.shape[0] > 0
-    with_footprints = dpdx.shape[0] > 0
-    for i in range(face.shape[0]):
-        f = face[i]
-        b0, b1, b2 = bary[i, 0], bary[i, 1], bary[i, 2]
-        for k in range(3):
-            points[i, k] = p0[f, k] + b1 * e1[f, k] + b2 * e2[f, k]
-        if with_footprints:
-            for k in range(3):
-                dpdx[i, k] = face_dpdx[f, k]
-                dpdy[i, k] = face_dpdy[f, k]
-        if with_normals:
-            x = b0 * corner_normals[f, 0, 0] + b1 * corner_normals[f, 1, 0] + b2 * corner_normals[f, 2, 0]
-            y = b0 * corner_normals[f, 0, 1] + b1 * corner_normals[f, 1, 1] + b2 * corner_normals[f, 2, 1]
-            z = b0 * corner_normals[f, 0, 2] + b1 * corner_normals[f, 1, 2] + b2 * corner_normals[f, 2, 2]
-            length = np.sqrt(x * x + y * y + z * z)
-            if length > 0:
-                normals[i, 0], normals[i, 1], normals[i, 2] = x / length, y / length, z / length
-            else:
-                normals[i, 0] = normals[i, 1] = normals[i, 2] = 0.0

@@ -1,0 +1,88 @@
+// Connected components by union-find: each set's root is its smallest node, and sets are
+// numbered in the order of their smallest node (scipy.sparse.csgraph's labels).
+#include <algorithm>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "arrays.hpp"
+
+namespace texbake {
+namespace {
+
+// the root of node i, halving the path to it on the way
+inline int64_t root(int64_t* parent, int64_t i) {
+  while (parent[i] != i) {
+    parent[i] = parent[parent[i]];
+    i = parent[i];
+  }
+  return i;
+}
+
+// join the sets of i and j; the smaller root stays the root, and is returned
+inline int64_t join(int64_t* parent, int64_t i, int64_t j) {
+  const int64_t x = root(parent, i), y = root(parent, j);
+  if (x != y) parent[std::max(x, y)] = std::min(x, y);
+  return std::min(x, y);
+}
+
+// labels of the sets, in the order of their smallest node (a set's label is given there)
+void number(int64_t* parent, int64_t n, int64_t* label) {
+  std::fill(label, label + n, -1);
+  int64_t count = 0;
+  for (int64_t i = 0; i < n; ++i) {
+    const int64_t r = root(parent, i);
+    if (label[r] < 0) label[r] = count++;
+    label[i] = label[r];
+  }
+}
+
+void check_node(int64_t i, int64_t n) {
+  if (i < 0 || i >= n) throw nb::index_error(("node " + std::to_string(i) + " outside [0, " + std::to_string(n) + ")").c_str());
+}
+
+void labels(int64_t n, In<int64_t, nb::ndim<1>> a, In<int64_t, nb::ndim<1>> b, Out<int64_t, nb::ndim<1>> out) {
+  const int64_t e = a.shape(0);
+  if (int64_t(b.shape(0)) != e || int64_t(out.shape(0)) != n) throw std::invalid_argument("labels: a, b of one length, out of n");
+  for (int64_t i = 0; i < e; ++i) {  // checked up front: an edge end outside would write anywhere
+    if (a.data()[i] < 0 || a.data()[i] >= n || b.data()[i] < 0 || b.data()[i] >= n)
+      throw std::invalid_argument("labels: an edge end outside [0, n)");
+  }
+  std::vector<int64_t> parent(n);
+  std::iota(parent.begin(), parent.end(), int64_t(0));
+  for (int64_t i = 0; i < e; ++i) join(parent.data(), a.data()[i], b.data()[i]);
+  number(parent.data(), n, out.data());
+}
+
+int64_t sets_root(Out<int64_t, nb::ndim<1>> parent, int64_t i) {
+  check_node(i, parent.shape(0));
+  return root(parent.data(), i);
+}
+
+int64_t sets_join(Out<int64_t, nb::ndim<1>> parent, int64_t i, int64_t j) {
+  check_node(i, parent.shape(0));
+  check_node(j, parent.shape(0));
+  return join(parent.data(), i, j);
+}
+
+void sets_labels(Out<int64_t, nb::ndim<1>> parent, Out<int64_t, nb::ndim<1>> out) {
+  if (out.shape(0) != parent.shape(0)) throw std::invalid_argument("sets_labels: out must be parent's length");
+  number(parent.data(), parent.shape(0), out.data());
+}
+
+}  // namespace
+
+void bind_components(nb::module_& m) {
+  m.def("labels", &labels, nb::arg("n"), nb::arg("a"), nb::arg("b"), nb::arg("out").noconvert(), Release(),
+        "Fill out (n,) int64 with the component of each node joined by the edges (a[i], b[i]).");
+  // one pair at a time from Python: these hold the GIL (taking it back, when another thread
+  // holds it, would cost more than the join)
+  m.def("sets_root", &sets_root, nb::arg("parent").noconvert(), nb::arg("i"), "The root of node i's set.");
+  m.def("sets_join", &sets_join, nb::arg("parent").noconvert(), nb::arg("i"), nb::arg("j"),
+        "Join the sets of i and j; returns the joined set's root (its smallest node).");
+  m.def("sets_labels", &sets_labels, nb::arg("parent").noconvert(), nb::arg("out").noconvert(), Release(),
+        "Fill out (n,) int64 with the sets' labels, in the order of their smallest node.");
+}
+
+}  // namespace texbake
