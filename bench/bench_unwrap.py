@@ -175,7 +175,7 @@ def main() -> None:
 
     meshes = all_meshes(args.only, cache_dir(args.cache), args.max_faces)
     blender = smart_uv(args.blender, meshes, args.runs) if args.blender else {}
-    warm = building()  # a warm process: numba's kernels loaded, as in a service's bake process
+    warm = building()  # a warm process: the packing workers started, as in a service's bake process
     make_atlas(*warm, mode="unwrap", size=args.size, workers=2, charting=args.charting)
     rows, failed = [], []
     for name, mesh in meshes.items():

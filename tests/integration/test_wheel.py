@@ -13,7 +13,7 @@ from importlib import metadata
 
 from conftest import ROOT
 
-# what a fresh clone does not have: at the top, and anywhere (caches of Python and numba)
+# what a fresh clone does not have: at the top, and anywhere (caches of Python)
 NOT_AT_THE_TOP = {".git", ".venv", ".venv-blender", "build", "dist", "out", "wheelhouse", ".tools", ".pytest_cache", ".hypothesis",
                   ".mypy_cache", ".ruff_cache", ".schemathesis"}
 NOWHERE = ("__pycache__", "node_modules", ".egg-info", ".pyc", ".nbi", ".nbc")

@@ -37,7 +37,7 @@ def library_versions() -> dict[str, str | None]:
 def kernels_build() -> str:
     """The compiled kernels' (``texbake._native``) compiler, flags and build type, e.g.
     ``gcc 12.2.0, -O3 -ffp-contract=off -fno-math-errno -Wall -Wextra (Release, nanobind 3.1.0)``: the
-    images depend on them as they did on numba's version."""
+    images depend on them."""
     from .. import _native
 
     info = _native.build_info()
