@@ -6,11 +6,11 @@ the other, and fall back to a grid when both fail.
 overlapping on the bake's texel grid). An unwrap charts the mesh one of two ways, planar
 charts (:mod:`texbake.atlas.charts`: CAD parts and large meshes) or xatlas' own charts
 (small organic meshes), in the order :func:`texbake.atlas.charts.prefer_planar` chooses,
-and packs the charts with xatlas in worker processes under one deadline
+and packs the charts with xatlas in worker processes under one deadline of their CPU time
 (:mod:`texbake.atlas.pack`). When one charting fails (crash, deadline, bad UVs) the other
 is tried; only when both have does every triangle get its own cell of a grid
-(:mod:`texbake.atlas.fallback`, "fallback-grid"). ``Atlas.reason`` says what was chosen,
-why, and what failed before it.
+(:mod:`texbake.atlas.fallback`, "fallback-grid"). A charting asked for by name is the only
+one tried. ``Atlas.reason`` says what was chosen, why, and what failed before it.
 """
 
 from __future__ import annotations
@@ -32,6 +32,7 @@ MODES = ("auto", "unwrap", "keep")
 CHARTINGS = ("auto", "xatlas", "planar")
 OVERLAP_LIMIT = 0.01  # a mesh's UVs under which more of the covered texels overlap are not kept
 PLANAR_GAIN = 1.3  # "auto" takes planar charts over xatlas' on a small organic mesh when they use this much more texture
+FULLEST = 0.85  # utilisation no packing reaches: planar charts are not tried where they would need more
 
 
 @dataclass
@@ -83,12 +84,15 @@ def make_atlas(
     size, padding : int, optional
         Texels of the square texture (1 to 65536) and between charts (0 to 64).
     deadline, workers : float, int, optional
-        Seconds for all xatlas work, and its worker processes.
+        Seconds of CPU time each xatlas worker may use for all the unwrap's work (a busy
+        machine takes longer without changing the atlas; a deadline that passes is a
+        warning), and the worker processes (this process's, kept warm between unwraps).
     charting : {"auto", "xatlas", "planar"}, optional
         "planar" (:mod:`texbake.atlas.charts`), "xatlas" (its own charts; meshes of more
         than ``2 * PATCH_FACES`` faces in patches, in parallel) or "auto"
-        (:func:`texbake.atlas.charts.prefer_planar`). The other is tried when the first
-        fails, and a "fallback-grid" atlas (a cell per triangle) only when both have.
+        (:func:`texbake.atlas.charts.prefer_planar`). With "auto" the other is tried when
+        the first fails, and a "fallback-grid" atlas (a cell per triangle) only when both
+        have; a charting asked for is the only one tried (:class:`AtlasError` if it fails).
     _patch_faces : int or None
         Faces per patch of the xatlas unwrap; None: the whole mesh in one piece (tests).
 
@@ -96,9 +100,11 @@ def make_atlas(
     -------
     Atlas
         ``reason``: why the UVs were not kept, the charting used and why, what failed.
-        ``stats``: :func:`texbake.atlas.uvcheck.measure`'s, ``seconds``, and ``patches``
-        or ``planar_charts`` and ``flat_share``. ``warnings``: overlapping UVs kept, the
-        fallback grid, over ``BARE_LIMIT`` of the surface on charts with no texel centre.
+        ``stats``: :func:`texbake.atlas.uvcheck.measure`'s, ``seconds``, ``patches``
+        or ``planar_charts`` and ``flat_share``, and ``packing`` (the packing passes
+        redone, and why) where there were any. ``warnings``: overlapping UVs kept, the
+        fallback grid, a deadline that passed, over ``BARE_LIMIT`` of the surface on
+        charts with no texel centre.
 
     Raises
     ------
@@ -107,7 +113,8 @@ def make_atlas(
         or ``workers``.
     AtlasError
         Arrays of the wrong shape, no faces, faces that index missing vertices, vertices
-        that are not finite, unusable UVs with ``mode="keep"``, or no atlas at all.
+        that are not finite, unusable UVs with ``mode="keep"``, a ``charting`` asked for
+        that failed, or no atlas at all.
     """
     start = time.perf_counter()
     _check_settings(mode=mode, charting=charting, size=size, padding=padding, deadline=deadline, workers=workers)
@@ -117,20 +124,36 @@ def make_atlas(
         kept, why = _keep(request, uv, mode, start)
         if kept is not None:
             return kept
-    end = time.monotonic() + deadline
     attempts, order = _attempts(request.vertices, request.faces, charting, _patch_faces)
     failures: list[str] = []
-    with start_workers(workers, end) as pool:  # one set of workers for every attempt
-        found = _first_usable(request, pool, end, attempts, failures)
-        if found is not None and charting == "auto" and found[0] == "xatlas" and time.monotonic() < end:
-            found, order = _fuller_planar(request, pool, end, found, order)
+    with start_workers(workers, deadline) as pool:  # one set of workers for every attempt
+        found = _first_usable(request, pool, attempts, failures)
+        if found is not None and charting == "auto" and found[0] == "xatlas" and _planar_may_win(found[1]) \
+                and pool.left() > 0:
+            found, order = _fuller_planar(request, pool, found, order)
+    if found is None and charting != "auto":
+        raise AtlasError(f"charting={charting!r} cannot be honoured: {'; '.join(failures) or _passed(deadline)}")
     if found is None:
         return _fallback(request, deadline, why, failures, start)
     charted, atlas = found
     retried = f" (after: {'; '.join(failures)})" if failures else ""
     stats = {**_stats(request, atlas.faces, atlas.uv, start), **atlas.detail}
     return Atlas(atlas.vmapping, atlas.faces, atlas.uv, atlas.method, f"{why}; {charted} charts: {order}{retried}", stats,
-                 bare_warning(stats, size))
+                 _deadline_warning(failures, deadline) + bare_warning(stats, size))
+
+
+def _passed(deadline: float) -> str:
+    return f"the unwrap deadline of {deadline:g} s passed"
+
+
+def _deadline_warning(failures: list[str], deadline: float) -> list[str]:
+    """A warning when an unwrap was cut short by the deadline (its atlas is then not the one
+    that a longer deadline would give)."""
+    late = [f for f in failures if "timed out" in f]
+    if not late:
+        return []
+    return [f"the unwrap deadline ({deadline:g} s of CPU time) passed: {'; '.join(late)}; "
+            "a longer unwrap_deadline gives the usual atlas"]
 
 
 def _check_settings(*, mode, charting, size, padding, deadline, workers) -> None:
@@ -209,26 +232,26 @@ def _attempts(vertices, faces, charting: str, patch_faces: int | None) -> tuple[
         xatlas.append(("xatlas", PATCH_FACES))
     elif patch_faces is not None and len(faces) > 2 * patch_faces:
         xatlas.append(("xatlas", max(250, patch_faces // 4)))
-    if charting == "auto":
-        planar_first, why = prefer_planar(vertices, faces)
-    else:
-        planar_first, why = charting == "planar", f"charting={charting!r}"
+    if charting != "auto":  # asked for: that charting only
+        return (xatlas if charting == "xatlas" else [("planar", None)]), f"charting={charting!r}"
+    planar_first, why = prefer_planar(vertices, faces)
     return ([("planar", None), *xatlas] if planar_first else [*xatlas, ("planar", None)]), why
 
 
-def _first_usable(request: UnwrapRequest, pool: Pool, end: float, attempts: list[tuple[str, int | None]],
+def _first_usable(request: UnwrapRequest, pool: Pool, attempts: list[tuple[str, int | None]],
                   failures: list[str]) -> tuple[str, Unwrapped] | None:
-    """``(charting, atlas)`` of the first of ``attempts`` that gives a usable atlas by ``end``
-    (``time.monotonic()``), or None; what failed is added to ``failures``. xatlas is not
+    """``(charting, atlas)`` of the first of ``attempts`` that gives a usable atlas within
+    ``pool``'s deadline, or None; what failed is added to ``failures``. xatlas is not
     tried again once it has timed out."""
     for i, (charting, patch_faces) in enumerate(attempts):
-        now = time.monotonic()
-        if now >= end or (charting == "xatlas" and any("timed out" in f for f in failures)):
+        left = pool.left()
+        if left <= 0 or (charting == "xatlas" and any("timed out" in f for f in failures)):
             continue
         # xatlas' charting may take 3/4 of what is left when planar charts are still to come
-        pool.end = now + 0.75 * (end - now) if ("planar", None) in attempts[i + 1:] else end
+        share = 0.75 * left if ("planar", None) in attempts[i + 1:] else left
+        pool.cap = pool.seconds - left + share
         try:
-            atlas = unwrap(request, pool, pool.end - now, patch_faces, charting)
+            atlas = unwrap(request, pool, share, patch_faces, charting)
         except XatlasFailed as exc:
             failures.append(str(exc))
             continue
@@ -239,13 +262,20 @@ def _first_usable(request: UnwrapRequest, pool: Pool, end: float, attempts: list
     return None
 
 
-def _fuller_planar(request: UnwrapRequest, pool: Pool, end: float, found: tuple[str, Unwrapped],
+def _planar_may_win(atlas: Unwrapped) -> bool:
+    """Whether planar charts could use ``PLANAR_GAIN`` times the texture xatlas' ``atlas``
+    uses (no packing here fills more than ``FULLEST``)."""
+    return PLANAR_GAIN * float(uv_areas(atlas.uv, atlas.faces).sum()) < FULLEST
+
+
+def _fuller_planar(request: UnwrapRequest, pool: Pool, found: tuple[str, Unwrapped],
                    order: str) -> tuple[tuple[str, Unwrapped], str]:
-    """xatlas' charts were chosen for a small organic mesh: planar charts too, by ``end``,
-    taken (and the ``order`` said so) if they use ``PLANAR_GAIN`` times as much texture."""
-    pool.end = end
+    """xatlas' charts were chosen for a small organic mesh: planar charts too, within the
+    deadline, taken (and the ``order`` said so) if they use ``PLANAR_GAIN`` times as much
+    texture."""
+    pool.cap = pool.seconds
     try:
-        planar: Unwrapped | None = unwrap(request, pool, pool.end - time.monotonic(), None, "planar")
+        planar: Unwrapped | None = unwrap(request, pool, pool.left(), None, "planar")
     except XatlasFailed:
         planar = None
     if planar is None or unwrap_problem(planar.vmapping, planar.faces, planar.uv, request.faces, len(request.vertices)):
@@ -262,7 +292,8 @@ def _fallback(request: UnwrapRequest, deadline: float, why: str, failures: list[
     bad = unwrap_problem(vm, fa, u, request.faces, len(request.vertices))
     if bad is not None:
         raise AtlasError(f"no atlas could be made ({'; '.join(failures)}; grid atlas: {bad})")
-    reason = f"{why}; {'; '.join(failures) or f'the unwrap deadline of {deadline:g} s passed'}; used fallback"
+    reason = f"{why}; {'; '.join(failures) or _passed(deadline)}; used fallback"
     warning = f"fallback atlas: one chart per triangle ({reason}); texel density varies and charts are tiny"
     stats = _stats(request, fa, u, start)
-    return Atlas(vm, fa, u, "fallback-grid", reason, stats, [warning, *bare_warning(stats, request.size)])
+    return Atlas(vm, fa, u, "fallback-grid", reason, stats, [warning, *_deadline_warning(failures, deadline),
+                                                               *bare_warning(stats, request.size)])
