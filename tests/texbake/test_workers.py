@@ -85,8 +85,11 @@ def test_a_pools_deadline_is_its_workers_cpu_time(command):
         assert pool.spent() < 0.1
         began = time.monotonic()
         assert pool.run([("spin", (60,))]) == [(False, "timeout")]
-        assert time.monotonic() - began < Pool.WALL_FACTOR * 1.0 + 1
-        assert pool.spent() >= 1.0 and pool.left() <= 0
+        took = time.monotonic() - began
+        assert took < Pool.WALL_FACTOR * 1.0 + 1
+        # ended at 1 s of its CPU time, or where it got less than a quarter of a core (a
+        # loaded machine), at the wall-clock backstop
+        assert (pool.spent() >= 1.0 and pool.left() <= 0) or took >= Pool.WALL_FACTOR * 1.0
         pool.restart(5.0)
         assert pool.run([("add", (1, 2))]) == [(True, 3)]  # a fresh worker in place of the ended one
 

@@ -21,7 +21,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import AtlasError, ParameterError
-from ..mesh import uv_areas
 from ..workers import Pool
 from .charts import prefer_planar
 from .fallback import grid_atlas
@@ -31,8 +30,6 @@ from .uvcheck import OVERLAP_GRID, bare_warning, coverage, measure, overlap_of, 
 MODES = ("auto", "unwrap", "keep")
 CHARTINGS = ("auto", "xatlas", "planar")
 OVERLAP_LIMIT = 0.01  # a mesh's UVs under which more of the covered texels overlap are not kept
-PLANAR_GAIN = 1.3  # "auto" takes planar charts over xatlas' on a small organic mesh when they use this much more texture
-FULLEST = 0.85  # utilisation no packing reaches: planar charts are not tried where they would need more
 
 
 @dataclass
@@ -128,9 +125,6 @@ def make_atlas(
     failures: list[str] = []
     with start_workers(workers, deadline) as pool:  # one set of workers for every attempt
         found = _first_usable(request, pool, attempts, failures)
-        if found is not None and charting == "auto" and found[0] == "xatlas" and _planar_may_win(found[1]) \
-                and pool.left() > 0:
-            found, order = _fuller_planar(request, pool, found, order)
     if found is None and charting != "auto":
         raise AtlasError(f"charting={charting!r} cannot be honoured: {'; '.join(failures) or _passed(deadline)}")
     if found is None:
@@ -260,30 +254,6 @@ def _first_usable(request: UnwrapRequest, pool: Pool, attempts: list[tuple[str, 
             return charting, atlas
         failures.append(f"{charting} charting gave an unusable atlas: {bad}")
     return None
-
-
-def _planar_may_win(atlas: Unwrapped) -> bool:
-    """Whether planar charts could use ``PLANAR_GAIN`` times the texture xatlas' ``atlas``
-    uses (no packing here fills more than ``FULLEST``)."""
-    return PLANAR_GAIN * float(uv_areas(atlas.uv, atlas.faces).sum()) < FULLEST
-
-
-def _fuller_planar(request: UnwrapRequest, pool: Pool, found: tuple[str, Unwrapped],
-                   order: str) -> tuple[tuple[str, Unwrapped], str]:
-    """xatlas' charts were chosen for a small organic mesh: planar charts too, within the
-    deadline, taken (and the ``order`` said so) if they use ``PLANAR_GAIN`` times as much
-    texture."""
-    pool.cap = pool.seconds
-    try:
-        planar: Unwrapped | None = unwrap(request, pool, pool.left(), None, "planar")
-    except XatlasFailed:
-        planar = None
-    if planar is None or unwrap_problem(planar.vmapping, planar.faces, planar.uv, request.faces, len(request.vertices)):
-        return found, order
-    used = [float(uv_areas(c.uv, c.faces).sum()) for c in (found[1], planar)]
-    if used[1] > PLANAR_GAIN * used[0]:
-        return ("planar", planar), f"{order}; planar charts used instead: they cover {used[1]:.2f} of the texture, xatlas' {used[0]:.2f}"
-    return found, order
 
 
 def _fallback(request: UnwrapRequest, deadline: float, why: str, failures: list[str], start: float) -> Atlas:

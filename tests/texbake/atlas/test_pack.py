@@ -13,7 +13,7 @@ import trimesh
 from texbake.atlas import make_atlas, uv_problem
 from texbake.atlas import pack as atlas_pack
 from texbake.atlas.charts import outline_triangles
-from texbake.atlas.pack import MIN_PROXY_AREA, _proxy
+from texbake.atlas.pack import MIN_PROXY_AREA, _place, _proxy
 from texbake.mesh import uv_areas
 
 # The real worker, whose first "pack" reply has one UV vertex of the first mesh moved, or
@@ -117,3 +117,21 @@ def test_charts_under_a_texel_get_a_minimum_size():
     a = make_atlas(v, f, mode="unwrap", size=256, charting="planar")
     assert a.method == "planar" and "packing" not in a.stats, a.stats.get("packing")
     check(a, v, f)
+
+
+@pytest.mark.parametrize("mirror", [False, True])
+def test_charts_packed_by_their_outline_follow_the_packer(mirror):
+    rng = np.random.default_rng(1)
+    uv = rng.random((40, 2))
+    chart = np.repeat([0, 1], 20)
+    turn = np.exp(1j * np.array([0.3, 2.0])) * np.array([0.5, 2.0])  # each chart rotated and scaled
+    z = uv[:, 0] + 1j * uv[:, 1]
+    z_out = turn[chart] * (np.conj(z) if mirror else z) + np.array([1 + 1j, 5 - 2j])[chart]
+    source = np.r_[0:5, 20:26]  # only outline vertices were packed
+    placed = np.column_stack([z_out.real, z_out.imag])[source]
+    out, distorted = _place(uv, chart, source, placed)
+    assert np.abs(out - np.column_stack([z_out.real, z_out.imag])).max() < 1e-12 and not distorted.any()
+    bent = placed.copy()
+    bent[:5] += rng.normal(scale=0.01, size=(5, 2))  # the first chart's outline moved out of shape
+    _, distorted = _place(uv, chart, source, bent)
+    assert distorted.tolist() == [True, False]
