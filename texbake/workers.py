@@ -256,6 +256,18 @@ def cpu_seconds(pid: int) -> float | None:
         return None
 
 
+def resident_bytes(pid: int) -> int:
+    """Memory process ``pid`` holds (Linux: VmRSS), 0 where that cannot be read."""
+    try:
+        with open(f"/proc/{pid}/status", "rb") as f:
+            for line in f:
+                if line.startswith(b"VmRSS:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, IndexError, ValueError):
+        pass
+    return 0
+
+
 def runnable(pid: int) -> bool:
     """Whether a thread of process ``pid`` is running or waiting for a core (Linux: state
     R); True where that cannot be read."""
@@ -392,6 +404,15 @@ class Pool:
                                 and not runnable(w.pid)):
                 return True
         return False
+
+    def end_larger_than(self, rss: int) -> None:
+        """End the idle workers holding more than ``rss`` bytes of memory (a large job's heap
+        stays mapped after it: a warm pool would keep it between bakes)."""
+        for w in list(self.idle):
+            if resident_bytes(w.pid) > rss:
+                self.idle.remove(w)
+                w.end(polite=True)
+        self._forget_dead()
 
     def _alive(self) -> list[Worker]:
         return [w for w in self.all if w.process.poll() is None]

@@ -20,6 +20,14 @@ def crash():
     os.kill(os.getpid(), signal.SIGSEGV)
 
 
+HELD = []
+
+
+def hold(megabytes):
+    HELD.append(bytearray(megabytes << 20))
+    return "held"
+
+
 def spin(seconds):
     end = time.process_time() + seconds
     while time.process_time() < end:
@@ -28,7 +36,7 @@ def spin(seconds):
 
 
 serve({"add": lambda a, b: a + b, "fail": lambda: 1 / 0, "crash": crash, "sleep": time.sleep,
-       "print": lambda: print("not a reply") or "ok", "spin": spin})
+       "print": lambda: print("not a reply") or "ok", "spin": spin, "hold": hold})
 """
 
 
@@ -92,6 +100,17 @@ def test_a_pools_deadline_is_its_workers_cpu_time(command):
         assert (pool.spent() >= 1.0 and pool.left() <= 0) or took >= Pool.WALL_FACTOR * 1.0
         pool.restart(5.0)
         assert pool.run([("add", (1, 2))]) == [(True, 3)]  # a fresh worker in place of the ended one
+
+
+def test_a_pool_ends_the_idle_workers_that_hold_much_memory(command):
+    from texbake.workers import resident_bytes
+
+    with Pool(command(), 2, 30) as pool:
+        assert pool.run([("hold", (64,)), ("add", (1, 1))]) == [(True, "held"), (True, 2)]
+        sizes = {w.pid: resident_bytes(w.pid) for w in pool.all}
+        assert sorted(sizes.values())[1] > 64 << 20 > sorted(sizes.values())[0] > 0
+        pool.end_larger_than(48 << 20)
+        assert [w.pid for w in pool.all] == [pid for pid, size in sizes.items() if size < 48 << 20]
 
 
 def test_a_worker_dies_with_its_parent_even_while_it_starts(command, tmp_path):

@@ -47,6 +47,7 @@ PROXY_FACES = 32  # charts of more faces are packed by the triangulation of thei
 MIN_PROXY_AREA = 1e-4  # texels: an outline triangulated with a smaller triangle is not packed by it
 MIN_EXTENT = 1.0  # texels: charts smaller across are packed as faces of their own, two texels wide
 PACKINGS = 3  # packing passes at most: the first, and again for what it distorted or collapsed
+WARM_BYTES = 256 << 20  # a worker holding more memory after an unwrap is ended, not kept warm
 PATCH_FACES = 2000  # faces per patch of the parallel unwrap
 CHART_ITERATIONS = 1  # xatlas ChartOptions.max_iterations: more iterations take longer for no better atlas on the meshes here
 
@@ -90,8 +91,9 @@ def start_workers(count: int, deadline: float) -> Iterator[Pool]:
     seconds of each worker's CPU time (:class:`texbake.workers.Pool`).
 
     The workers are this process's warm ones, started by its first unwrap and kept for
-    the next (their start-up is most of a small mesh's unwrap); a worker that crashed or
-    was ended at the deadline is replaced by a fresh one when next needed. A second
+    the next (their start-up is most of a small mesh's unwrap), unless one holds more
+    than ``WARM_BYTES`` after it (a large mesh's heap); a worker that crashed or was
+    ended at the deadline is replaced by a fresh one when next needed. A second
     unwrap at the same time (another thread) gets workers of its own, ended after it.
     """
     global _warm
@@ -111,6 +113,8 @@ def start_workers(count: int, deadline: float) -> Iterator[Pool]:
             _warm.restart(deadline)
         yield _warm
     finally:
+        if _warm is not None:
+            _warm.end_larger_than(WARM_BYTES)
         _warm_lock.release()
 
 
