@@ -81,9 +81,8 @@ def make_atlas(
     size, padding : int, optional
         Texels of the square texture (1 to 65536) and between charts (0 to 64).
     deadline, workers : float, int, optional
-        Seconds of CPU time each xatlas worker may use for all the unwrap's work (a busy
-        machine takes longer without changing the atlas; a deadline that passes is a
-        warning), and the worker processes (this process's, kept warm between unwraps).
+        Seconds of CPU time each xatlas worker may use for the unwrap (a busy machine takes
+        longer, not another atlas), and the workers (this process's, kept warm).
     charting : {"auto", "xatlas", "planar"}, optional
         "planar" (:mod:`texbake.atlas.charts`), "xatlas" (its own charts; meshes of more
         than ``2 * PATCH_FACES`` faces in patches, in parallel) or "auto"
@@ -98,10 +97,9 @@ def make_atlas(
     Atlas
         ``reason``: why the UVs were not kept, the charting used and why, what failed.
         ``stats``: :func:`texbake.atlas.uvcheck.measure`'s, ``seconds``, ``patches``
-        or ``planar_charts`` and ``flat_share``, and ``packing`` (the packing passes
-        redone, and why) where there were any. ``warnings``: overlapping UVs kept, the
-        fallback grid, a deadline that passed, over ``BARE_LIMIT`` of the surface on
-        charts with no texel centre.
+        or ``planar_charts`` and ``flat_share``, ``packing`` (packing passes redone, why).
+        ``warnings``: overlapping UVs kept, the fallback grid, a deadline that passed,
+        over ``BARE_LIMIT`` of the surface on charts with no texel centre.
 
     Raises
     ------
@@ -125,10 +123,8 @@ def make_atlas(
     failures: list[str] = []
     with start_workers(workers, deadline) as pool:  # one set of workers for every attempt
         found = _first_usable(request, pool, attempts, failures)
-    if found is None and charting != "auto":
-        raise AtlasError(f"charting={charting!r} cannot be honoured: {'; '.join(failures) or _passed(deadline)}")
     if found is None:
-        return _fallback(request, deadline, why, failures, start)
+        return _fallback(request, deadline, why, failures, start, charting)
     charted, atlas = found
     retried = f" (after: {'; '.join(failures)})" if failures else ""
     stats = {**_stats(request, atlas.faces, atlas.uv, start), **atlas.detail}
@@ -256,8 +252,12 @@ def _first_usable(request: UnwrapRequest, pool: Pool, attempts: list[tuple[str, 
     return None
 
 
-def _fallback(request: UnwrapRequest, deadline: float, why: str, failures: list[str], start: float) -> Atlas:
-    """The grid atlas (:mod:`texbake.atlas.fallback`), its reason naming what failed before it."""
+def _fallback(request: UnwrapRequest, deadline: float, why: str, failures: list[str], start: float,
+              charting: str) -> Atlas:
+    """The grid atlas (:mod:`texbake.atlas.fallback`), its reason naming what failed before it;
+    :class:`AtlasError` instead where a ``charting`` was asked for by name."""
+    if charting != "auto":
+        raise AtlasError(f"charting={charting!r} cannot be honoured: {'; '.join(failures) or _passed(deadline)}")
     vm, fa, u = grid_atlas(request.vertices, request.faces, request.padding / request.size)
     bad = unwrap_problem(vm, fa, u, request.faces, len(request.vertices))
     if bad is not None:
