@@ -110,7 +110,7 @@ class BakeSettings(BaseModel):
         Which maps are made besides the albedo: a lit map, a normal map, animation frames.
     cage, seed, max_faces, unwrap_deadline : float or None, int, int, float
         Transfer ray length, the seed of the sample jitter, the face limit, the seconds
-        xatlas may take.
+        of CPU time each xatlas worker may use.
     format, bits, obj : {"png", "exr", "tif"}, int or None, bool
         How :meth:`texbake.pipeline.BakeResult.save` writes the maps (and an OBJ).
     """
@@ -140,7 +140,7 @@ class BakeSettings(BaseModel):
     cage: Finite | None = Field(None, gt=0, description="maximum transfer ray distance from a source mesh (default: 5% of the bounding-box diagonal)")
     seed: int = Field(0, ge=0, le=2**31 - 1, description="seed of the sample jitter and the error probe")
     max_faces: int = Field(5_000_000, ge=1, le=100_000_000, description="meshes with more faces are rejected")
-    unwrap_deadline: Finite = Field(120.0, gt=0, le=86400, description="seconds xatlas may run before a fallback atlas is used")
+    unwrap_deadline: Finite = Field(120.0, gt=0, le=86400, description="seconds of CPU time each xatlas worker may use before a fallback atlas is used")
     format: Literal["png", "exr", "tif"] = Field("png", description="image format of the maps")
     bits: Literal[8, 16, 32] | None = Field(None, description="png 8 or 16; exr 16 (half) or 32; tif 8, 16 or 32 (default: png 8, exr 16, tif 16)")
     obj: StrictBool = Field(False, description="also write OBJ + MTL")

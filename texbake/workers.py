@@ -245,25 +245,103 @@ class Worker:
         return p.returncode
 
 
-class Pool:
-    """Up to ``n`` workers of ``command`` sharing one wall-clock ``end`` (``time.monotonic``;
-    the owner may move it between runs).
+def cpu_seconds(pid: int) -> float | None:
+    """CPU time (user and system, all threads) process ``pid`` has used, or None where it
+    cannot be read (not Linux, or the process is gone)."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            fields = f.read().rsplit(b")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    except (OSError, IndexError, ValueError):
+        return None
 
-    Started lazily, reused for every job of one use, and replaced when one dies. Use as a
-    context manager: leaving it ends them all.
+
+def resident_bytes(pid: int) -> int:
+    """Memory process ``pid`` holds (Linux: VmRSS), 0 where that cannot be read."""
+    try:
+        with open(f"/proc/{pid}/status", "rb") as f:
+            for line in f:
+                if line.startswith(b"VmRSS:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, IndexError, ValueError):
+        pass
+    return 0
+
+
+def runnable(pid: int) -> bool:
+    """Whether a thread of process ``pid`` is running or waiting for a core (Linux: state
+    R); True where that cannot be read."""
+    try:
+        tasks = os.listdir(f"/proc/{pid}/task")
+    except OSError:
+        return True
+    for tid in tasks:
+        try:
+            with open(f"/proc/{pid}/task/{tid}/stat", "rb") as f:
+                if f.read().rsplit(b")", 1)[1].split()[0] == b"R":
+                    return True
+        except (OSError, IndexError):
+            continue
+    return False
+
+
+class Pool:
+    """Up to ``n`` workers of ``command`` sharing one deadline of ``seconds``, counted in
+    each worker's own CPU time (a busy machine slows the jobs without changing what they
+    do), from the pool's start or the latest :meth:`restart`.
+
+    A job is ended as timed out when its worker has used more than ``cap`` (at first all
+    the ``seconds``) of CPU time since then; or, where a worker's CPU time cannot be read,
+    when as much wall time has passed; or when as much wall time has passed, the job has
+    run ``STALL_SECONDS`` at least, with under ``STALL_SHARE`` of that on a core, and none of its threads is
+    runnable (a deadlock or a sleep, which CPU time alone would never end); or after
+    ``WALL_FACTOR`` times the ``seconds`` in any case.
+
+    Started lazily, reused for every job (across restarts: a warm pool), and replaced
+    when one dies or is ended. Use as a context manager: leaving it ends them all.
     """
 
-    def __init__(self, command: Sequence[str], n: int, end: float):
-        self.command, self.n, self.end = list(command), max(1, n), end
+    WALL_FACTOR = 4.0
+    STALL_SHARE = 0.05
+    STALL_SECONDS = 1.0  # a job is not taken as stalled before this (its start may wait on a read)
+    POLL_SECONDS = 0.05
+
+    def __init__(self, command: Sequence[str], n: int, seconds: float):
+        self.command, self.n = list(command), max(1, n)
         self.folder = tempfile.mkdtemp(prefix="texbake-workers-")
         self.idle: list[Worker] = []
         self.all: list[Worker] = []
+        self.restart(seconds)
 
     def __enter__(self):
         return self
 
     def __exit__(self, *exc):
         self.close()
+
+    def restart(self, seconds: float) -> None:
+        """A new deadline of ``seconds`` from now (each worker's CPU time counted from here)."""
+        self.seconds = self.cap = float(seconds)
+        self.began = time.monotonic()
+        self._base: dict[Worker, float] = {}
+        self._spent: dict[Worker, float] = {}  # CPU seconds since the start, as last read
+        for w in self.all:
+            self._base[w] = cpu_seconds(w.pid) or 0.0
+
+    def spent(self) -> float:
+        """Seconds of the deadline used: the most CPU time one worker has used since the
+        start (wall time where that cannot be read)."""
+        for w in self.all:
+            used = cpu_seconds(w.pid)
+            if used is not None:
+                self._spent[w] = used - self._base.get(w, 0.0)
+            elif w.process.poll() is None:  # alive, but its CPU time unknown: wall time
+                self._spent[w] = time.monotonic() - self.began
+        return max(self._spent.values(), default=0.0)
+
+    def left(self) -> float:
+        """Seconds of the deadline not used yet (:meth:`spent`; negative once passed)."""
+        return self.seconds - self.spent()
 
     def close(self) -> None:
         for w in self.all:  # all asked at once, then each waited for
@@ -272,46 +350,91 @@ class Pool:
         for w in self.all:
             w.end(polite=not w.busy)
         self.all.clear()
+        self.idle.clear()
         shutil.rmtree(self.folder, ignore_errors=True)
 
     def run(self, jobs: list[tuple[str, tuple]]) -> list[tuple[bool, object]]:
         """Run ``(kind, args)`` jobs; per job ``(True, result)`` or ``(False, why)``.
 
-        ``why`` is "timeout" for jobs not done at the end (then every busy worker is
+        ``why`` is "timeout" for jobs not done by the deadline (then every busy worker is
         ended), "exit code N" for a worker that died, or the job's exception message.
         """
         results: list = [None] * len(jobs)
         pending = list(range(len(jobs)))[::-1]
-        busy: dict[Worker, int] = {}
+        busy: dict[Worker, tuple[int, float, float]] = {}  # worker -> (job, its wall start, its CPU start)
         while pending or busy:
-            while pending and (self.idle or sum(w.process.poll() is None for w in self.all) < self.n):
-                w = self.idle.pop() if self.idle else self._start()
-                i = pending.pop()
+            while pending and (self.idle or len(self._alive()) < self.n):
+                w, i = self._idle_or_new(), pending.pop()
                 if w.send(*jobs[i]):
-                    busy[w] = i
+                    busy[w] = (i, time.monotonic(), cpu_seconds(w.pid) or 0.0)
                 else:
                     results[i] = (False, w.exit_reason())
             if not busy:
                 continue
-            left = self.end - time.monotonic()
-            ready = select.select(list(busy), [], [], max(0.0, left))[0] if left > 0 else []
-            if not ready and time.monotonic() >= self.end:
-                for w, i in busy.items():
+            ready = select.select(list(busy), [], [], self.POLL_SECONDS)[0]
+            if not ready and self._late(busy):
+                for w, (i, _, _) in busy.items():
                     w.end()
                     results[i] = (False, "timeout")
                 for i in pending:
                     results[i] = (False, "timeout")
+                self._forget_dead()
                 return results
             for w in ready:
                 reply = w.read()
                 if reply is None:
                     continue
-                results[busy.pop(w)] = reply
+                results[busy.pop(w)[0]] = reply
                 if w.process.poll() is None:  # alive: ready for the next job
                     self.idle.append(w)
+        self._forget_dead()
         return results
 
-    def _start(self) -> Worker:
+    def _late(self, busy: dict) -> bool:
+        """Whether the jobs ``busy`` runs are past the deadline (see the class)."""
+        wall = time.monotonic() - self.began
+        if wall >= self.WALL_FACTOR * self.seconds or self.spent() >= self.cap:
+            return True
+        if wall < self.cap:
+            return False
+        for w, (_, started, cpu) in busy.items():
+            used = cpu_seconds(w.pid)
+            job_wall = time.monotonic() - started
+            if used is None or (job_wall >= self.STALL_SECONDS and used - cpu < self.STALL_SHARE * job_wall
+                                and not runnable(w.pid)):
+                return True
+        return False
+
+    def end_larger_than(self, rss: int) -> None:
+        """End the idle workers holding more than ``rss`` bytes of memory (a large job's heap
+        stays mapped after it: a warm pool would keep it between bakes)."""
+        for w in list(self.idle):
+            if resident_bytes(w.pid) > rss:
+                self.idle.remove(w)
+                w.end(polite=True)
+        self._forget_dead()
+
+    def _alive(self) -> list[Worker]:
+        return [w for w in self.all if w.process.poll() is None]
+
+    def _idle_or_new(self) -> Worker:
+        """An idle worker that is still alive (one started by a thread that has ended since
+        died with it: see :func:`die_with_parent`), else a new one."""
+        while self.idle:
+            w = self.idle.pop()
+            if w.process.poll() is None:
+                return w
+            w.end()
         w = Worker(self.command, self.folder)
         self.all.append(w)
+        self._base[w] = 0.0
         return w
+
+    def _forget_dead(self) -> None:
+        """Ended workers out of the lists (their last CPU reading stays in :meth:`spent`)."""
+        dead = [w for w in self.all if w.process.poll() is not None]
+        for w in dead:
+            w.end()
+            self.all.remove(w)
+            if w in self.idle:
+                self.idle.remove(w)

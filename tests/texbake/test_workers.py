@@ -20,8 +20,23 @@ def crash():
     os.kill(os.getpid(), signal.SIGSEGV)
 
 
+HELD = []
+
+
+def hold(megabytes):
+    HELD.append(bytearray(megabytes << 20))
+    return "held"
+
+
+def spin(seconds):
+    end = time.process_time() + seconds
+    while time.process_time() < end:
+        pass
+    return "spun"
+
+
 serve({"add": lambda a, b: a + b, "fail": lambda: 1 / 0, "crash": crash, "sleep": time.sleep,
-       "print": lambda: print("not a reply") or "ok"})
+       "print": lambda: print("not a reply") or "ok", "spin": spin, "hold": hold})
 """
 
 
@@ -59,16 +74,43 @@ def test_a_worker_leaves_group_signals_to_its_parent(command, tmp_path):
 
 
 def test_a_pool_runs_jobs_and_stops_at_its_deadline(command):
-    start = time.monotonic()
-    with Pool(command(), 2, start + 20) as pool:
+    with Pool(command(), 2, 20) as pool:
         assert pool.run([("add", (i, i)) for i in range(5)]) == [(True, 2 * i) for i in range(5)]
         assert pool.run([("crash", ()), ("add", (1, 2))]) == [(False, f"exit code {-signal.SIGSEGV}"), (True, 3)]
-    with Pool(command(), 2, time.monotonic() + 2) as pool:
+    with Pool(command(), 2, 2) as pool:
         began = time.monotonic()
         # two workers: the first sleeps, the second adds, then sleeps too; the last job never starts
         assert pool.run([("sleep", (60,)), ("add", (1, 1)), ("sleep", (60,)), ("add", (2, 2))]) == [
             (False, "timeout"), (True, 2), (False, "timeout"), (False, "timeout")]
         assert time.monotonic() - began < 6
+
+
+def test_a_pools_deadline_is_its_workers_cpu_time(command):
+    with Pool(command(), 1, 3) as pool:
+        assert pool.run([("spin", (0.5,))]) == [(True, "spun")]
+        assert 0.5 <= pool.spent() < 3 and pool.left() == pytest.approx(3 - pool.spent())
+        pool.restart(1.0)  # the warm worker's CPU time is counted from here
+        assert pool.spent() < 0.1
+        began = time.monotonic()
+        assert pool.run([("spin", (60,))]) == [(False, "timeout")]
+        took = time.monotonic() - began
+        assert took < Pool.WALL_FACTOR * 1.0 + 1
+        # ended at 1 s of its CPU time, or where it got less than a quarter of a core (a
+        # loaded machine), at the wall-clock backstop
+        assert (pool.spent() >= 1.0 and pool.left() <= 0) or took >= Pool.WALL_FACTOR * 1.0
+        pool.restart(5.0)
+        assert pool.run([("add", (1, 2))]) == [(True, 3)]  # a fresh worker in place of the ended one
+
+
+def test_a_pool_ends_the_idle_workers_that_hold_much_memory(command):
+    from texbake.workers import resident_bytes
+
+    with Pool(command(), 2, 30) as pool:
+        assert pool.run([("hold", (64,)), ("add", (1, 1))]) == [(True, "held"), (True, 2)]
+        sizes = {w.pid: resident_bytes(w.pid) for w in pool.all}
+        assert sorted(sizes.values())[1] > 64 << 20 > sorted(sizes.values())[0] > 0
+        pool.end_larger_than(48 << 20)
+        assert [w.pid for w in pool.all] == [pid for pid, size in sizes.items() if size < 48 << 20]
 
 
 def test_a_worker_dies_with_its_parent_even_while_it_starts(command, tmp_path):

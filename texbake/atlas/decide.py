@@ -6,10 +6,11 @@ the other, and fall back to a grid when both fail.
 overlapping on the bake's texel grid). An unwrap charts the mesh one of two ways, planar
 charts (:mod:`texbake.atlas.charts`: CAD parts and large meshes) or xatlas' own charts
 (small organic meshes), in the order :func:`texbake.atlas.charts.prefer_planar` chooses,
-and packs the charts with xatlas in worker processes under one deadline
+and packs the charts with xatlas in worker processes under one deadline of their CPU time
 (:mod:`texbake.atlas.pack`). When one charting fails (crash, deadline, bad UVs) the other
 is tried; only when both have does every triangle get its own cell of a grid
-(:mod:`texbake.atlas.fallback`, "fallback-grid"). A mesh whose parts have UVs only in part
+(:mod:`texbake.atlas.fallback`, "fallback-grid"); a charting asked for by name is the only
+one tried. A mesh whose parts have UVs only in part
 keeps those and unwraps the rest (:func:`_keep_parts`, :mod:`texbake.atlas.parts`).
 ``Atlas.reason`` says what was chosen, why, and what failed before it; ``Atlas.warnings``
 what a user should know, one line each (the report, the command line, the service and
@@ -46,7 +47,6 @@ from .uvcheck import (
 MODES = ("auto", "unwrap", "keep")
 CHARTINGS = ("auto", "xatlas", "planar")
 OVERLAP_LIMIT = 0.01  # a mesh's UVs under which more of the covered texels overlap are not kept
-PLANAR_GAIN = 1.3  # "auto" takes planar charts over xatlas' on a small organic mesh when they use this much more texture
 SPARSE_SHARE = 0.5  # a warning when kept UVs use less than this share of the tile an unwrap would use
 PROMISE_SHARE = 0.4  # a warning when an unwrap's utilisation is under this share of what its charts promise
 
@@ -108,11 +108,14 @@ def make_atlas(
     size, padding : int, optional
         Texels of the square texture (1 to 65536) and between charts (0 to 64).
     deadline, workers : float, int, optional
-        Seconds for all xatlas work, and its worker processes.
+        Seconds of CPU time each xatlas worker may use for the unwrap (a busy machine takes
+        longer, not another atlas), and the workers (this process's, kept warm).
     charting : {"auto", "xatlas", "planar"}, optional
-        "planar" (:mod:`texbake.atlas.charts`), "xatlas" (its own charts; meshes of more than ``2 * PATCH_FACES``
-        faces in patches, in parallel) or "auto" (:func:`texbake.atlas.charts.prefer_planar`). The other is tried
-        when the first fails, and a "fallback-grid" atlas (a cell per triangle) only when both have.
+        "planar" (:mod:`texbake.atlas.charts`), "xatlas" (its own charts; meshes of more
+        than ``2 * PATCH_FACES`` faces in patches, in parallel) or "auto"
+        (:func:`texbake.atlas.charts.prefer_planar`). With "auto" the other is tried when
+        the first fails, and a "fallback-grid" atlas (a cell per triangle) only when both
+        have; a charting asked for is the only one tried (:class:`AtlasError` if it fails).
     _patch_faces : int or None
         Faces per patch of the xatlas unwrap; None: the whole mesh in one piece (tests).
 
@@ -122,11 +125,11 @@ def make_atlas(
         ``reason``: why the UVs were not kept, the charting used and why, what failed.
         ``stats``: :func:`texbake.atlas.uvcheck.measure`'s, ``seconds``, ``patches`` or
         ``planar_charts`` and ``flat_share``, ``double_sided_faces`` (back faces on their
-        front faces' texels). ``warnings`` (one line each, what a user
+        front faces' texels), ``packing`` (packing passes redone, why). ``warnings`` (one line each, what a user
         should know): the mesh's UVs replaced and why, kept UVs that use under
         ``SPARSE_SHARE`` of what an unwrap would, overlapping UVs kept, parts unwrapped
         beside kept UVs, an unwrap that failed before the one used, utilisation under
-        ``PROMISE_SHARE`` of what the charts promise, the fallback grid, over
+        ``PROMISE_SHARE`` of what the charts promise, the fallback grid, a deadline that passed, over
         ``BARE_LIMIT`` of the surface on charts with no texel centre.
 
     Raises
@@ -136,7 +139,8 @@ def make_atlas(
         or ``workers``.
     AtlasError
         Arrays of the wrong shape, no faces, faces that index missing vertices, vertices
-        that are not finite, unusable UVs with ``mode="keep"``, or no atlas at all.
+        that are not finite, unusable UVs with ``mode="keep"``, a ``charting`` asked for
+        that failed, or no atlas at all.
     """
     start = time.perf_counter()
     _check_settings(mode=mode, charting=charting, size=size, padding=padding, deadline=deadline, workers=workers)
@@ -175,11 +179,10 @@ def _unwrap(request: UnwrapRequest, why: str, warnings: list[str], *, deadline: 
             patch_faces: int | None, start: float) -> Atlas:
     """The atlas of an unwrap (or the fallback grid), its reason starting with ``why`` (the
     UVs not kept) and its warnings with ``warnings``."""
-    end = time.monotonic() + deadline
-    with start_workers(workers, end) as pool:  # one set of workers for every attempt
-        found, order, failures = _unwrapped(request, pool, end, charting, patch_faces)
+    with start_workers(workers, deadline) as pool:  # one set of workers for every attempt
+        found, order, failures = _unwrapped(request, pool, charting, patch_faces)
     if found is None:
-        grid = _fallback(request, deadline, why, failures, start)
+        grid = _fallback(request, deadline, why, failures, start, charting)
         grid.warnings[:0] = warnings
         return grid
     charted, atlas = found
@@ -187,18 +190,16 @@ def _unwrap(request: UnwrapRequest, why: str, warnings: list[str], *, deadline: 
     stats = {**_stats(request, atlas.faces, atlas.uv, start), **atlas.detail}
     warnings = warnings + _retry_warning(charting, charted, failures) + _promise_warning(request, atlas, stats)
     return Atlas(atlas.vmapping, atlas.faces, atlas.uv, atlas.method, f"{why}; {charted} charts: {order}{retried}", stats,
-                 warnings + bare_warning(stats, request.size))
+                 warnings + _deadline_warning(failures, deadline) + bare_warning(stats, request.size))
 
 
-def _unwrapped(request: UnwrapRequest, pool: Pool, end: float, charting: str,
+def _unwrapped(request: UnwrapRequest, pool: Pool, charting: str,
                patch_faces: int | None) -> tuple[tuple[str, Unwrapped] | None, str, list[str]]:
     """``((charting used, atlas) or None, why that charting, what failed)``: the unwrap's
-    attempts in ``pool`` by ``end`` (``time.monotonic()``)."""
+    attempts in ``pool`` within its deadline."""
     attempts, order = _attempts(request.vertices, request.faces, charting, patch_faces)
     failures: list[str] = []
-    found = _first_usable(request, pool, end, attempts, failures)
-    if found is not None and charting == "auto" and found[0] == "xatlas" and time.monotonic() < end:
-        found, order = _fuller_planar(request, pool, end, found, order)
+    found = _first_usable(request, pool, attempts, failures)
     return found, order, failures
 
 
@@ -229,6 +230,20 @@ def _both_sides(sides: Sides, atlas: Atlas) -> Atlas:
     reason = f"{atlas.reason}; {len(sides.back)} back faces share their front faces' texels"
     stats = {**atlas.stats, "double_sided_faces": len(sides.back)}
     return Atlas(vmapping, faces, uv, atlas.method, reason, stats, atlas.warnings)
+
+
+def _passed(deadline: float) -> str:
+    return f"the unwrap deadline of {deadline:g} s passed"
+
+
+def _deadline_warning(failures: list[str], deadline: float) -> list[str]:
+    """A warning when an unwrap was cut short by the deadline (its atlas is then not the one
+    that a longer deadline would give)."""
+    late = [f for f in failures if "timed out" in f]
+    if not late:
+        return []
+    return [f"the unwrap deadline ({deadline:g} s of CPU time) passed: {'; '.join(late)}; "
+            "a longer unwrap_deadline gives the usual atlas"]
 
 
 def _check_settings(*, mode, charting, size, padding, deadline, workers) -> None:
@@ -341,14 +356,15 @@ def _keep_parts(request: UnwrapRequest, uv, has_uv: np.ndarray | None, part: np.
         return None, "; ".join(unwrapped)
     used, local = np.unique(request.faces[~keep], return_inverse=True)
     sub = UnwrapRequest(request.vertices[used], local.reshape(-1, 3), request.size, request.padding)
-    end = time.monotonic() + deadline
-    with start_workers(workers, end) as pool:
-        found, order, failures = _unwrapped(sub, pool, end, charting, patch_faces)
+    with start_workers(workers, deadline) as pool:
+        found, order, failures = _unwrapped(sub, pool, charting, patch_faces)
+        if found is None and charting != "auto":
+            raise AtlasError(f"charting={charting!r} cannot be honoured: {'; '.join(failures) or _passed(deadline)}")
         if found is None:
             vm, fa, u = grid_atlas(sub.vertices, sub.faces, sub.padding / sub.size)
             found, order = ("grid", Unwrapped(vm, fa, u, "fallback-grid", {})), "both chartings failed"
         try:
-            out = combine(request, keep, uv, found[1], used, pool, max(end - time.monotonic(), 0.0))
+            out = combine(request, keep, uv, found[1], used, pool, pool.left())
             bad = unwrap_problem(out.vmapping, out.faces, out.uv, request.faces, len(request.vertices))
         except XatlasFailed as exc:
             bad = str(exc)
@@ -429,26 +445,26 @@ def _attempts(vertices, faces, charting: str, patch_faces: int | None) -> tuple[
         xatlas.append(("xatlas", PATCH_FACES))
     elif patch_faces is not None and len(faces) > 2 * patch_faces:
         xatlas.append(("xatlas", max(250, patch_faces // 4)))
-    if charting == "auto":
-        planar_first, why = prefer_planar(vertices, faces)
-    else:
-        planar_first, why = charting == "planar", f"charting={charting!r}"
+    if charting != "auto":  # asked for: that charting only
+        return (xatlas if charting == "xatlas" else [("planar", None)]), f"charting={charting!r}"
+    planar_first, why = prefer_planar(vertices, faces)
     return ([("planar", None), *xatlas] if planar_first else [*xatlas, ("planar", None)]), why
 
 
-def _first_usable(request: UnwrapRequest, pool: Pool, end: float, attempts: list[tuple[str, int | None]],
+def _first_usable(request: UnwrapRequest, pool: Pool, attempts: list[tuple[str, int | None]],
                   failures: list[str]) -> tuple[str, Unwrapped] | None:
-    """``(charting, atlas)`` of the first of ``attempts`` that gives a usable atlas by ``end``
-    (``time.monotonic()``), or None; what failed is added to ``failures``. xatlas is not
+    """``(charting, atlas)`` of the first of ``attempts`` that gives a usable atlas within
+    ``pool``'s deadline, or None; what failed is added to ``failures``. xatlas is not
     tried again once it has timed out."""
     for i, (charting, patch_faces) in enumerate(attempts):
-        now = time.monotonic()
-        if now >= end or (charting == "xatlas" and any("timed out" in f for f in failures)):
+        left = pool.left()
+        if left <= 0 or (charting == "xatlas" and any("timed out" in f for f in failures)):
             continue
         # xatlas' charting may take 3/4 of what is left when planar charts are still to come
-        pool.end = now + 0.75 * (end - now) if ("planar", None) in attempts[i + 1:] else end
+        share = 0.75 * left if ("planar", None) in attempts[i + 1:] else left
+        pool.cap = pool.seconds - left + share
         try:
-            atlas = unwrap(request, pool, pool.end - now, patch_faces, charting)
+            atlas = unwrap(request, pool, share, patch_faces, charting)
         except XatlasFailed as exc:
             failures.append(str(exc))
             continue
@@ -459,30 +475,18 @@ def _first_usable(request: UnwrapRequest, pool: Pool, end: float, attempts: list
     return None
 
 
-def _fuller_planar(request: UnwrapRequest, pool: Pool, end: float, found: tuple[str, Unwrapped],
-                   order: str) -> tuple[tuple[str, Unwrapped], str]:
-    """xatlas' charts were chosen for a small organic mesh: planar charts too, by ``end``,
-    taken (and the ``order`` said so) if they use ``PLANAR_GAIN`` times as much texture."""
-    pool.end = end
-    try:
-        planar: Unwrapped | None = unwrap(request, pool, pool.end - time.monotonic(), None, "planar")
-    except XatlasFailed:
-        planar = None
-    if planar is None or unwrap_problem(planar.vmapping, planar.faces, planar.uv, request.faces, len(request.vertices)):
-        return found, order
-    used = [float(uv_areas(c.uv, c.faces).sum()) for c in (found[1], planar)]
-    if used[1] > PLANAR_GAIN * used[0]:
-        return ("planar", planar), f"{order}; planar charts used instead: they cover {used[1]:.2f} of the texture, xatlas' {used[0]:.2f}"
-    return found, order
-
-
-def _fallback(request: UnwrapRequest, deadline: float, why: str, failures: list[str], start: float) -> Atlas:
-    """The grid atlas (:mod:`texbake.atlas.fallback`), its reason naming what failed before it."""
+def _fallback(request: UnwrapRequest, deadline: float, why: str, failures: list[str], start: float,
+              charting: str) -> Atlas:
+    """The grid atlas (:mod:`texbake.atlas.fallback`), its reason naming what failed before it;
+    :class:`AtlasError` instead where a ``charting`` was asked for by name."""
+    if charting != "auto":
+        raise AtlasError(f"charting={charting!r} cannot be honoured: {'; '.join(failures) or _passed(deadline)}")
     vm, fa, u = grid_atlas(request.vertices, request.faces, request.padding / request.size)
     bad = unwrap_problem(vm, fa, u, request.faces, len(request.vertices))
     if bad is not None:
         raise AtlasError(f"no atlas could be made ({'; '.join(failures)}; grid atlas: {bad})")
-    reason = f"{why}; {'; '.join(failures) or f'the unwrap deadline of {deadline:g} s passed'}; used fallback"
+    reason = f"{why}; {'; '.join(failures) or _passed(deadline)}; used fallback"
     warning = f"fallback atlas: one chart per triangle ({reason}); texel density varies and charts are tiny"
     stats = _stats(request, fa, u, start)
-    return Atlas(vm, fa, u, "fallback-grid", reason, stats, [warning, *bare_warning(stats, request.size)])
+    return Atlas(vm, fa, u, "fallback-grid", reason, stats, [warning, *_deadline_warning(failures, deadline),
+                                                               *bare_warning(stats, request.size)])

@@ -3,25 +3,34 @@
 xatlas hangs on some inputs (an infinite vertex, a mesh 1e20 units across), returns NaN
 UVs on others and segfaults on some (``trimesh.creation.icosphere(6)`` in one piece). So
 it only ever runs in worker processes (:mod:`texbake.atlas.packworker`, fresh
-interpreters, started by :func:`start_workers` from ``WORKER``) under one wall-clock
-deadline, on a copy of the mesh normalised to a unit box in float64 before the cast to
-float32, and whatever comes back is checked (:func:`texbake.atlas.uvcheck.unwrap_problem`).
+interpreters, from ``WORKER``) under a deadline counted in their own CPU time
+(:class:`texbake.workers.Pool`), on a copy of the mesh normalised to a unit box in
+float64 before the cast to float32, and whatever comes back is checked
+(:func:`texbake.atlas.uvcheck.unwrap_problem`). The workers are started once per process
+and kept for its later unwraps (:func:`start_workers`); one that crashed or was ended at
+the deadline is replaced.
 
 Charting, one of two ways: planar charts (:mod:`texbake.atlas.charts`), or xatlas' own
 (the mesh cut into spatially coherent patches of about ``PATCH_FACES`` faces that the
 workers chart in parallel, each patch brought to one texel density). Packing: faces whose
-chart collapsed or that were left out get a small chart of their own (laid flat as in
-:mod:`texbake.atlas.fallback`), and all charts are packed together in a single xatlas
-packing pass at the texture's resolution and padding (one ``add_uv_mesh`` per mesh of
-charts). Large charts are packed by a proxy, the triangulation of their outline, and
-refitted to where the packer placed it (:func:`_place`). Any failure raises
-:class:`XatlasFailed`, saying what failed.
+chart collapsed or that were left out, and charts under ``MIN_EXTENT`` texels across, get
+a small chart per face (laid flat as in :mod:`texbake.atlas.fallback`), and all charts
+are packed together in a single xatlas packing pass at the texture's resolution and
+padding (one ``add_uv_mesh`` per mesh of charts). Large charts are packed by a proxy,
+the triangulation of their outline, and refitted to where the packer placed it
+(:func:`_place`). A chart the packing distorts, or a face it collapses, is packed again
+(by its own triangles; as a face of its own), the charting kept; each such pass is
+recorded in the atlas' ``packing`` list. Any failure raises :class:`XatlasFailed`,
+saying what failed.
 """
 
 from __future__ import annotations
 
+import atexit
 import sys
-import time
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -35,6 +44,10 @@ from .uvcheck import chart_labels
 
 SWAP_FACES = 20_000  # meshes packed once more with u and v swapped (xatlas' greedy packer then often fills more), up to this many triangles
 PROXY_FACES = 32  # charts of more faces are packed by the triangulation of their outline
+MIN_PROXY_AREA = 1e-4  # texels: an outline triangulated with a smaller triangle is not packed by it
+MIN_EXTENT = 1.0  # texels: charts smaller across are packed as faces of their own, two texels wide
+PACKINGS = 3  # packing passes at most: the first, and again for what it distorted or collapsed
+WARM_BYTES = 256 << 20  # a worker holding more memory after an unwrap is ended, not kept warm
 PATCH_FACES = 2000  # faces per patch of the parallel unwrap
 CHART_ITERATIONS = 1  # xatlas ChartOptions.max_iterations: more iterations take longer for no better atlas on the meshes here
 
@@ -68,9 +81,41 @@ class XatlasFailed(Exception):
 WORKER = [sys.executable, "-m", "texbake.atlas.packworker"]
 
 
-def start_workers(count: int, end: float) -> Pool:
-    """``count`` xatlas workers (``WORKER``) whose jobs must be done by ``end`` (``time.monotonic()``)."""
-    return Pool(WORKER, count, end)
+_warm: Pool | None = None  # this process's workers, kept between unwraps
+_warm_lock = threading.Lock()
+
+
+@contextmanager
+def start_workers(count: int, deadline: float) -> Iterator[Pool]:
+    """``count`` xatlas workers (``WORKER``) whose jobs must be done within ``deadline``
+    seconds of each worker's CPU time (:class:`texbake.workers.Pool`).
+
+    The workers are this process's warm ones, started by its first unwrap and kept for
+    the next (their start-up is most of a small mesh's unwrap), unless one holds more
+    than ``WARM_BYTES`` after it (a large mesh's heap); a worker that crashed or was
+    ended at the deadline is replaced by a fresh one when next needed. A second
+    unwrap at the same time (another thread) gets workers of its own, ended after it.
+    """
+    global _warm
+    if not _warm_lock.acquire(blocking=False):
+        with Pool(WORKER, count, deadline) as pool:
+            yield pool
+        return
+    try:
+        if _warm is not None and _warm.command != WORKER:  # another worker command (tests)
+            _warm.close()
+            _warm = None
+        if _warm is None:
+            _warm = Pool(WORKER, count, deadline)
+            atexit.register(_warm.close)
+        else:
+            _warm.n = max(1, count)
+            _warm.restart(deadline)
+        yield _warm
+    finally:
+        if _warm is not None:
+            _warm.end_larger_than(WARM_BYTES)
+        _warm_lock.release()
 
 
 def _describe(why: str, deadline: float) -> str:
@@ -90,8 +135,7 @@ def run_xatlas_in_child(positions: np.ndarray, faces: np.ndarray, deadline: floa
     Returns ``(True, (vmapping, faces, uv))`` or ``(False, why)`` once the worker is
     done, dead, or past ``deadline`` seconds (then it is killed).
     """
-    start = time.monotonic()
-    with start_workers(1, start + deadline) as workers:
+    with Pool(WORKER, 1, deadline) as workers:  # its own: a hang must not cost the warm workers
         ((ok, value),) = workers.run([("chart", (np.asarray(positions, np.float32), np.asarray(faces, np.uint32),
                                                  CHART_ITERATIONS))])
         if not ok:
@@ -115,13 +159,18 @@ def unwrap(request: UnwrapRequest, pool: Pool, deadline: float, patch_faces: int
     faces, size, padding = request.faces, request.size, request.padding
     pos = normalised(request.vertices)
     good = _good_faces(pos, faces)
+    steps: list[str] = []
     if charting == "planar":
         meshes, charts, flat = _chart_planar(pos, faces, good, size)
-        vm, fa, uv = _pack(pos, faces, meshes, size, padding, pool, deadline)
-        return Unwrapped(vm, fa, uv, "planar", {"planar_charts": charts, "flat_share": round(flat, 4)})
-    meshes, n_patches = _chart_xatlas(pos, faces, good, pool, deadline, patch_faces)
-    vm, fa, uv = _pack(pos, faces, meshes, size, padding, pool, deadline)
-    return Unwrapped(vm, fa, uv, "xatlas-patches" if n_patches > 1 else "xatlas", {"patches": n_patches})
+        detail: dict = {"planar_charts": charts, "flat_share": round(flat, 4)}
+        method = "planar"
+    else:
+        meshes, n_patches = _chart_xatlas(pos, faces, good, pool, deadline, patch_faces)
+        detail, method = {"patches": n_patches}, "xatlas-patches" if n_patches > 1 else "xatlas"
+    vm, fa, uv = _pack(pos, faces, meshes, size, padding, pool, deadline, steps)
+    if steps:
+        detail["packing"] = steps
+    return Unwrapped(vm, fa, uv, method, detail)
 
 
 def _patches(vertices: np.ndarray, faces: np.ndarray, target: int) -> list[np.ndarray]:
@@ -210,60 +259,123 @@ def _chart_planar(pos, faces, good, size):
     return [(good[keep], c.vmapping[used], c.uv[used], local.reshape(-1, 3))], int(c.labels.max()) + 1, c.flat
 
 
-def _pack(pos, faces, meshes, size, padding, pool, deadline):
+def _pack(pos, faces, meshes, size, padding, pool, deadline, steps: list[str]):
     """Pack charted UV meshes into one atlas ``(vmapping, faces, uv)`` of all ``faces``.
 
     ``meshes``: ``(face ids, chart vertex -> mesh vertex, uv, faces in chart vertices)``
-    at one texel density. Faces in none of them get a chart each, about two
-    texels wide. One xatlas packing pass at the texture's resolution and padding (one
-    ``add_uv_mesh`` per mesh: xatlas merges touching or overlapping charts of one mesh);
-    up to ``SWAP_FACES`` triangles a second at the same time with u and v swapped, the
-    fuller one kept.
+    at one texel density. Faces in none of them, and charts under ``MIN_EXTENT`` texels
+    across (xatlas' packer turns some of those into a point), get a chart of their own
+    per face, two texels wide. One xatlas packing pass at the texture's resolution and
+    padding (one ``add_uv_mesh`` per mesh: xatlas merges touching or overlapping charts
+    of one mesh); up to ``SWAP_FACES`` triangles a second at the same time with u and v
+    swapped, the fuller one kept. A chart that the packing distorts or a face that it
+    collapses is packed again, only it changed (by its own triangles; as faces of their
+    own), in up to ``PACKINGS`` passes in all; each such pass is added to ``steps``.
     """
+    meshes = [_compact(*mesh) for mesh in meshes]
+    texel = np.sqrt(sum(float(uv_areas(uv, idx).sum()) for _, _, uv, idx in meshes) / 0.5) / size  # UV units, roughly
     m = len(faces)
-    charted = np.zeros(m, dtype=bool)
-    for face_ids, *_ in meshes:
-        charted[face_ids] = True
-    lost = np.flatnonzero(~charted)
+    alone = np.ones(m, dtype=bool)  # faces packed as charts of their own
+    for face_ids, _, uv, idx in meshes:
+        alone[face_ids] = _tiny(uv, idx, texel)
+    own = np.zeros(m, dtype=bool)  # faces whose chart is packed by its own triangles, not its outline
+    for _ in range(PACKINGS):
+        parts = _with_faces_alone(pos, faces, meshes, alone, size)
+        proxies = [_proxy(uv, idx, 0.25 * texel, own[face_ids]) for face_ids, _, uv, idx in parts]
+        uvs, distorted, collapsed = _best_packing(parts, proxies, size, padding, pool, deadline)
+        if not (len(distorted) or len(collapsed)):
+            break
+        steps.append(_repacked(distorted, collapsed, parts))
+        own[distorted] = True
+        alone[collapsed] = True
+    else:
+        raise XatlasFailed(f"xatlas' packing still distorted a chart or collapsed a face after {PACKINGS} passes")
+    maps, out_faces, offset = [], np.full((m, 3), -1, dtype=np.int64), 0
+    for (face_ids, vmap, _, idx), placed in zip(parts, uvs, strict=True):
+        maps.append(vmap)
+        out_faces[face_ids] = idx + offset
+        offset += len(placed)
+    return np.concatenate(maps), out_faces, np.concatenate(uvs)
+
+
+def _tiny(uv: np.ndarray, idx: np.ndarray, texel: float) -> np.ndarray:
+    """``(f,)`` bool: the faces of charts under ``MIN_EXTENT`` texels (of ``texel`` UV units) across."""
+    chart = chart_labels(idx, len(uv))
+    k = int(chart.max()) + 1 if len(chart) else 0
+    lo = np.full((k, 2), np.inf)
+    hi = np.full((k, 2), -np.inf)
+    np.minimum.at(lo, chart, uv[idx].min(axis=1))
+    np.maximum.at(hi, chart, uv[idx].max(axis=1))
+    return ((hi - lo).max(axis=1) < MIN_EXTENT * texel)[chart]
+
+
+def _with_faces_alone(pos, faces, meshes, alone, size):
+    """``meshes`` without the faces marked ``alone``, and one more mesh of those faces,
+    each laid flat (:func:`texbake.atlas.fallback.flat_triangles`) two texels wide and
+    four apart."""
+    out = []
+    for face_ids, vmap, uv, idx in meshes:
+        keep = ~alone[face_ids]
+        if keep.all():
+            out.append((face_ids, vmap, uv, idx))
+        elif keep.any():
+            out.append(_compact(face_ids[keep], vmap, uv, idx[keep]))
+    lost = np.flatnonzero(alone)
     if len(lost):
         total = max(areas(pos, faces).sum(), 1e-30)
         texel = np.sqrt(total / 0.7) / size  # world units per texel, roughly
         flat = flat_triangles(pos, faces[lost])
         flat *= (2 * texel / flat.max(axis=(1, 2)))[:, None, None]
         flat[:, :, 0] += (np.arange(len(lost)) * 4 * texel)[:, None]
-        meshes = [*meshes, (lost, faces[lost].reshape(-1), flat.reshape(-1, 2), np.arange(3 * len(lost)).reshape(-1, 3))]
+        out.append((lost, faces[lost].reshape(-1), flat.reshape(-1, 2), np.arange(3 * len(lost)).reshape(-1, 3)))
+    return out
 
-    meshes = [_compact(*mesh) for mesh in meshes]
-    texel = np.sqrt(sum(float(uv_areas(uv, idx).sum()) for _, _, uv, idx in meshes) / 0.5) / size  # UV units, roughly
-    for outlines in (True, False):  # by the charts' outlines; by their own triangles if xatlas split an outline
-        proxies = [_proxy(uv, idx, 0.25 * texel, outlines) for _, _, uv, idx in meshes]
-        small = sum(len(tri) for _, tri, _ in proxies) <= SWAP_FACES
-        best = None
-        swaps = (False, True) if small else (False,)
-        replies = pool.run([("pack", (_pack_input(meshes, proxies, swap), size, padding)) for swap in swaps])
-        for ok, value in replies:
-            if not ok:
-                raise XatlasFailed(f"{_describe(value, deadline)} while packing")
-            uvs = _placed(meshes, proxies, value)
-            if uvs is None:
-                continue
-            face_areas = [uv_areas(u, idx) for u, (_, _, _, idx) in zip(uvs, meshes, strict=True)]
-            if any((a <= 0).any() for a in face_areas):
-                continue  # a sliver collapsed in xatlas' float32 UVs
-            used = sum(float(a.sum()) for a in face_areas)
-            if best is None or used > best[0]:
-                best = used, uvs
-        if best is not None:
-            uvs = best[1]
-            break
-        if not outlines:
-            raise XatlasFailed("xatlas' packing distorted a chart or collapsed a face")
-    maps, out_faces, offset = [], np.full((m, 3), -1, dtype=np.int64), 0
-    for face_ids, vmap, uv, idx in meshes:
-        maps.append(vmap)
-        out_faces[face_ids] = idx + offset
-        offset += len(uv)
-    return np.concatenate(maps), out_faces, np.concatenate(uvs)
+
+def _best_packing(meshes, proxies, size, padding, pool, deadline):
+    """One packing of ``meshes`` by their ``proxies`` (and one with u and v swapped, up to
+    ``SWAP_FACES`` proxy triangles): ``(uvs, distorted, collapsed)`` of the one with the
+    fewest faces to pack again, then the fullest; ``distorted``, ``collapsed``: face ids
+    of the charts it distorted and of the faces it collapsed."""
+    small = sum(len(tri) for _, tri, _ in proxies) <= SWAP_FACES
+    swaps = (False, True) if small else (False,)
+    replies = pool.run([("pack", (_pack_input(meshes, proxies, swap), size, padding)) for swap in swaps])
+    best = None
+    for ok, value in replies:
+        if not ok:
+            raise XatlasFailed(f"{_describe(value, deadline)} while packing")
+        uvs, bad = _placed(meshes, proxies, value)
+        distorted, collapsed, used = [], [], 0.0
+        for (face_ids, _, _, idx), u, (_, _, chart), b in zip(meshes, uvs, proxies, bad, strict=True):
+            a = uv_areas(u, idx)
+            distorted.append(face_ids[b[chart[idx[:, 0]]]])
+            collapsed.append(face_ids[(a <= 0) & ~b[chart[idx[:, 0]]]])  # in float32 UVs
+            used += float(a.sum())
+        d, c = np.concatenate(distorted), np.concatenate(collapsed)
+        rank = (len(d) + len(c), -used)
+        if best is None or rank < best[0]:
+            best = rank, (uvs, d, c)
+    assert best is not None
+    return best[1]
+
+
+def _repacked(distorted: np.ndarray, collapsed: np.ndarray, meshes) -> str:
+    """What a packing pass that is redone for ``distorted`` and ``collapsed`` faces changes, in words."""
+    said = []
+    if len(distorted):
+        chart_of = np.full(max(int(f.max()) for f, *_ in meshes) + 1, -1)
+        offset = 0
+        for face_ids, _, uv, idx in meshes:
+            labels = chart_labels(idx, len(uv))
+            chart_of[face_ids] = labels + offset
+            offset += int(labels.max()) + 1
+        sizes = np.bincount(chart_of[distorted])
+        sizes = sizes[sizes > 0]
+        said.append(f"{len(sizes)} charts of {sizes.min()}-{sizes.max()} faces came back distorted from packing by their "
+                    "outline: packed again by their own triangles")
+    if len(collapsed):
+        said.append(f"{len(collapsed)} faces collapsed to a point in xatlas' float32 UVs: packed again as charts of their "
+                    "own, two texels wide")
+    return "; ".join(said)
 
 
 def _pack_input(meshes, proxies, swap: bool) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -276,17 +388,15 @@ def _pack_input(meshes, proxies, swap: bool) -> list[tuple[np.ndarray, np.ndarra
     return out
 
 
-def _placed(meshes, proxies, value) -> list[np.ndarray] | None:
-    """Each mesh's UVs as the packing ``value`` placed its proxy, or None if a chart
-    packed by its outline came back distorted."""
+def _placed(meshes, proxies, value) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Each mesh's UVs as the packing ``value`` placed its proxy, and which of its charts
+    (``(charts,)`` bool, by the proxy's chart numbers) came back distorted."""
     packed, _info = value
     if len(packed) != len(meshes):
         raise XatlasFailed("xatlas' packing lost meshes")
-    try:
-        return [_place(uv, chart, used[vm2.astype(np.int64)], uv2.astype(np.float64))
-                for (_, _, uv, _), (used, _, chart), (vm2, _, uv2) in zip(meshes, proxies, packed, strict=True)]
-    except XatlasFailed:
-        return None
+    placed = [_place(uv, chart, used[vm2.astype(np.int64)], uv2.astype(np.float64))
+              for (_, _, uv, _), (used, _, chart), (vm2, _, uv2) in zip(meshes, proxies, packed, strict=True)]
+    return [p[0] for p in placed], [p[1] for p in placed]
 
 
 def _compact(face_ids, vmap, uv, idx):
@@ -295,13 +405,16 @@ def _compact(face_ids, vmap, uv, idx):
     return face_ids, vmap[used], uv[used], local.reshape(-1, 3)
 
 
-def _proxy(uv: np.ndarray, faces: np.ndarray, tolerance: float, outlines: bool = True):
+def _proxy(uv: np.ndarray, faces: np.ndarray, texel: float, own: np.ndarray | None = None):
     """What the packer gets for a UV mesh: ``(used (u,), triangles (t, 3) into used,
     chart (k,))``: each chart of more than ``PROXY_FACES`` faces as the ear-cut
-    triangulation of its outline simplified within ``tolerance`` (a quarter texel:
-    :func:`texbake.atlas.charts.outline_triangles`; xatlas rasterises each triangle over its
-    bounding box, so a fan of 4000 slivers costs it seconds), the others (all, without
-    ``outlines``) as they are; ``chart``: each vertex's chart."""
+    triangulation of its outline simplified within a quarter ``texel``
+    (:func:`texbake.atlas.charts.outline_triangles`; xatlas rasterises each triangle over
+    its bounding box, so a fan of 4000 slivers costs it seconds), the others as they
+    are; ``chart``: each vertex's chart. A chart keeps its own triangles too where one
+    of its faces is ``own`` (``(f,)`` bool), or where its outline's triangulation has one
+    under ``MIN_PROXY_AREA`` texels (xatlas takes such a face as degenerate and then
+    parametrises the chart anew: it comes back distorted)."""
     chart = np.zeros(len(uv), dtype=np.int64)
     face_chart = chart_labels(faces, len(uv))
     chart[faces] = face_chart[:, None]
@@ -309,19 +422,24 @@ def _proxy(uv: np.ndarray, faces: np.ndarray, tolerance: float, outlines: bool =
     starts = np.flatnonzero(np.r_[True, face_chart[order][1:] != face_chart[order][:-1]])
     parts = []
     for members in np.split(order, starts[1:]):
-        tri = outline_triangles(uv, faces[members], tolerance) if outlines and len(members) > PROXY_FACES else None
+        tri = None
+        if len(members) > PROXY_FACES and (own is None or not own[members].any()):
+            tri = outline_triangles(uv, faces[members], 0.25 * texel)
+            if tri is not None and uv_areas(uv, tri).min() < MIN_PROXY_AREA * texel**2:
+                tri = None
         parts.append(faces[members] if tri is None else tri)
     tri = np.concatenate(parts)
     used, local = np.unique(tri, return_inverse=True)
     return used, local.reshape(-1, 3), chart
 
 
-def _place(uv: np.ndarray, chart: np.ndarray, source: np.ndarray, placed: np.ndarray) -> np.ndarray:
+def _place(uv: np.ndarray, chart: np.ndarray, source: np.ndarray, placed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``uv`` (k, 2) moved chart by chart as the packer moved the ``source`` vertices to
     ``placed``: a chart whose vertices were all placed as placed, the others (packed by
     their outline) by the affine map that fits the placed ones best by least squares
-    (xatlas rotates, scales, and turns a chart a quarter by swapping u and v, a mirror);
-    raises ``XatlasFailed`` if that map does not fit."""
+    (xatlas rotates, scales, and turns a chart a quarter by swapping u and v, a mirror).
+    Returns the UVs and ``(charts,)`` bool: the charts that map does not fit (distorted);
+    raises ``XatlasFailed`` if a chart was lost."""
     k = int(chart.max()) + 1
     c = chart[source]
     n = np.bincount(c, minlength=k)
@@ -342,9 +460,7 @@ def _place(uv: np.ndarray, chart: np.ndarray, source: np.ndarray, placed: np.nda
     extent = (hi - lo).max(axis=1)
     worst = np.zeros(k)
     np.maximum.at(worst, c, err)
-    if (~whole & (worst > 1e-3 * extent + 1e-7)).any():
-        raise XatlasFailed("xatlas' packing distorted a chart")
     out = np.einsum("ki,kij->kj", np.column_stack([uv, np.ones(len(uv))]), maps[chart])
     direct = whole[c]
     out[source[direct]] = placed[direct]
-    return out
+    return out, ~whole & (worst > 1e-3 * extent + 1e-7)

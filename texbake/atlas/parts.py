@@ -78,7 +78,7 @@ def _in_place(request, kuv, nf, nuv, kept_density, new_area, pool, deadline):
         return None
     texels = int(side * size)
     vm2, f2, uv2 = _pack(None, nf, [(np.arange(len(nf)), np.arange(len(nuv)), nuv, nf)], texels, request.padding, pool,
-                         deadline)
+                         deadline, [])
     return vm2, f2, uv2 * (texels / size) + [x, y]
 
 
@@ -94,7 +94,7 @@ def _together(request, kuv, nf, nuv, kept_density, new_area, pool, deadline):
     meshes = [(np.arange(n), np.arange(len(nuv)), nuv, nf),
               (np.array([n, n + 1]), np.zeros(4, dtype=np.int64), rect, np.array([[0, 1, 2], [0, 2, 3]]))]
     vm2, f2, uv2 = _pack(None, np.vstack([nf, np.zeros((2, 3), dtype=np.int64)]), meshes, request.size, request.padding,
-                         pool, deadline)
+                         pool, deadline, [])
     placed = uv2[-4:]  # the rectangle's corners, in their order (the last mesh)
     x = np.column_stack([corners, np.ones(4)])
     fit, *_ = np.linalg.lstsq(x, placed, rcond=None)  # (3, 2): the layout's affine map

@@ -129,23 +129,6 @@ def test_the_outline_of_a_sliver_fan_is_a_few_well_shaped_triangles():
     assert outline_triangles(bow, np.array([[0, 1, 2], [0, 2, 3], [2, 4, 5], [2, 5, 6]])) is None
 
 
-@pytest.mark.parametrize("mirror", [False, True])
-def test_charts_packed_by_their_outline_follow_the_packer(mirror):
-    from texbake.atlas.pack import _place
-
-    rng = np.random.default_rng(1)
-    uv = rng.random((40, 2))
-    chart = np.repeat([0, 1], 20)
-    turn = np.exp(1j * np.array([0.3, 2.0])) * np.array([0.5, 2.0])  # each chart rotated and scaled
-    z = uv[:, 0] + 1j * uv[:, 1]
-    z_out = turn[chart] * (np.conj(z) if mirror else z) + np.array([1 + 1j, 5 - 2j])[chart]
-    source = np.r_[0:5, 20:26]  # only outline vertices were packed
-    placed = np.column_stack([z_out.real, z_out.imag])[source]
-    out = _place(uv, chart, source, placed)
-    assert np.abs(out - np.column_stack([z_out.real, z_out.imag])).max() < 1e-12
-    with pytest.raises(Exception, match="distorted a chart"):
-        _place(uv, chart, source, placed + rng.normal(scale=0.01, size=placed.shape))
-
 
 def test_sides_pair_each_back_face_with_its_front_face():
     # faces 0-1 a quad, 2 the back of 0 (rotated), 3 the back of 1, 4 a face of its own
