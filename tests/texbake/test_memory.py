@@ -49,7 +49,8 @@ def test_what_does_not_fit_is_refused_naming_the_size():
         f"size: a 2048x2048 bake needs about {need / 1e9:.2g} GB; this server's limit is {(need - 1) / 1e9:.2g} GB a bake")
     with pytest.raises(ParameterError, match=r"^size: a 65536x65536 bake needs about \d+ GB; [\d.]+ GB are available$"):
         check_fits(BakeSettings.build(size=65536, texture="flame", frames=list(range(64))), 0)
-    assert 0 < available_bytes() <= __import__("psutil").virtual_memory().available
+    memory = __import__("psutil").virtual_memory()  # read a moment apart: the machine's use moves between the two
+    assert 0 < available_bytes() and abs(available_bytes() - memory.available) < 0.05 * memory.total
 
 
 def test_the_library_refuses_before_the_atlas(meshes, tmp_path):
