@@ -44,7 +44,7 @@ def chart(positions: np.ndarray, faces: np.ndarray, max_iterations: int):
     return vmapping, indices, _square(atlas, uv)
 
 
-def pack(meshes: list, size: int, padding: int):
+def pack(meshes: list, size: int, padding: int, brute: bool = False):
     """Pack the charts of UV meshes (``(uv, faces)`` pairs, one texel density) together.
 
     Each UV mesh is added on its own (``add_uv_mesh`` merges charts of one mesh that
@@ -52,6 +52,7 @@ def pack(meshes: list, size: int, padding: int):
     packed at an explicit texel density, the largest found (within 2 %, in at most three passes) that fits
     ``size`` texels, so that ``padding`` is at least that many texels of the texture. Returns per mesh
     ``(vmapping, indices, uv)`` with ``uv`` in the unit square, and an info dict.
+    ``brute``: xatlas' brute-force placement (every position tried for each chart).
     """
     import xatlas
 
@@ -66,7 +67,7 @@ def pack(meshes: list, size: int, padding: int):
         # bilinear=True dilates each chart by a texel: far slower on sliver fans, and padding is already texels
         po.bilinear = False
         po.blockAlign = False
-        po.bruteForce = False  # a little more utilisation for many times the time
+        po.bruteForce = brute  # fuller for a few long charts, but its time grows with the charts
         co = xatlas.ChartOptions()
         co.max_iterations = 1
         atlas.generate(co, po)
