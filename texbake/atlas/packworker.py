@@ -44,7 +44,8 @@ def chart(positions: np.ndarray, faces: np.ndarray, max_iterations: int):
     return vmapping, indices, _square(atlas, uv)
 
 
-BRUTE_DIV = 2  # brute-force packings run at this fraction of the texture's resolution
+BRUTE_DIV = 2  # brute-force packings run at this fraction of the texture's resolution ...
+BRUTE_DIV_SIZE = 512  # ... from this many texels up (below, the padding's rounding costs more than the time saved)
 
 
 def pack(meshes: list, size: int, padding: int, brute: bool = False):
@@ -56,7 +57,7 @@ def pack(meshes: list, size: int, padding: int, brute: bool = False):
     ``size`` texels, so that ``padding`` is at least that many texels of the texture. Returns per mesh
     ``(vmapping, indices, uv)`` with ``uv`` in the unit square, and an info dict.
     ``brute``: xatlas' brute-force placement (every position tried for each chart), at
-    1/``BRUTE_DIV`` of the resolution.
+    1/``BRUTE_DIV`` of the resolution from ``BRUTE_DIV_SIZE`` texels up.
     """
     import xatlas
 
@@ -81,7 +82,7 @@ def pack(meshes: list, size: int, padding: int, brute: bool = False):
     # re-parametrises the whole chart (a CAD cap's slivers scrambled it at unit scale).
     # Brute force at half the resolution (the padding rounded up, so never less): it tries
     # every position, a quarter of them there, for the same layout within a few thousandths.
-    div = BRUTE_DIV if brute else 1
+    div = BRUTE_DIV if brute and size >= BRUTE_DIV_SIZE else 1
     size, pad = size // div, -(-padding // div)
     area = sum(float(uv_areas(uv, faces).sum()) for uv, faces in meshes)
     scale = size * np.sqrt(0.5 / max(area, 1e-30))
