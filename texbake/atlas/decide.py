@@ -188,7 +188,8 @@ def _unwrap(request: UnwrapRequest, why: str, warnings: list[str], *, deadline: 
     charted, atlas = found
     retried = f" (after: {'; '.join(failures)})" if failures else ""
     stats = {**_stats(request, atlas.faces, atlas.uv, start), **atlas.detail}
-    warnings = warnings + _retry_warning(charting, charted, failures) + _promise_warning(request, atlas, stats)
+    warnings = (warnings + _retry_warning(charting, charted, failures) + _promise_warning(request, atlas, stats)
+                + _overlap_warning(stats))
     return Atlas(atlas.vmapping, atlas.faces, atlas.uv, atlas.method, f"{why}; {charted} charts: {order}{retried}", stats,
                  warnings + _deadline_warning(failures, deadline) + bare_warning(stats, request.size))
 
@@ -455,7 +456,11 @@ def _first_usable(request: UnwrapRequest, pool: Pool, attempts: list[tuple[str, 
                   failures: list[str]) -> tuple[str, Unwrapped] | None:
     """``(charting, atlas)`` of the first of ``attempts`` that gives a usable atlas within
     ``pool``'s deadline, or None; what failed is added to ``failures``. xatlas is not
-    tried again once it has timed out."""
+    tried again once it has timed out. An atlas whose charts overlap on more than
+    ``OVERLAP_LIMIT`` of the covered texels (on the bake's grid) is passed over for the
+    next attempt; when none does better, the least overlapping is used (and
+    :func:`_overlap_warning` says so)."""
+    overlapping: tuple[float, str, Unwrapped] | None = None
     for i, (charting, patch_faces) in enumerate(attempts):
         left = pool.left()
         if left <= 0 or (charting == "xatlas" and any("timed out" in f for f in failures)):
@@ -469,10 +474,25 @@ def _first_usable(request: UnwrapRequest, pool: Pool, attempts: list[tuple[str, 
             failures.append(str(exc))
             continue
         bad = unwrap_problem(atlas.vmapping, atlas.faces, atlas.uv, request.faces, len(request.vertices))
-        if bad is None:
+        if bad is not None:
+            failures.append(f"{charting} charting gave an unusable atlas: {bad}")
+            continue
+        over, _ = overlap_of(coverage_counts(atlas.uv, atlas.faces, min(request.size, OVERLAP_GRID)))
+        if over <= OVERLAP_LIMIT:
             return charting, atlas
-        failures.append(f"{charting} charting gave an unusable atlas: {bad}")
-    return None
+        failures.append(f"{charting} charting's atlas overlaps on {over:.1%} of its covered texels")
+        if overlapping is None or over < overlapping[0]:
+            overlapping = over, charting, atlas
+    return None if overlapping is None else overlapping[1:]
+
+
+def _overlap_warning(stats: dict) -> list[str]:
+    """A warning when an unwrap's atlas overlaps on more than ``OVERLAP_LIMIT`` of its
+    covered texels (no charting tried did better)."""
+    if stats["overlap"] <= OVERLAP_LIMIT:
+        return []
+    return [f"the atlas' charts overlap on {stats['overlap']:.1%} of the covered texels (no charting tried did better): "
+            "those texels show one face's texture on all of them"]
 
 
 def _fallback(request: UnwrapRequest, deadline: float, why: str, failures: list[str], start: float,

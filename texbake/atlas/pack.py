@@ -46,6 +46,8 @@ SWAP_FACES = 20_000  # meshes packed once more with u and v swapped (xatlas' gre
 PROXY_FACES = 32  # charts of more faces are packed by the triangulation of their outline
 MIN_PROXY_AREA = 1e-4  # texels: an outline triangulated with a smaller triangle is not packed by it
 MIN_EXTENT = 1.0  # texels: charts smaller across are packed as faces of their own, two texels wide
+BRUTE_CHARTS = 24  # packings of at most this many charts and ...
+BRUTE_TRIANGLES = 200  # ... proxy triangles place each chart by brute force (long strips fill more; larger ones take seconds)
 PACKINGS = 3  # packing passes at most: the first, and again for what it distorted or collapsed
 WARM_BYTES = 256 << 20  # a worker holding more memory after an unwrap is ended, not kept warm
 PATCH_FACES = 2000  # faces per patch of the parallel unwrap
@@ -333,12 +335,14 @@ def _with_faces_alone(pos, faces, meshes, alone, size):
 
 def _best_packing(meshes, proxies, size, padding, pool, deadline):
     """One packing of ``meshes`` by their ``proxies`` (and one with u and v swapped, up to
-    ``SWAP_FACES`` proxy triangles): ``(uvs, distorted, collapsed)`` of the one with the
+    ``SWAP_FACES`` proxy triangles; by brute force up to ``BRUTE_CHARTS`` charts of
+    ``BRUTE_TRIANGLES`` triangles): ``(uvs, distorted, collapsed)`` of the one with the
     fewest faces to pack again, then the fullest; ``distorted``, ``collapsed``: face ids
     of the charts it distorted and of the faces it collapsed."""
-    small = sum(len(tri) for _, tri, _ in proxies) <= SWAP_FACES
-    swaps = (False, True) if small else (False,)
-    replies = pool.run([("pack", (_pack_input(meshes, proxies, swap), size, padding)) for swap in swaps])
+    triangles = sum(len(tri) for _, tri, _ in proxies)
+    swaps = (False, True) if triangles <= SWAP_FACES else (False,)
+    brute = triangles <= BRUTE_TRIANGLES and sum(int(chart.max()) + 1 for _, _, chart in proxies) <= BRUTE_CHARTS
+    replies = pool.run([("pack", (_pack_input(meshes, proxies, swap), size, padding, brute)) for swap in swaps])
     best = None
     for ok, value in replies:
         if not ok:

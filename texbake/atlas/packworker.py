@@ -44,7 +44,11 @@ def chart(positions: np.ndarray, faces: np.ndarray, max_iterations: int):
     return vmapping, indices, _square(atlas, uv)
 
 
-def pack(meshes: list, size: int, padding: int):
+BRUTE_DIV = 2  # brute-force packings run at this fraction of the texture's resolution ...
+BRUTE_DIV_SIZE = 512  # ... from this many texels up (below, the padding's rounding costs more than the time saved)
+
+
+def pack(meshes: list, size: int, padding: int, brute: bool = False):
     """Pack the charts of UV meshes (``(uv, faces)`` pairs, one texel density) together.
 
     Each UV mesh is added on its own (``add_uv_mesh`` merges charts of one mesh that
@@ -52,6 +56,8 @@ def pack(meshes: list, size: int, padding: int):
     packed at an explicit texel density, the largest found (within 2 %, in at most three passes) that fits
     ``size`` texels, so that ``padding`` is at least that many texels of the texture. Returns per mesh
     ``(vmapping, indices, uv)`` with ``uv`` in the unit square, and an info dict.
+    ``brute``: xatlas' brute-force placement (every position tried for each chart), at
+    1/``BRUTE_DIV`` of the resolution from ``BRUTE_DIV_SIZE`` texels up.
     """
     import xatlas
 
@@ -62,11 +68,11 @@ def pack(meshes: list, size: int, padding: int):
         po = xatlas.PackOptions()
         po.resolution = 0  # one atlas, as large as the density needs
         po.texels_per_unit = texels_per_unit
-        po.padding = padding
+        po.padding = pad
         # bilinear=True dilates each chart by a texel: far slower on sliver fans, and padding is already texels
         po.bilinear = False
         po.blockAlign = False
-        po.bruteForce = False  # a little more utilisation for many times the time
+        po.bruteForce = brute  # fuller for a few long charts, but its time grows with the charts
         co = xatlas.ChartOptions()
         co.max_iterations = 1
         atlas.generate(co, po)
@@ -74,6 +80,10 @@ def pack(meshes: list, size: int, padding: int):
 
     # In texel units: xatlas takes faces under an absolute area as degenerate and then
     # re-parametrises the whole chart (a CAD cap's slivers scrambled it at unit scale).
+    # Brute force at half the resolution (the padding rounded up, so never less): it tries
+    # every position, a quarter of them there, for the same layout within a few thousandths.
+    div = BRUTE_DIV if brute and size >= BRUTE_DIV_SIZE else 1
+    size, pad = size // div, -(-padding // div)
     area = sum(float(uv_areas(uv, faces).sum()) for uv, faces in meshes)
     scale = size * np.sqrt(0.5 / max(area, 1e-30))
     meshes = [((uv.astype(np.float64) * scale).astype(np.float32), faces) for uv, faces in meshes]
@@ -95,7 +105,7 @@ def pack(meshes: list, size: int, padding: int):
     for i in range(len(meshes)):
         vmapping, indices, uv = atlas[i]
         out.append((vmapping, indices, _square(atlas, uv)))
-    info = {"width": int(atlas.width), "height": int(atlas.height), "texels_per_unit": float(tpu * scale)}
+    info = {"width": int(atlas.width), "height": int(atlas.height), "texels_per_unit": float(tpu * scale * div)}
     return out, info
 
 

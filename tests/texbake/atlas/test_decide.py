@@ -215,9 +215,11 @@ def test_real_xatlas_hang_is_stopped_at_the_deadline():
 
 
 # A worker that runs the real one but fails on the ``job`` jobs ("chart" or "pack") of at
-# least ``min_faces`` faces: it segfaults, aborts, hangs (asleep, or spinning) or raises.
+# least ``min_faces`` faces: it segfaults, aborts, hangs (asleep, or spinning), raises, or
+# ("fold") packs them folded at u = 0.5, the right half's charts onto the left half's.
 FAILING_WORKER = """
 import os, signal, sys, time
+import numpy as np
 from texbake.atlas import packworker as worker
 
 how, job, min_faces = sys.argv[1], sys.argv[2], int(sys.argv[3])
@@ -238,6 +240,9 @@ def failing(*args):
                 pass
         elif how == "raise":
             raise RuntimeError("injected failure")
+        elif how == "fold":
+            out, info = real(*args)
+            return [(vm, idx, np.column_stack([0.5 - abs(uv[:, 0] - 0.5), uv[:, 1]])) for vm, idx, uv in out], info
     return real(*args)
 
 
@@ -321,6 +326,17 @@ def test_a_worker_error_is_reported(failing_worker):
     a = make_atlas(s.vertices, s.faces, mode="unwrap", size=256)
     assert a.method == "planar"
     assert a.reason.endswith("(after: xatlas failed (RuntimeError: injected failure))")
+    check_atlas(a, s.vertices, s.faces)
+
+
+def test_an_overlapping_unwrap_is_passed_over_and_never_kept_silently(failing_worker):
+    failing_worker("fold", "pack")  # every packing overlaps
+    s = trimesh.creation.icosphere(2)
+    a = make_atlas(s.vertices, s.faces, mode="unwrap", size=256)
+    assert a.method in ("xatlas", "planar")
+    assert re.search(r"\(after: xatlas charting's atlas overlaps on \d+\.\d% of its covered texels; planar charting's", a.reason)
+    assert a.stats["overlap"] > 0.01
+    assert any(w.startswith(f"the atlas' charts overlap on {a.stats['overlap']:.1%}") for w in a.warnings)
     check_atlas(a, s.vertices, s.faces)
 
 
