@@ -76,12 +76,12 @@ def test_a_bake_over_the_job_memory_limit_is_refused_at_upload(client, meshes, m
     from texbake.memory import bake_bytes
     from texbake.service.core import config
 
-    monkeypatch.setenv("BAKE_JOB_MEMORY_MB", "380")
+    monkeypatch.setenv("BAKE_JOB_MEMORY_MB", "180")  # between what a 512² (152 MB) and a 2048² (204 MB) bake need
     config.get_settings.cache_clear()
     need = bake_bytes(BakeSettings.build(size=2048), 0, workers=1)
     r = post(client, meshes / "suzanne.ply", {"size": 2048})
     assert r.status_code == 422 and r.json()["detail"] == (f"settings.size: a 2048x2048 bake needs about {need / 1e9:.2g} GB; "
-                                                           f"this server's limit is {380 * 2**20 / 1e9:.2g} GB a bake"), r.text
+                                                           f"this server's limit is {180 * 2**20 / 1e9:.2g} GB a bake"), r.text
     assert post(client, meshes / "suzanne.ply", {"size": 512}).status_code == 202
     assert client.get("/v1/jobs").json()["total"] == 1
 
