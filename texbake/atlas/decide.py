@@ -96,26 +96,20 @@ def make_atlas(
     uv : (n, 2) array_like of float, optional
         The mesh's per-vertex UVs, or None (NaN on the vertices of faces that have none).
     has_uv, part, part_names : (m,) bool, (m,) int and list of str, optional
-        Which faces have UVs when only some do (None: all do if ``uv`` is given), each
-        face's part and the parts' names (``LoadedMesh``'s). UVs are then kept part by
-        part: "auto" keeps those of the parts whose UVs are usable and do not overlap
-        and unwraps the others, "keep" those of every part that has UVs
-        (:func:`_usable_parts`; :mod:`texbake.atlas.parts` puts both in one tile).
+        ``LoadedMesh``'s: which faces have UVs when only some do, each face's part and the
+        parts' names. UVs are then kept part by part (:func:`_usable_parts`, :mod:`.parts`).
     mode : {"auto", "unwrap", "keep"}, optional
-        "auto" keeps usable UVs (:func:`uv_problem`) that do not overlap (more than ``OVERLAP_LIMIT``
-        of the covered texel centres under two or more faces, on the bake's grid) and unwraps otherwise,
-        saying why; "unwrap" always unwraps; "keep" requires usable UVs and keeps overlapping ones with a warning.
+        "auto" keeps usable UVs (:func:`uv_problem`) overlapping on at most ``OVERLAP_LIMIT``
+        of their texels, else unwraps; "unwrap" always unwraps; "keep" requires usable UVs.
     size, padding : int, optional
         Texels of the square texture (1 to 65536) and between charts (0 to 64).
     deadline, workers : float, int, optional
         Seconds of CPU time each xatlas worker may use for the unwrap (a busy machine takes
         longer, not another atlas), and the workers (this process's, kept warm).
     charting : {"auto", "xatlas", "planar"}, optional
-        "planar" (:mod:`texbake.atlas.charts`), "xatlas" (its own charts; meshes of more
-        than ``2 * PATCH_FACES`` faces in patches, in parallel) or "auto"
-        (:func:`texbake.atlas.charts.prefer_planar`). With "auto" the other is tried when
-        the first fails, and a "fallback-grid" atlas (a cell per triangle) only when both
-        have; a charting asked for is the only one tried (:class:`AtlasError` if it fails).
+        "planar", "xatlas" (in patches above ``2 * PATCH_FACES`` faces) or "auto"
+        (:func:`texbake.atlas.charts.prefer_planar`; the other when the first fails, then
+        the "fallback-grid"); one asked for is the only one tried.
     _patch_faces : int or None
         Faces per patch of the xatlas unwrap; None: the whole mesh in one piece (tests).
 
@@ -124,13 +118,9 @@ def make_atlas(
     Atlas
         ``reason``: why the UVs were not kept, the charting used and why, what failed.
         ``stats``: :func:`texbake.atlas.uvcheck.measure`'s, ``seconds``, ``patches`` or
-        ``planar_charts`` and ``flat_share``, ``double_sided_faces`` (back faces on their
-        front faces' texels), ``packing`` (packing passes redone, why). ``warnings`` (one line each, what a user
-        should know): the mesh's UVs replaced and why, kept UVs that use under
-        ``SPARSE_SHARE`` of what an unwrap would, overlapping UVs kept, parts unwrapped
-        beside kept UVs, an unwrap that failed before the one used, utilisation under
-        ``PROMISE_SHARE`` of what the charts promise, the fallback grid, a deadline that passed, over
-        ``BARE_LIMIT`` of the surface on charts with no texel centre.
+        ``planar_charts``, ``flat_share``, ``double_sided_faces``, ``packing`` (passes
+        redone, why). ``warnings``: one line each, what a user should know (UVs replaced
+        or sparse, parts unwrapped, retries, fallbacks, deadlines; see the helpers below).
 
     Raises
     ------
@@ -146,12 +136,11 @@ def make_atlas(
     _check_settings(mode=mode, charting=charting, size=size, padding=padding, deadline=deadline, workers=workers)
     request = UnwrapRequest(*_checked_mesh(vertices, faces), size, padding)
     if len((sides := Sides.of(request.faces)).back):  # double-sided: one side is mapped, the other shares its texels
-        front = sides.front
-        return _both_sides(sides, make_atlas(request.vertices, request.faces[front], uv, mode=mode, size=size, padding=padding,
-                                             deadline=deadline, workers=workers, charting=charting,
-                                             has_uv=None if has_uv is None else np.asarray(has_uv)[front],
-                                             part=None if part is None else np.asarray(part)[front], part_names=part_names,
-                                             _patch_faces=_patch_faces))
+        f = sides.front
+        return _both_sides(sides, make_atlas(request.vertices, request.faces[f], uv, mode=mode, size=size, padding=padding,
+                                             deadline=deadline, workers=workers, charting=charting, part_names=part_names,
+                                             has_uv=None if has_uv is None else np.asarray(has_uv)[f],
+                                             part=None if part is None else np.asarray(part)[f], _patch_faces=_patch_faces))
     kept, why = _kept(request, uv, has_uv, part, part_names, mode=mode, deadline=deadline, workers=workers,
                       charting=charting, patch_faces=_patch_faces, start=start)
     if kept is not None:
