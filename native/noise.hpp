@@ -50,6 +50,7 @@ struct Octaves {
   double mean;      // an octave's mean (signed: 2 mean - 1)
   double top;       // the highest octave frequency, lacunarity^k as the loop computes it
   double scale, offset;
+  bool avx2;        // the call runs on AVX2 (or AVX-512): the table loads take 32-byte registers
   bool tables() const { return basis == 0 && interp < 2; }
 };
 

@@ -1,8 +1,8 @@
 // The octave sums a block of BLOCK points at a time (see noise.hpp): each octave in stages
 // over buffers that stay in the L1 cache, the arithmetic in loops the compiler vectorises,
-// the table loads in one loop between them, a point at a time (the loads are most of the
-// time; AVX2 gathers of them were 0.6x as fast, and so was letting the compiler vectorise
-// the loop with loads inserted lane by lane).
+// the table loads in one loop between them, written by hand, four points at a time (the
+// loads are most of the time; AVX2 gathers of them were 0.6x as fast, AVX-512 gathers too,
+// and so was letting the compiler vectorise the loop with loads inserted lane by lane).
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -11,12 +11,16 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(TEXBAKE_NO_CLONES)
+#define TEXBAKE_ISAS  // the kernels are built for AVX-512 and AVX2 beside the baseline (textures.cpp)
+#include <immintrin.h>
+#endif
 
 #include "noise.hpp"
 
-// Forced inline: each instruction set's copy of a kernel (target_clones, textures.cpp) then
-// holds its own copy of the block's loops, vectorised for it; a function left out of line
-// would be compiled once, for the baseline.
+// Forced inline: each instruction set's copy of a kernel (textures.cpp) then holds its own
+// copy of the block's loops, vectorised for it; a function left out of line would be
+// compiled once, for the baseline.
 #define TEXBAKE_INLINE inline __attribute__((always_inline))
 
 namespace texbake::noise {
@@ -24,13 +28,14 @@ namespace texbake::noise {
 struct Block {
   alignas(64) double x[BLOCK], y[BLOCK], z[BLOCK], w[BLOCK], acc[BLOCK];
   alignas(64) double tx[BLOCK], ty[BLOCK], tz[BLOCK], f[BLOCK];
-  alignas(64) double x01[2 * BLOCK], x23[2 * BLOCK];  // the lerps along x of rows 0 and 1, 2 and 3, interleaved
-  alignas(64) uint32_t cell[BLOCK];  // (iy * 256 + iz) * 256 + ix, each mod 256
+  alignas(64) double x0[BLOCK], x1[BLOCK], x2[BLOCK], x3[BLOCK];  // the lerps along x of the cell's four rows
+  alignas(64) uint32_t row[BLOCK];     // the cell's lattice row in hash4: (iy mod 256) * 256 + iz mod 256
+  alignas(64) uint64_t corner[BLOCK];  // the address of noise2[ix mod 256]: a row h's corners are h and h + 1 on from it
 };
 
-// the block of points from start (scaled and offset; footprints scaled), padded with the
-// origin; returns the count it holds, and in far those it leaves out (0 in their place):
-// points whose top octave is past FAR, which octave_point wraps
+// the block of points from start (scaled and offset; footprints scaled: 0 where width is
+// null), padded with the origin; returns the count it holds, and in far those it leaves out
+// (0 in their place): points whose top octave is past FAR, which octave_point wraps
 TEXBAKE_INLINE std::ptrdiff_t load_block(const Octaves& o, const double* points, const double* width, std::ptrdiff_t start,
                                  std::ptrdiff_t end, Block& b, int& far) {
   const std::ptrdiff_t m = std::min(BLOCK, end - start);
@@ -44,7 +49,7 @@ TEXBAKE_INLINE std::ptrdiff_t load_block(const Octaves& o, const double* points,
       ++far;
     }
     b.x[i] = x, b.y[i] = y, b.z[i] = z;
-    b.w[i] = width[start + i] * wscale;
+    b.w[i] = (width ? width[start + i] : 0.0) * wscale;
   }
   for (std::ptrdiff_t i = m; i < BLOCK; ++i) b.x[i] = b.y[i] = b.z[i] = b.w[i] = 0.0;
   return m;
@@ -70,61 +75,109 @@ TEXBAKE_INLINE int block_fade(Block& b, double freq) {
 // cells through int32; else mod 256 in floating point (c - 256 floor(c / 256): exact for
 // integers), which vectorises where int64 & 255 does not. Both give int64(c) & 255
 template <int INTERP, bool SMALL>
-TEXBAKE_INLINE void block_cells(Block& b, double freq) {
+TEXBAKE_INLINE void block_cells(Block& b, double freq, const double* noise2) {
+  const uint64_t corners = reinterpret_cast<uint64_t>(noise2);
   for (std::ptrdiff_t i = 0; i < BLOCK; ++i) {
     const double x = b.x[i] * freq, y = b.y[i] * freq, z = b.z[i] * freq;
     const double fx = std::floor(x), fy = std::floor(y), fz = std::floor(z);
+    uint32_t cell;  // (iy * 256 + iz) * 256 + ix, each mod 256
     if (SMALL) {
       const uint32_t cx = uint32_t(int32_t(fx)) & 255, cy = uint32_t(int32_t(fy)) & 255, cz = uint32_t(int32_t(fz)) & 255;
-      b.cell[i] = (cy << 16) | (cz << 8) | cx;
+      cell = (cy << 16) | (cz << 8) | cx;
     } else {
       const double cx = fx - 256.0 * std::floor(fx * (1.0 / 256.0));
       const double cy = fy - 256.0 * std::floor(fy * (1.0 / 256.0));
       const double cz = fz - 256.0 * std::floor(fz * (1.0 / 256.0));
       const double c = (cy * 256.0 + cz) * 256.0 + cx;
-      b.cell[i] = uint32_t(int32_t(c >= 0.0 && c < 16777216.0 ? c : 0.0));  // (a cell in range whatever comes in)
+      cell = uint32_t(int32_t(c >= 0.0 && c < 16777216.0 ? c : 0.0));  // (a cell in range whatever comes in)
     }
+    b.row[i] = cell >> 8;
+    b.corner[i] = corners + uint64_t(cell & 255) * sizeof(double);
     double sx = x - fx, sy = y - fy, sz = z - fz;
     if (INTERP == 1) sx = s_curve(sx), sy = s_curve(sy), sz = s_curve(sz);
     b.tx[i] = sx, b.ty[i] = sy, b.tz[i] = sz;
   }
 }
 
-// the table loads, and the lerps along x: a row's two corners in one 16-byte load, two
-// rows' lerps in one instruction (the same operations as lattice_value's)
+// The table loads, and the lerps along x (the same operations as lattice_value's): a row's
+// two corners in one 16-byte load, a row's lerps for two points (SSE2) or four (AVX2) in one
+// instruction, written to the block's x0..x3 as the vectorised loops read them.
 #if defined(__SSE2__)
-__attribute__((noinline, optimize("no-tree-vectorize"))) inline void block_loads(Block& b, const Tables& t) {
-  const double* n = t.noise2;
-  for (std::ptrdiff_t i = 0; i < BLOCK; ++i) {
-    const uint32_t c = b.cell[i];
-    const uint32_t rows = t.hash4[c >> 8], ix = c & 255;
-    const __m128d r0 = _mm_loadu_pd(n + (rows & 255) + ix), r1 = _mm_loadu_pd(n + ((rows >> 8) & 255) + ix);
-    const __m128d r2 = _mm_loadu_pd(n + ((rows >> 16) & 255) + ix), r3 = _mm_loadu_pd(n + (rows >> 24) + ix);
-    const __m128d s = _mm_set1_pd(b.tx[i]);
-    const __m128d a01 = _mm_unpacklo_pd(r0, r1), b01 = _mm_unpackhi_pd(r0, r1);
-    const __m128d a23 = _mm_unpacklo_pd(r2, r3), b23 = _mm_unpackhi_pd(r2, r3);
-    _mm_store_pd(b.x01 + 2 * i, _mm_add_pd(a01, _mm_mul_pd(s, _mm_sub_pd(b01, a01))));
-    _mm_store_pd(b.x23 + 2 * i, _mm_add_pd(a23, _mm_mul_pd(s, _mm_sub_pd(b23, a23))));
-  }
+// the 16-byte rows a (point 0) and b (point 1): their lerps lo + s (hi - lo)
+inline __m128d lerp2(__m128d a, __m128d b, __m128d s) {
+  const __m128d lo = _mm_unpacklo_pd(a, b), hi = _mm_unpackhi_pd(a, b);
+  return _mm_add_pd(lo, _mm_mul_pd(s, _mm_sub_pd(hi, lo)));
 }
-#else
-inline void block_loads(Block& b, const Tables& t) {
-  const double* n = t.noise2;
-  for (std::ptrdiff_t i = 0; i < BLOCK; ++i) {
-    const uint32_t c = b.cell[i];
-    const uint32_t rows = t.hash4[c >> 8], ix = c & 255;
-    const uint32_t p[4] = {(rows & 255) + ix, ((rows >> 8) & 255) + ix, ((rows >> 16) & 255) + ix, (rows >> 24) + ix};
-    double* x[4] = {b.x01 + 2 * i, b.x01 + 2 * i + 1, b.x23 + 2 * i, b.x23 + 2 * i + 1};
-    for (int r = 0; r < 4; ++r) *x[r] = n[p[r]] + b.tx[i] * (n[p[r] + 1] - n[p[r]]);
+
+__attribute__((noinline, optimize("no-tree-vectorize"))) inline void block_loads_sse2(Block& b, const Tables& t) {
+  const uint32_t* hash4 = t.hash4;
+  for (std::ptrdiff_t i = 0; i < BLOCK; i += 2) {
+    const uint32_t h = hash4[b.row[i]], g = hash4[b.row[i + 1]];
+    const double* n = reinterpret_cast<const double*>(b.corner[i]);
+    const double* m = reinterpret_cast<const double*>(b.corner[i + 1]);
+    const __m128d s = _mm_load_pd(b.tx + i);
+    _mm_store_pd(b.x0 + i, lerp2(_mm_loadu_pd(n + (h & 255)), _mm_loadu_pd(m + (g & 255)), s));
+    _mm_store_pd(b.x1 + i, lerp2(_mm_loadu_pd(n + ((h >> 8) & 255)), _mm_loadu_pd(m + ((g >> 8) & 255)), s));
+    _mm_store_pd(b.x2 + i, lerp2(_mm_loadu_pd(n + ((h >> 16) & 255)), _mm_loadu_pd(m + ((g >> 16) & 255)), s));
+    _mm_store_pd(b.x3 + i, lerp2(_mm_loadu_pd(n + (h >> 24)), _mm_loadu_pd(m + (g >> 24)), s));
   }
 }
 #endif
+
+#if defined(TEXBAKE_ISAS)
+// the 16-byte rows of points 0 and 2 (a), 1 and 3 (b) of four: their lerps, in order
+__attribute__((always_inline, target("avx2"))) inline __m256d lerp4(__m256d a, __m256d b, __m256d s) {
+  const __m256d lo = _mm256_unpacklo_pd(a, b), hi = _mm256_unpackhi_pd(a, b);
+  return _mm256_add_pd(lo, _mm256_mul_pd(s, _mm256_sub_pd(hi, lo)));
+}
+
+__attribute__((always_inline, target("avx2"))) inline __m256d rows2(const double* p, const double* q) {
+  return _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(p)), _mm_loadu_pd(q), 1);
+}
+
+__attribute__((noinline, target("avx2"), optimize("no-tree-vectorize"))) inline void block_loads_avx2(Block& b, const Tables& t) {
+  const uint32_t* hash4 = t.hash4;
+  for (std::ptrdiff_t i = 0; i < BLOCK; i += 4) {
+    const uint32_t h0 = hash4[b.row[i]], h1 = hash4[b.row[i + 1]], h2 = hash4[b.row[i + 2]], h3 = hash4[b.row[i + 3]];
+    const double* n0 = reinterpret_cast<const double*>(b.corner[i]);
+    const double* n1 = reinterpret_cast<const double*>(b.corner[i + 1]);
+    const double* n2 = reinterpret_cast<const double*>(b.corner[i + 2]);
+    const double* n3 = reinterpret_cast<const double*>(b.corner[i + 3]);
+    const __m256d s = _mm256_load_pd(b.tx + i);
+    _mm256_store_pd(b.x0 + i, lerp4(rows2(n0 + (h0 & 255), n2 + (h2 & 255)), rows2(n1 + (h1 & 255), n3 + (h3 & 255)), s));
+    _mm256_store_pd(b.x1 + i, lerp4(rows2(n0 + ((h0 >> 8) & 255), n2 + ((h2 >> 8) & 255)),
+                                    rows2(n1 + ((h1 >> 8) & 255), n3 + ((h3 >> 8) & 255)), s));
+    _mm256_store_pd(b.x2 + i, lerp4(rows2(n0 + ((h0 >> 16) & 255), n2 + ((h2 >> 16) & 255)),
+                                    rows2(n1 + ((h1 >> 16) & 255), n3 + ((h3 >> 16) & 255)), s));
+    _mm256_store_pd(b.x3 + i, lerp4(rows2(n0 + (h0 >> 24), n2 + (h2 >> 24)), rows2(n1 + (h1 >> 24), n3 + (h3 >> 24)), s));
+  }
+}
+#endif
+
+// avx2: the call runs on AVX2 (or AVX-512)
+inline void block_loads(Block& b, const Tables& t, bool avx2) {
+#if defined(TEXBAKE_ISAS)
+  if (avx2) return block_loads_avx2(b, t);
+#endif
+  (void)avx2;
+#if defined(__SSE2__)
+  block_loads_sse2(b, t);
+#else
+  for (std::ptrdiff_t i = 0; i < BLOCK; ++i) {
+    const uint32_t rows = t.hash4[b.row[i]];
+    const double* n = reinterpret_cast<const double*>(b.corner[i]);
+    const uint32_t p[4] = {rows & 255, (rows >> 8) & 255, (rows >> 16) & 255, rows >> 24};
+    double* x[4] = {b.x0 + i, b.x1 + i, b.x2 + i, b.x3 + i};
+    for (int r = 0; r < 4; ++r) *x[r] = n[p[r]] + b.tx[i] * (n[p[r] + 1] - n[p[r]]);
+  }
+#endif
+}
 
 // the lerps along y and z, and the sum (an octave a point does not keep: its mean)
 template <bool FILTERED>
 TEXBAKE_INLINE void block_sum(Block& b, double amp, double sign, double mean) {
   for (std::ptrdiff_t i = 0; i < BLOCK; ++i) {
-    const double x0 = b.x01[2 * i], x1 = b.x01[2 * i + 1], x2 = b.x23[2 * i], x3 = b.x23[2 * i + 1];
+    const double x0 = b.x0[i], x1 = b.x1[i], x2 = b.x2[i], x3 = b.x3[i];
     const double y0 = x0 + b.ty[i] * (x1 - x0);
     const double y1 = x2 + b.ty[i] * (x3 - x2);
     const double v = sign * (y0 + b.tz[i] * (y1 - y0)) - (sign - 1.0);
@@ -155,11 +208,11 @@ TEXBAKE_INLINE void octave_block(Block& b, const Octaves& o) {
     const int kept = filtered ? block_fade(b, freq) : int(BLOCK);
     if (kept > 0) {
       if (small) {
-        block_cells<INTERP, true>(b, freq);
+        block_cells<INTERP, true>(b, freq, o.t.noise2);
       } else {
-        block_cells<INTERP, false>(b, freq);
+        block_cells<INTERP, false>(b, freq, o.t.noise2);
       }
-      block_loads(b, o.t);
+      block_loads(b, o.t, o.avx2);
     }
     if (filtered) {
       block_sum<true>(b, amp, o.sign, o.mean);
@@ -180,7 +233,7 @@ inline void point_octaves(const Octaves& o, const double* points, const double* 
     const double x = p[0] * o.scale + o.offset, y = p[1] * o.scale + o.offset, z = p[2] * o.scale + o.offset;
     const double ax = std::fabs(x), ay = std::fabs(y), az = std::fabs(z);
     if (far_only && near(ax, ay, az, o.top)) continue;
-    acc[i] = octave_point(o, x, y, z, width[start + i] * wscale, ax, ay, az);
+    acc[i] = octave_point(o, x, y, z, (width ? width[start + i] : 0.0) * wscale, ax, ay, az);
   }
 }
 

@@ -6,25 +6,23 @@
 // or the block it is in, nor on the instruction set (no FMA contraction: CMakeLists.txt).
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
+#include <nanobind/stl/optional.h>
+#include <nanobind/stl/string.h>
+#include <nanobind/stl/vector.h>
 
+#include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "colour.hpp"
 #include "octaves.hpp"
 #include "parallel.hpp"
 
 namespace nb = nanobind;
-
-// The hot loops are compiled twice, for AVX2 and for the x86-64 baseline, and the loader
-// picks one (function multi-versioning); both round alike.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(TEXBAKE_NO_CLONES)
-#define TEXBAKE_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define TEXBAKE_CLONES
-#endif
 
 namespace texbake::textures {
 
@@ -41,9 +39,54 @@ using Values = In<double, nb::ndim<1>>;
 using OutValues = Out<double, nb::ndim<1>>;
 using OutColours = Out<double, nb::shape<-1, 3>>;
 
+// -- instruction sets ------------------------------------------------------------------
+// The kernels over a piece are compiled three times, for AVX-512 (x86-64-v4), for AVX2 and
+// for the x86-64 baseline, each with its own copy of the block loops (forced inline); a
+// call runs the best the CPU has, or the one use_instruction_set chose (the tests compare
+// them). All three round alike (no FMA contraction: CMakeLists.txt).
+
+enum Isa : int { BASELINE = 0, AVX2 = 1, AVX512 = 2 };
+constexpr const char* ISA_NAMES[] = {"baseline", "avx2", "avx512"};
+
+Isa best_isa() {
+#if defined(TEXBAKE_ISAS)
+  static const Isa best = __builtin_cpu_supports("x86-64-v4") ? AVX512 : (__builtin_cpu_supports("avx2") ? AVX2 : BASELINE);
+  return best;
+#else
+  return BASELINE;
+#endif
+}
+
+std::atomic<int> chosen_isa{-1};  // -1: the best the CPU has
+
+Isa current_isa() {
+  const int chosen = chosen_isa.load(std::memory_order_relaxed);
+  return chosen < 0 ? best_isa() : Isa(chosen);
+}
+
+// a kernel's three copies, by instruction set
+template <class F>
+struct Variants {
+  F avx512, avx2, baseline;
+  F at(Isa isa) const { return isa == AVX512 ? avx512 : (isa == AVX2 ? avx2 : baseline); }
+};
+
+#if defined(TEXBAKE_ISAS)
+#define TEXBAKE_AVX512 __attribute__((target("arch=x86-64-v4")))
+#define TEXBAKE_AVX2 __attribute__((target("avx2")))
+#else
+#define TEXBAKE_AVX512
+#define TEXBAKE_AVX2
+#endif
+#define TEXBAKE_VARIANTS(name, params, args)                            \
+  TEXBAKE_AVX512 void name##_avx512 params { name args; }               \
+  TEXBAKE_AVX2 void name##_avx2 params { name args; }                   \
+  void name##_baseline params { name args; }                            \
+  const Variants<decltype(&name##_baseline)> name##_variants{name##_avx512, name##_avx2, name##_baseline};
+
 // -- the kernels over a piece [lo, hi) ---------------------------------------------------
 
-TEXBAKE_CLONES void octave_range(const Octaves& o, const double* points, const double* width, double* out, ptrdiff_t lo,
+TEXBAKE_INLINE void octave_range(const Octaves& o, const double* points, const double* width, double* out, ptrdiff_t lo,
                                  ptrdiff_t hi) {
   Block b{};
   for (ptrdiff_t start = lo; start < hi; start += noise::BLOCK) {
@@ -51,6 +94,8 @@ TEXBAKE_CLONES void octave_range(const Octaves& o, const double* points, const d
     std::copy(b.acc, b.acc + m, out + start);
   }
 }
+TEXBAKE_VARIANTS(octave_range, (const Octaves& o, const double* points, const double* width, double* out, ptrdiff_t lo, ptrdiff_t hi),
+                 (o, points, width, out, lo, hi))
 
 // Perlin's marble: the colour of 0.5 + 0.5 sin(phase), phase = frequency * p[axis] +
 // amplitude * turbulence (the octave sum plus capped, the mean of the octaves left out,
@@ -68,23 +113,24 @@ struct Marble {
 // phases and the table's rows in a loop the compiler vectorises, the loads in a scalar one
 TEXBAKE_INLINE void sine_block(const Marble& k, const double* points, const double* width, ptrdiff_t start, ptrdiff_t m, Block& b,
                        double* out) {
-  int32_t* rows = reinterpret_cast<int32_t*>(b.cell);
+  int32_t* rows = reinterpret_cast<int32_t*>(b.row);
   for (ptrdiff_t i = 0; i < m; ++i) {
     const double phase = k.frequency * points[3 * (start + i) + k.axis] + k.amplitude * ((b.acc[i] + k.capped) / k.norm);
     colour::sine_row(k.sines, phase, rows[i], b.tx[i]);
   }
   for (ptrdiff_t i = 0; i < m; ++i) {
-    if (!(k.spread_per_width * width[start + i] > 0.0)) colour::sine_colour(k.sines, rows[i], b.tx[i], out + 3 * (start + i));
+    if (!width || !(k.spread_per_width * width[start + i] > 0.0)) colour::sine_colour(k.sines, rows[i], b.tx[i], out + 3 * (start + i));
   }
 }
 
-TEXBAKE_CLONES void marble_range(const Marble& k, const double* points, const double* width, double* out, ptrdiff_t lo,
+// width null: every point sampled
+TEXBAKE_INLINE void marble_range(const Marble& k, const double* points, const double* width, double* out, ptrdiff_t lo,
                                  ptrdiff_t hi) {
   Block b{};
   for (ptrdiff_t start = lo; start < hi; start += noise::BLOCK) {
     const ptrdiff_t m = noise::block_octaves(k.o, points, width, start, hi, b);
-    ptrdiff_t sampled = 0;  // points without a spread: the colour of their phase
-    for (ptrdiff_t i = 0; i < m; ++i) {
+    ptrdiff_t sampled = width ? 0 : m;  // points without a spread: the colour of their phase
+    for (ptrdiff_t i = 0; width && i < m; ++i) {
       const double spread = k.spread_per_width * width[start + i];
       if (spread > 0.0) {  // the mean colour over the texel, not the colour of the mean
         const double phase = k.frequency * points[3 * (start + i) + k.axis] + k.amplitude * ((b.acc[i] + k.capped) / k.norm);
@@ -96,6 +142,8 @@ TEXBAKE_CLONES void marble_range(const Marble& k, const double* points, const do
     if (sampled) sine_block(k, points, width, start, m, b, out);
   }
 }
+TEXBAKE_VARIANTS(marble_range, (const Marble& k, const double* points, const double* width, double* out, ptrdiff_t lo, ptrdiff_t hi),
+                 (k, points, width, out, lo, hi))
 
 inline double square_wave(double cell) { return 1.0 - 2.0 * (cell - 2.0 * std::floor(0.5 * cell)); }
 
@@ -149,14 +197,22 @@ struct Checker {
   int split;
 };
 
-TEXBAKE_CLONES void checker_range(const Checker& c, double* out, ptrdiff_t lo, ptrdiff_t hi) {
+TEXBAKE_INLINE void checker_range(const Checker& c, double* out, ptrdiff_t lo, ptrdiff_t hi) {
   for (ptrdiff_t i = lo; i < hi; ++i) out[i] = checker_point(c.t + 3 * i, c.ex + 3 * i, c.ey + 3 * i, c.lo + 3 * i, c.hi + 3 * i, c.split);
 }
+TEXBAKE_VARIANTS(checker_range, (const Checker& c, double* out, ptrdiff_t lo, ptrdiff_t hi), (c, out, lo, hi))
 
 // -- checks and bindings -------------------------------------------------------------------
 
 void same_rows(ptrdiff_t n, ptrdiff_t rows, const char* name) {
   if (rows != n) throw std::invalid_argument(std::string(name) + ": " + std::to_string(rows) + " rows for " + std::to_string(n) + " points");
+}
+
+// width (n,), or None (point sampling): null, which the kernels read as 0 everywhere
+const double* footprints(const Values& width, ptrdiff_t n) {
+  if (!width.is_valid()) return nullptr;
+  same_rows(n, width.shape(0), "width");
+  return width.data();
 }
 
 noise::Tables noise_tables(const Values& noise, const In<int64_t, nb::ndim<1>>& index, const Values& noise2,
@@ -173,20 +229,20 @@ Octaves octaves(const noise::Tables& t, int basis, int interp, int count, double
                 double basis_mean, double scale, double offset) {
   if (basis < 0 || basis > 1 || interp < 0 || interp > 2) throw std::invalid_argument("basis in {0, 1}, interpolation in {0, 1, 2}");
   return {t, basis, interp, count, lacunarity, gain, signed_ ? 2.0 : 1.0, signed_ ? 2.0 * basis_mean - 1.0 : basis_mean,
-          noise::top_frequency(count, lacunarity), scale, offset};
+          noise::top_frequency(count, lacunarity), scale, offset, current_isa() >= AVX2};
 }
 
 void octave_sum(const Points& points, const Values& width, const Values& noise, const In<int64_t, nb::ndim<1>>& index,
                 const Values& noise2, const In<uint32_t, nb::ndim<1>>& hash4, int basis, int interp, int count, double lacunarity,
                 double gain, bool signed_, double basis_mean, double scale, double offset, OutValues out) {
   const ptrdiff_t n = points.shape(0);
-  same_rows(n, width.shape(0), "width");
   same_rows(n, out.shape(0), "out");
   const Octaves o = octaves(noise_tables(noise, index, noise2, hash4), basis, interp, count, lacunarity, gain, signed_, basis_mean,
                             scale, offset);
-  const double *p = points.data(), *w = width.data();
+  const double *p = points.data(), *w = footprints(width, n);
+  const auto range = octave_range_variants.at(current_isa());
   double* dst = out.data();
-  parallel_for(n, [&](ptrdiff_t lo, ptrdiff_t hi) { octave_range(o, p, w, dst, lo, hi); });
+  parallel_for(n, [&](ptrdiff_t lo, ptrdiff_t hi) { range(o, p, w, dst, lo, hi); });
 }
 
 void marble(const Points& points, const Values& width, const Values& noise, const In<int64_t, nb::ndim<1>>& index,
@@ -195,7 +251,6 @@ void marble(const Points& points, const Values& width, const Values& noise, cons
             double capped, double norm, const In<double, nb::shape<-1, 3>>& sines, const In<double, nb::shape<-1, -1, 3>>& waves,
             double max_spread, OutColours out) {
   const ptrdiff_t n = points.shape(0);
-  same_rows(n, width.shape(0), "width");
   same_rows(n, out.shape(0), "out");
   if (axis < 0 || axis > 2 || sines.shape(0) < 2 || waves.shape(0) < 2 || waves.shape(1) < 1)
     throw std::invalid_argument("marble: axis in {0, 1, 2}, at least 2 sine rows and 2 spreads");
@@ -204,9 +259,10 @@ void marble(const Points& points, const Values& width, const Values& noise, cons
                  axis, frequency, amplitude, capped, norm, frequency / std::sqrt(12.0),
                  {sines.data(), ptrdiff_t(sines.shape(0)) - 1},
                  {waves.data(), ptrdiff_t(waves.shape(0)), ptrdiff_t(waves.shape(1)), max_spread}};
-  const double *p = points.data(), *w = width.data();
+  const double *p = points.data(), *w = footprints(width, n);
+  const auto range = marble_range_variants.at(current_isa());
   double* dst = out.data();
-  parallel_for(n, [&](ptrdiff_t lo, ptrdiff_t hi) { marble_range(k, p, w, dst, lo, hi); });
+  parallel_for(n, [&](ptrdiff_t lo, ptrdiff_t hi) { range(k, p, w, dst, lo, hi); });
 }
 
 void colour_map(const Values& values, const In<double, nb::shape<-1, 3>>& samples, double lo, double step, OutColours out) {
@@ -242,8 +298,9 @@ void checker_parity(const Points& t, const Points& ex, const Points& ey, const P
   same_rows(n, out.shape(0), "out");
   if (split < 1) throw std::invalid_argument("checker_parity: split must be at least 1");
   const Checker c{t.data(), ex.data(), ey.data(), lo.data(), hi.data(), split};
+  const auto range = checker_range_variants.at(current_isa());
   double* dst = out.data();
-  parallel_for(n, [&](ptrdiff_t a, ptrdiff_t b) { checker_range(c, dst, a, b); });
+  parallel_for(n, [&](ptrdiff_t a, ptrdiff_t b) { range(c, dst, a, b); });
 }
 
 void affine(const Points& points, const In<double, nb::shape<3>>& origin, double scale, OutColours out) {
@@ -257,6 +314,23 @@ void affine(const Points& points, const In<double, nb::shape<3>>& origin, double
   });
 }
 
+std::vector<std::string> instruction_sets() {
+  std::vector<std::string> names;
+  for (int isa = best_isa(); isa >= BASELINE; --isa) names.emplace_back(ISA_NAMES[isa]);
+  return names;
+}
+
+std::string use_instruction_set(const std::optional<std::string>& name) {
+  const std::string previous = ISA_NAMES[current_isa()];
+  int chosen = -1;
+  if (name) {
+    for (int isa = BASELINE; isa <= best_isa(); ++isa) chosen = *name == ISA_NAMES[isa] ? isa : chosen;
+    if (chosen < 0) throw std::invalid_argument("instruction set '" + *name + "': this CPU runs " + ISA_NAMES[best_isa()] + " at best");
+  }
+  chosen_isa.store(chosen, std::memory_order_relaxed);
+  return previous;
+}
+
 }  // namespace texbake::textures
 
 void bind_textures(nb::module_& m) {
@@ -268,15 +342,22 @@ void bind_textures(nb::module_& m) {
         "The share of a noise octave that a box filter s lattice cells wide keeps (1 at 0, (1.5 / s)^2 from 4 on).");
   m.def("fade_factor", &texbake::noise::fade_factor, arg("s"),
         "box_keep(s), or 0 once the octave's cells are under 1/DROP_CELLS of the footprint (s >= DROP_CELLS, or NaN).");
-  m.def("octave_sum", &t::octave_sum, arg("points"), arg("width"), arg("noise"), arg("index"), arg("noise2"), arg("hash4"),
+  m.def("octave_sum", &t::octave_sum, arg("points"), arg("width").none(), arg("noise"), arg("index"), arg("noise2"), arg("hash4"),
         arg("basis"), arg("interpolation"), arg("octaves"), arg("lacunarity"), arg("gain"), arg("signed"), arg("basis_mean"),
         arg("scale"), arg("offset"), arg("out").noconvert(), release,
         "out[i]: the sum of octaves gain^k n(lacunarity^k q), q = points[i] * scale + offset, each shrunk towards its mean by "
-        "the share of it a box filter over the footprint width[i] * |scale| keeps (texbake.textures.noise.octave_sum).");
-  m.def("marble", &t::marble, arg("points"), arg("width"), arg("noise"), arg("index"), arg("noise2"), arg("hash4"), arg("basis"),
+        "the share of it a box filter over the footprint width[i] * |scale| keeps (width None: point sampling; "
+        "texbake.textures.noise.octave_sum).");
+  m.def("marble", &t::marble, arg("points"), arg("width").none(), arg("noise"), arg("index"), arg("noise2"), arg("hash4"), arg("basis"),
         arg("interpolation"), arg("octaves"), arg("lacunarity"), arg("gain"), arg("basis_mean"), arg("scale"), arg("offset"),
         arg("axis"), arg("frequency"), arg("amplitude"), arg("capped"), arg("norm"), arg("sines"), arg("waves"), arg("max_spread"),
-        arg("out").noconvert(), release, "out (n, 3): Perlin's marble colours in one pass (texbake.textures.colour.marble_colours).");
+        arg("out").noconvert(), release, "out (n, 3): Perlin's marble colours in one pass (width None: point sampling; texbake.textures.colour.marble_colours).");
+  m.def("instruction_sets", &t::instruction_sets, "The instruction sets the texture kernels can run on here, the best first.");
+  m.def("instruction_set", [] { return std::string(t::ISA_NAMES[t::current_isa()]); },
+        "The instruction set the texture kernels run on (the best the CPU has unless use_instruction_set chose another).");
+  m.def("use_instruction_set", &t::use_instruction_set, arg("name").none(),
+        "Run the texture kernels on the instruction set name (one of instruction_sets(); None: the best); returns the "
+        "previous one. Every one gives the same values: the tests compare them.");
   m.def("colour_map", &t::colour_map, arg("values"), arg("samples"), arg("lo"), arg("step"), arg("out").noconvert(), release,
         "out (n, 3): the tabulated colour curve samples (m, 3) at values, knots from lo, step samples a unit.");
   m.def("wave_colours", &t::wave_colours, arg("phase"), arg("spread"), arg("table"), arg("max_spread"), arg("out").noconvert(),

@@ -99,7 +99,7 @@ def marble_colours(points, width, knots, colour_list, *, axis=0, frequency=6.0, 
     from .noise import BASES, INTERPOLATIONS, _derived_tables, basis_mean, octave_count, tables
 
     p = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
-    w = np.zeros(len(p)) if width is None else np.ascontiguousarray(width, dtype=np.float64).reshape(-1)
+    w = None if width is None else np.ascontiguousarray(width, dtype=np.float64).reshape(-1)
     key = (tuple(knots), tuple(tuple(c) for c in colour_list))
     sines, waves = sine_table(*key), wave_table(*key)
     cap = octave_count(octaves, gain, max_octaves, basis=basis, seed=seed)

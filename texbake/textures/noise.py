@@ -114,7 +114,7 @@ def octave_sum(
     so the brightness does not shift.
     """
     p = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
-    w = np.zeros(len(p)) if width is None else np.ascontiguousarray(width, dtype=np.float64).reshape(-1)
+    w = None if width is None else np.ascontiguousarray(width, dtype=np.float64).reshape(-1)
     out = np.empty(len(p))
     cap = octave_count(octaves, gain, max_octaves, basis=basis, seed=seed)
     _native.octave_sum(p, w, *tables(seed), *_derived_tables(seed), BASES.index(basis), INTERPOLATIONS.index(interpolation),
