@@ -7,6 +7,9 @@
 namespace nb = nanobind;
 
 void bind_textures(nb::module_& m);
+namespace texbake::materials {
+void bind_materials(nb::module_&);
+}
 namespace texbake {
 void bind_accumulate(nb::module_&);
 void bind_build_info(nb::module_&);
@@ -22,6 +25,7 @@ NB_MODULE(_native, m) {
   m.doc() = "texbake's compiled kernels (C++, nanobind); the GIL is released inside each";
   m.def("cores", &texbake::cores, "the threads a kernel runs on (one a core)");
   bind_textures(m);
+  texbake::materials::bind_materials(m);
   texbake::bind_build_info(m);
   texbake::bind_components(m);
   texbake::bind_uvcheck(m);

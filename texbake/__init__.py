@@ -5,10 +5,10 @@
     result.save("out/bunny")
 """
 
-from .errors import AtlasError, BakeError, MeshError, OutputError, ParameterError, TextureError
+from .errors import AtlasError, BakeError, MaterialError, MeshError, OutputError, ParameterError, TextureError
 from .version import __version__
 
-__all__ = ["__version__", "BakeSettings", "bake_mesh", "BakeResult", "BakeError", "MeshError", "ParameterError", "AtlasError", "TextureError", "OutputError"]
+__all__ = ["__version__", "BakeSettings", "bake_mesh", "BakeResult", "BakeError", "MaterialError", "MeshError", "ParameterError", "AtlasError", "TextureError", "OutputError"]
 
 
 def __getattr__(name):  # the pipeline pulls in the heavy libraries: import it on first use
