@@ -510,6 +510,68 @@ void octave_spread(In<double, nb::ndim<1>> width, int octaves, double lacunarity
   });
 }
 
+inline void unit3(double* v) {
+  const double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+  if (n > 0.0) v[0] /= n, v[1] /= n, v[2] /= n;
+}
+
+inline double dot3(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+// maps/bump.py's height_normal_map after its heights (its reference, in one pass): the
+// forward differences along the texel's edges to the surface gradient, the tilted normal in
+// the tangent frame (frame (n, 3, 3), or the atlas's from the edges), a detail normal laid
+// over it, encoded; green flipped for DirectX
+void height_normals(In<double, nb::ndim<1>> centre, In<double, nb::ndim<1>> shifted, In<double, shape<-1, 3>> dpdx,
+                    In<double, shape<-1, 3>> dpdy, In<double, shape<-1, 3>> normals, In<double, shape<-1, 3, 3>> frame, double scale,
+                    In<double, shape<-1, 3>> detail, bool directx, Out<double, shape<-1, 3>> out) {
+  const ptrdiff_t n = centre.shape(0);
+  const bool framed = frame.shape(0) > 0, detailed = detail.shape(0) > 0;
+  if (ptrdiff_t(shifted.shape(0)) != 2 * n || ptrdiff_t(dpdx.shape(0)) != n || ptrdiff_t(dpdy.shape(0)) != n ||
+      ptrdiff_t(out.shape(0)) != n || (framed ? ptrdiff_t(frame.shape(0)) != n : ptrdiff_t(normals.shape(0)) != n) ||
+      (detailed && ptrdiff_t(detail.shape(0)) != n))
+    throw std::invalid_argument("height_normals: n heights, 2n shifted, n edges, normals or frames (and details)");
+  const double *h = centre.data(), *hs = shifted.data(), *ex = dpdx.data(), *ey = dpdy.data();
+  const double *nr = normals.data(), *fr = frame.data(), *dt = detail.data();
+  double* o = out.data();
+  parallel_for(n, [&](ptrdiff_t lo, ptrdiff_t hi) {
+    for (ptrdiff_t i = lo; i < hi; ++i) {
+      const double *x = ex + 3 * i, *y = ey + 3 * i;
+      const double along_x = 2.0 * (hs[i] - h[i]), along_y = 2.0 * (hs[n + i] - h[i]);
+      const double xx = dot3(x, x), xy = dot3(x, y), yy = dot3(y, y), det = xx * yy - xy * xy;
+      const bool ok = det > 1e-12 * std::max(xx * yy, 1e-300);
+      const double alpha = ok ? (yy * along_x - xy * along_y) / det : 0.0, beta = ok ? (xx * along_y - xy * along_x) / det : 0.0;
+      double nn[3], t[3], b[3], g[3];
+      for (int k = 0; k < 3; ++k) nn[k] = framed ? fr[9 * i + 6 + k] : nr[3 * i + k], g[k] = alpha * x[k] + beta * y[k];
+      unit3(nn);
+      const double gn = dot3(g, nn);
+      double bent[3];
+      for (int k = 0; k < 3; ++k) bent[k] = nn[k] - scale * (g[k] - gn * nn[k]);
+      unit3(bent);
+      if (framed) {
+        for (int k = 0; k < 3; ++k) t[k] = fr[9 * i + k], b[k] = fr[9 * i + 3 + k];
+      } else {  // the atlas's frame: T along +u (dpdx), B along +v (against dpdy)
+        const double xn = dot3(x, nn);
+        for (int k = 0; k < 3; ++k) t[k] = x[k] - xn * nn[k];
+        unit3(t);
+        b[0] = nn[1] * t[2] - nn[2] * t[1], b[1] = nn[2] * t[0] - nn[0] * t[2], b[2] = nn[0] * t[1] - nn[1] * t[0];
+        const double side = -dot3(y, b) + 1e-300;
+        for (int k = 0; k < 3; ++k) b[k] *= side > 0.0 ? 1.0 : (side < 0.0 ? -1.0 : 0.0);
+      }
+      double local[3] = {dot3(bent, t), dot3(bent, b), dot3(bent, nn)};
+      if (!(std::sqrt(dot3(nn, nn)) > 0.0)) local[0] = 0.0, local[1] = 0.0, local[2] = 1.0;
+      if (detailed) {  // whiteout: the slopes added, the z multiplied
+        double d[3] = {2.0 * dt[3 * i] - 1.0, 2.0 * dt[3 * i + 1] - 1.0, 2.0 * dt[3 * i + 2] - 1.0};
+        unit3(d);
+        local[0] += d[0], local[1] += d[1], local[2] *= d[2];
+        unit3(local);
+      }
+      o[3 * i] = 0.5 + 0.5 * local[0];
+      o[3 * i + 1] = directx ? 0.5 - 0.5 * local[1] : 0.5 + 0.5 * local[1];
+      o[3 * i + 2] = 0.5 + 0.5 * local[2];
+    }
+  });
+}
+
 }  // namespace
 
 void bind_materials(nb::module_& m) {
@@ -520,6 +582,10 @@ void bind_materials(nb::module_& m) {
         "param, column, spread column; slots (s, 3) int32 of kind (0 leaf, 1 constant, 2 buffer), channels, ref; the leaves' "
         "means (n, channels) and variances (the same, or empty); spread: carry variances; exports into out_mean (n, columns) "
         "and out_var (n, spread columns).");
+  m.def("height_normals", &height_normals, arg("centre"), arg("shifted"), arg("dpdx"), arg("dpdy"), arg("normals"), arg("frame"),
+        arg("scale"), arg("detail"), arg("directx"), arg("out").noconvert(), Release(),
+        "out (n, 3): encoded tangent-space normals from heights (n,) and those half a texel on along dpdx then dpdy (2n,) "
+        "(texbake.maps.bump.height_normal_map); normals (n, 3) or frame (n, 3, 3) (the other empty), detail (n, 3) or empty.");
   m.def("octave_spread", &octave_spread, arg("width"), arg("octaves"), arg("lacunarity"), arg("gain"), arg("scale"),
         arg("out").noconvert(), Release(),
         "out[i]: the sum over k < octaves of gain^(2k) (1 - fade_factor(width[i] |scale| lacunarity^k)).");

@@ -14,6 +14,7 @@ namespace texbake {
 void bind_accumulate(nb::module_&);
 void bind_build_info(nb::module_&);
 void bind_components(nb::module_&);
+void bind_frames(nb::module_&);
 void bind_images(nb::module_&);
 void bind_lookup(nb::module_&);
 void bind_margin(nb::module_&);
@@ -31,6 +32,7 @@ NB_MODULE(_native, m) {
   texbake::bind_uvcheck(m);
   texbake::bind_lookup(m);
   texbake::bind_surface(m);
+  texbake::bind_frames(m);
   texbake::bind_accumulate(m);
   texbake::bind_margin(m);
   texbake::bind_images(m);

@@ -13,6 +13,7 @@ bump) -> images (maps.accumulate, maps.margin) -> ``BakeResult`` with its report
 from __future__ import annotations
 
 import ctypes
+import hashlib
 import itertools
 import threading
 import time
@@ -194,7 +195,7 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
         atlas, key = _atlas(mesh, settings, workers, store)
     mapping = TextureMapping.for_mesh(*_bounds(mesh), settings.texture_space, settings.precision)
     with timer.stage("normals"):  # of the output mesh; a normal map is baked in its tangent frame
-        baked = _output_mesh(mesh, atlas, tangents=settings.bump is not None)
+        baked = _output_mesh(mesh, atlas, tangents=settings.normal_map)
     with timer.stage("prepare"):
         maps = Maps(settings, mapping)
         sampler = _sampler(mesh, atlas, baked, src, settings, maps.needs_normals)
@@ -204,13 +205,14 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
                                                lambda done: say(0.3 + 0.6 * done), lookups)
     covered, hits = _coverage(maps)
     with timer.stage("estimate"):
-        error_estimate = _estimate(sampler, maps, mapping, covered, settings)
+        error_estimate = _estimate(sampler, maps, covered, settings)
     with timer.stage("margin"):
         filled = margin_stage.extend(list(maps.images.values()), covered, settings.margin, workers=workers)
     say(0.95)
     images = _images(maps, settings)
     tally = BakeTally(covered, filled, cast=int(cast), rays=int(rays), transfer_missed=int(missed), hits=hits, lookup_reused=reused,
-                      error_estimate=error_estimate, seconds=timer.seconds)
+                      error_estimate=error_estimate, seconds=timer.seconds,
+                      material=None if maps.material is None else maps.material.report())
     report = bake_report(settings, mesh, atlas, tally, source=src, cage=sampler.reach)
     say(1.0)
     return BakeResult(images, covered, filled, baked, report, settings)
@@ -251,7 +253,7 @@ def _sampler(mesh: LoadedMesh, atlas: Atlas, baked: BakedMesh, src: LoadedMesh |
                    normals=corner_normals if needs_normals else False,
                    source=None if src is None else (src.vertices, src.faces), reach=reach,
                    frame=None if baked.tangents is None else (corner_normals, baked.tangents[baked.faces][front]),
-                   footprints=settings.filtering or settings.bump is not None)
+                   footprints=settings.filtering or settings.normal_map)
 
 
 def _coverage(maps: Maps) -> tuple[np.ndarray, int]:
@@ -268,6 +270,7 @@ def _images(maps: Maps, settings: BakeSettings) -> dict[str, np.ndarray]:
     images = dict(maps.images)
     if settings.frames is not None:
         images["flipbook"] = flipbook([images[name] for name in maps.colours])
+    images.update(maps.packs(images))  # a material's channels packed by template (ORM...)
     return images
 
 
@@ -346,20 +349,30 @@ def _bake_tiles(sampler: Sampler, maps: Maps, settings: BakeSettings, timer: Tim
     return counts, known is not None
 
 
-def _estimate(sampler: Sampler, maps: Maps, mapping: TextureMapping, covered: np.ndarray, settings: BakeSettings) -> dict:
+def _estimate(sampler: Sampler, maps: Maps, covered: np.ndarray, settings: BakeSettings) -> dict:
     """The error estimate of the colour map (``texbake.maps.estimate``): a probe that sends UV
-    points through the same chain, point-sampled in float64."""
-    spec = maps.colours[maps.colour_name]
+    points through the same chain, point-sampled in float64; for a material, of each of its
+    maps too (``channels``), from one probe (the same texels and points for each map)."""
+    probed: dict[bytes, tuple] = {}  # the probe's UV points (a stratum's) -> every map's values there, from one evaluation
 
-    def reference_at(uvs: np.ndarray):
-        s = sampler.at(uvs)
-        hit = np.zeros(len(uvs), dtype=bool)
-        hit[s.index] = True
-        return hit, mapping.evaluate(spec, s.points, None, None, exact=True)
+    def reference_at(name: str):
+        def at(uvs: np.ndarray):
+            key = hashlib.blake2b(np.ascontiguousarray(uvs).tobytes(), digest_size=16).digest()
+            if key not in probed:
+                s = sampler.at(uvs)
+                hit = np.zeros(len(uvs), dtype=bool)
+                hit[s.index] = True
+                probed[key] = hit, maps.reference(s)
+            hit, values = probed[key]
+            return hit, values[name]
+        return at
 
     grid = estimate_stage.probe_grid(settings.samples)
     edge_grid = grid if settings.samples == 1 else min(16, 2 * grid)
-    estimate = estimate_stage.probe_estimate(reference_at, maps.images[maps.colour_name], covered, seed=settings.seed, grid=grid,
-                                             edge_grid=edge_grid)
+    estimates = {name: estimate_stage.probe_estimate(reference_at(name), maps.images[name], covered, seed=settings.seed, grid=grid,
+                                                     edge_grid=edge_grid) for name in maps.estimated}
+    estimate = estimates[maps.colour_name]
     estimate["map"] = maps.colour_name
+    if len(estimates) > 1:
+        estimate["channels"] = {name: {k: e[k] for k in ("rmse", "rmse_interval", "texels")} for name, e in estimates.items()}
     return estimate

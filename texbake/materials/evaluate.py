@@ -40,7 +40,8 @@ def run_in_space(program: Program, mapping: TextureMapping, q: np.ndarray, dqdx:
     values: dict[str, leaves.Value] = {}
     for seg in program.segments:
         for leaf in seg.leaves:
-            values[leaf] = _leaf(nodes[leaf], mapping, q, dqdx, dqdy, normals, values, max_octaves)
+            wide = spread and leaf in program.spread  # the leaf's spread is read: evaluated with it
+            values[leaf] = _leaf(nodes[leaf], mapping, q, dqdx, dqdy, normals, values, max_octaves, wide)
         if not len(seg.code):
             continue
         out_mean = np.empty((n, seg.columns))
@@ -64,9 +65,10 @@ def _channel(values: dict, node, n: int, width: int) -> np.ndarray:
     return np.repeat(mean, width, axis=1) if mean.shape[1] < width else mean
 
 
-def _leaf(node, mapping: TextureMapping, q, dqdx, dqdy, normals, values: dict, max_octaves) -> leaves.Value:
+def _leaf(node, mapping: TextureMapping, q, dqdx, dqdy, normals, values: dict, max_octaves, spread: bool) -> leaves.Value:
     if node.op == "position":
-        return leaves.position(q, dqdx, dqdy, mapping.bounds)
+        mean, var = leaves.position(q, dqdx, dqdy, mapping.bounds)
+        return mean, var if spread else None
     if node.op == "normal":
         if normals is None:
             raise ValueError(f"node {node.id!r}: the samples have no normals")
@@ -74,8 +76,9 @@ def _leaf(node, mapping: TextureMapping, q, dqdx, dqdy, normals, values: dict, m
     if node.op == "warp":
         p = node.params
         q, dqdx, dqdy = leaves.warped_points(q, dqdx, dqdy, values[node.inputs["by"]], p.amount, p.axis)
-    of = leaves.texture_value if node.params.output == "value" else leaves.texture_colour
-    return of(node.spec, q, dqdx, dqdy, mapping.bounds, max_octaves)
+    if node.params.output == "value":
+        return leaves.texture_value(node.spec, q, dqdx, dqdy, mapping.bounds, max_octaves, spread=spread)
+    return leaves.texture_colour(node.spec, q, dqdx, dqdy, mapping.bounds, max_octaves)
 
 
 class Evaluator:
@@ -85,9 +88,13 @@ class Evaluator:
     def __init__(self, material: Material, channels: list[str]):
         self.material = material
         self.program = compile_program(material.graph, channels)
-        self.counts = dict.fromkeys(self.program.nodes, 0)
+        self.counts = dict.fromkeys((n for n in self.program.nodes if material.graph.nodes[n].op != "constant"), 0)
         self.gradient_counts: dict[str, int] = {}
         self._lock = threading.Lock()
+
+    @functools.cached_property
+    def height_uses_normals(self) -> bool:
+        return any(self.material.graph.nodes[n].op == "normal" for n in self.height_program.nodes)
 
     @functools.cached_property
     def height_program(self) -> Program:
@@ -109,7 +116,8 @@ class Evaluator:
         if count:
             with self._lock:
                 for node in self.height_program.nodes:
-                    self.gradient_counts[node] = self.gradient_counts.get(node, 0) + len(q)
+                    if node in self.counts:
+                        self.gradient_counts[node] = self.gradient_counts.get(node, 0) + len(q)
         return h[:, 0]
 
     def report(self) -> dict:

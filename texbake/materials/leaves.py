@@ -41,24 +41,28 @@ def texture_colour(spec, q, dqdx, dqdy, bounds, max_octaves) -> Value:
     return place_and_evaluate(spec, q, dqdx, dqdy, bounds=bounds, max_octaves=max_octaves), None
 
 
-def texture_value(spec, q, dqdx, dqdy, bounds, max_octaves) -> Value:
-    """``((n, 1), (n, 1) or None)``: the scalar before the texture's colour map, and its spread."""
+def texture_value(spec, q, dqdx, dqdy, bounds, max_octaves, *, spread: bool = True) -> Value:
+    """``((n, 1), (n, 1) or None)``: the scalar before the texture's colour map, and its
+    spread (None unless ``spread``: no node reads it)."""
     p, dx, dy = spec.placement()(q, dqdx, dqdy)
     ctx = EvalContext(dx, dy, bounds, max_octaves)
-    bad = ~np.isfinite(p).all(axis=1)
-    if dx is not None and dy is not None:
-        bad |= ~(np.isfinite(dx).all(axis=1) & np.isfinite(dy).all(axis=1))
+    footprint = () if dx is None or dy is None else (dx, dy)
+    bad = np.zeros(len(p), dtype=bool)
+    if not all(np.isfinite(np.sum(a)) for a in (p, *footprint)):  # a NaN or infinity makes its sum one (as _Texture.__call__)
+        bad = ~np.isfinite(p).all(axis=1)
+        for a in footprint:
+            bad |= ~np.isfinite(a).all(axis=1)
     if bad.any():  # as a texture's colour: NaN in, NaN out
         zero = np.zeros_like(p)
         p = np.where(bad[:, None], zero, p)
         if dx is not None and dy is not None:
             ctx = EvalContext(np.where(bad[:, None], zero, dx), np.where(bad[:, None], zero, dy), bounds, max_octaves)
-    mean, var = _VALUES[spec.name](spec, p, ctx)
+    mean, var = _VALUES[spec.name](spec, p, ctx, spread)
     mean[bad] = np.nan
     return mean[:, None], None if var is None else var[:, None]
 
 
-def _octaves(spec, p, ctx: EvalContext):
+def _octaves(spec, p, ctx: EvalContext, spread: bool):
     from ..textures.noise import octave_count
     from ..textures.solid import turbulence
 
@@ -70,7 +74,7 @@ def _octaves(spec, p, ctx: EvalContext):
     width = ctx.width  # (computed each time it is read)
     t = turbulence(p, width, signed=signed, max_octaves=cap, **args)
     mean = 0.5 + 0.5 * t if signed else t
-    if width is None:
+    if width is None or not spread:
         return mean, None
     count = octave_count(args["octaves"], args["gain"], cap, basis=args["basis"], seed=args["seed"])
     kept = np.empty(len(p))
@@ -80,7 +84,7 @@ def _octaves(spec, p, ctx: EvalContext):
     return mean, basis_variance(args["basis"], args["interpolation"], args["seed"]) / count.norm**2 * (kept + left_out)
 
 
-def _marble(spec, p, ctx: EvalContext):
+def _marble(spec, p, ctx: EvalContext, spread: bool):
     from ..textures.solid import marble_phase
 
     phase, s = marble_phase(p, ctx.width, axis="xyz".index(spec.axis), frequency=spec.frequency, amplitude=spec.amplitude,
@@ -88,28 +92,28 @@ def _marble(spec, p, ctx: EvalContext):
     fade = np.exp(-0.5 * s**2)
     sine = np.sin(phase)
     mean = 0.5 + 0.5 * sine * fade
-    if ctx.width is None:
+    if ctx.width is None or not spread:
         return mean, None
     square = 0.5 * (1.0 - np.exp(-2.0 * s**2) * np.cos(2.0 * phase))  # E sin^2 over the phase's Gaussian
     return mean, 0.25 * np.maximum(square - (sine * fade) ** 2, 0.0)
 
 
-def _wood(spec, p, ctx: EvalContext):
+def _wood(spec, p, ctx: EvalContext, spread: bool):
     from ..textures.solid import wood
 
     t = wood(p, ctx.width, ring_width=spec.ring_width, wobble=spec.wobble, wobbles=spec.wobbles, twist=spec.twist,
              dpdx=ctx.dpdx, dpdy=ctx.dpdy)
-    return t, None if ctx.width is None else t * (1.0 - t)
+    return t, None if ctx.width is None or not spread else t * (1.0 - t)
 
 
-def _checker(spec, p, ctx: EvalContext):
+def _checker(spec, p, ctx: EvalContext, spread: bool):
     from ..textures.basic import checker_parity
 
     filtered = spec.filtered and ctx.dpdx is not None
     parity = checker_parity(p, np.asarray(spec.box, dtype=np.float64), ctx.dpdx if filtered else None,
                             ctx.dpdy if filtered else None, spec.placed_bounds(ctx))
     t = 0.5 * (1.0 + parity)  # 1 on the even cells (color_even)
-    return t, t * (1.0 - t) if filtered else None
+    return t, t * (1.0 - t) if filtered and spread else None
 
 
 _VALUES = {"noise": _octaves, "turbulence": _octaves, "fbm": _octaves, "marble": _marble, "wood": _wood, "checker": _checker}

@@ -51,12 +51,32 @@ class Segment:
 @dataclass
 class Program:
     """The segments that give ``channels`` (channel -> node id) of a graph; ``nodes``: every
-    node they evaluate, in order."""
+    node they evaluate, in order; ``spread``: the nodes whose spread over the texel some
+    node's mean depends on (a leaf not among them is evaluated without it)."""
 
     graph: Graph
     channels: dict[str, str]
     nodes: list[str]
     segments: list[Segment]
+    spread: set[str] = field(default_factory=set)
+
+
+# the inputs whose spread an op's mean depends on (the others' it only carries on); a blend's: by its mode
+MEAN_OF_SPREAD = {"divide": ("b",), "power": ("a",), "clamp": ("input",), "threshold": ("input",), "smoothstep": ("input",),
+                  "remap": ("input",), "warp": ("by",), "overlay": ("a",)}
+
+
+def spread_needed(graph: Graph, order: list[str]) -> set[str]:
+    """The nodes of ``order`` whose spread is read: by a node whose mean depends on it, or by
+    a node whose own spread is (every op carries its inputs' spreads on)."""
+    needed: set[str] = set()
+    for node_id in reversed(order):
+        node = graph.nodes[node_id]
+        op = node.params.mode if node.op == "blend" else node.op  # type: ignore[attr-defined]
+        for name, source in node.inputs.items():
+            if node_id in needed or name in MEAN_OF_SPREAD.get(op, ()):
+                needed.add(source)
+    return needed
 
 
 def channels_of(node: Node) -> int:
@@ -88,7 +108,7 @@ def compile_program(graph: Graph, channels: list[str]) -> Program:
         ops = [i for i in members if nodes[i].op not in LEAVES]
         segments.append(_segment(nodes, leaves, ops, done, wanted, later))
         done |= set(leaves) | set(segments[-1].exports)
-    return Program(graph, roots, order, segments)
+    return Program(graph, roots, order, segments, spread_needed(graph, order))
 
 
 def _segment(nodes: dict[str, Node], leaves: list[str], ops: list[str], done: set[str], wanted: set[str], later: set[str]) -> Segment:

@@ -1,5 +1,5 @@
-"""The baked mesh: GLB with the maps bound to its material (base colour, and normal and
-emissive where baked), and OBJ + MTL.
+"""The baked mesh: GLB with the maps bound to its material (base colour, and
+metallic-roughness, occlusion, normal and emissive where baked), and OBJ + MTL.
 
 Vertices are written as they are, one per atlas vertex (seam vertices stay split).
 UVs come in with v up (OpenGL, trimesh, OBJ); glTF puts the image origin at the top left,
@@ -68,7 +68,7 @@ def _mesh_arrays(vertices, faces, uv, normals):
     return v, f, t, n
 
 
-SLOTS = ("baseColor", "normal", "emissive")  # the material's texture slots write_glb fills
+SLOTS = ("baseColor", "metallicRoughness", "occlusion", "normal", "emissive")  # the material's texture slots write_glb fills
 
 
 def _png(path: Path, slot: str, texture) -> bytes:
@@ -85,7 +85,7 @@ def _png(path: Path, slot: str, texture) -> bytes:
 
 
 def write_glb(path, vertices, faces, uv, textures, *, normals=None, tangents=None, name: str = "baked",
-              base_factor: tuple[float, float, float, float] = (1.0, 1.0, 1.0, 1.0)) -> dict:
+              base_factor: tuple[float, float, float, float] = (1.0, 1.0, 1.0, 1.0), material: dict | None = None) -> dict:
     """Write a GLB: one mesh, its UVs, and its material's textures, atomically.
 
     Parameters
@@ -102,9 +102,12 @@ def write_glb(path, vertices, faces, uv, textures, *, normals=None, tangents=Non
         ``(u, 1 - v)`` in float32.
     textures : str, os.PathLike, bytes or dict
         A PNG (file path or bytes), bound as the base colour; or a dict of PNGs by slot:
-        ``"baseColor"`` (required; sRGB colour), ``"normal"`` (a tangent-space normal
+        ``"baseColor"`` (required; sRGB colour, its alpha the opacity where the material's
+        ``alphaMode`` reads it), ``"metallicRoughness"`` (data: G roughness, B metallic,
+        with factors 1), ``"occlusion"`` (data: R), ``"normal"`` (a tangent-space normal
         map, +Y up: linear data) and ``"emissive"`` (sRGB, with ``emissiveFactor`` 1).
-        Slots given the same PNG share one image; the PNGs are embedded as they are.
+        Slots given the same PNG share one image (an ORM map as metallic-roughness and
+        occlusion); the PNGs are embedded as they are.
     normals : (k, 3) array_like of float, optional
         Shading normals, non-zero and finite; normalised here.
     tangents : (k, 4) array_like of float, optional
@@ -115,6 +118,10 @@ def write_glb(path, vertices, faces, uv, textures, *, normals=None, tangents=Non
     base_factor : (4,) tuple of float, optional
         The base colour's factor: black for a texture that is light, not paint (the
         flame, bound as emissive).
+    material : dict, optional
+        More of the glTF material's fields, written over what the textures give (a
+        baked material's ``alphaMode`` and ``alphaCutoff``, its factors where a channel
+        has no map: ``{"pbrMetallicRoughness": {"metallicFactor": 0.0}}``).
 
     Returns
     -------
@@ -150,7 +157,7 @@ def write_glb(path, vertices, faces, uv, textures, *, normals=None, tangents=Non
         "scenes": [{"nodes": [0]}],
         "nodes": [{"mesh": 0, "name": name}],
         "meshes": [{"name": name, "primitives": [{"attributes": attributes, "indices": index_accessor, "material": 0, "mode": _TRIANGLES}]}],
-        "materials": [_material(name, texture, base_factor)],
+        "materials": [_material(name, texture, base_factor, material)],
         "textures": [{"sampler": 0, "source": i} for i in range(len(images))],
         "samplers": [{"magFilter": _LINEAR, "minFilter": _LINEAR_MIPMAP_LINEAR, "wrapS": _CLAMP, "wrapT": _CLAMP}],
         "images": [{"bufferView": view, "mimeType": "image/png"} for view in image_views],
@@ -231,16 +238,23 @@ def _attributes(buffer: _Buffer, v: np.ndarray, t: np.ndarray, n: np.ndarray | N
     return attributes
 
 
-def _material(name: str, texture: dict[str, dict], base_factor) -> dict:
-    """The one material: base colour, and normal and emissive where ``texture`` has them."""
-    material: dict = {"name": f"{name}_baked",
-                      "pbrMetallicRoughness": {"baseColorTexture": texture["baseColor"], "metallicFactor": 0.0, "roughnessFactor": 1.0}}
+def _material(name: str, texture: dict[str, dict], base_factor, extra: dict | None = None) -> dict:
+    """The one material: base colour, and metallic-roughness, occlusion, normal and emissive
+    where ``texture`` has them; ``extra`` written over it."""
+    pbr: dict = {"baseColorTexture": texture["baseColor"], "metallicFactor": 0.0, "roughnessFactor": 1.0}
+    material: dict = {"name": f"{name}_baked", "pbrMetallicRoughness": pbr}
     if tuple(base_factor) != (1.0, 1.0, 1.0, 1.0):
-        material["pbrMetallicRoughness"]["baseColorFactor"] = [float(x) for x in base_factor]
+        pbr["baseColorFactor"] = [float(x) for x in base_factor]
+    if "metallicRoughness" in texture:  # the texture's values as they are
+        pbr.update(metallicRoughnessTexture=texture["metallicRoughness"], metallicFactor=1.0, roughnessFactor=1.0)
+    if "occlusion" in texture:
+        material["occlusionTexture"] = texture["occlusion"]
     if "normal" in texture:
         material["normalTexture"] = texture["normal"]
     if "emissive" in texture:
         material["emissiveTexture"], material["emissiveFactor"] = texture["emissive"], [1.0, 1.0, 1.0]
+    for key, value in (extra or {}).items():
+        material[key] = {**material.get(key, {}), **value} if isinstance(value, dict) else value
     return material
 
 

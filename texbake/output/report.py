@@ -71,6 +71,8 @@ class BakeTally:
         The colour map's error estimate (``texbake.maps.estimate``).
     seconds : dict of str to float
         Seconds per stage, summed over the tiles that ran it.
+    material : dict or None
+        A material's bake: its maps and each node's evaluations (``texbake.maps.material``).
     """
 
     covered: np.ndarray
@@ -82,6 +84,7 @@ class BakeTally:
     lookup_reused: bool = False
     error_estimate: dict = field(default_factory=dict)
     seconds: dict = field(default_factory=dict)
+    material: dict | None = None
 
 
 def bake_report(settings: BakeSettings, mesh: LoadedMesh, atlas: Atlas, tally: BakeTally, *,
@@ -126,6 +129,7 @@ def bake_report(settings: BakeSettings, mesh: LoadedMesh, atlas: Atlas, tally: B
             "transfer_missed": tally.transfer_missed,
         },
         "error_estimate": tally.error_estimate,
+        **({} if tally.material is None else {"material": tally.material}),
         "warnings": [*mesh.warnings, *atlas.warnings, *_transfer_warning(tally)],  # each stage's, in their order
         "skipped": _skipped(source, atlas, tally),
         "seconds": {k: round(v, 4) for k, v in tally.seconds.items()},

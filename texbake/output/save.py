@@ -11,6 +11,8 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import OutputError, ParameterError
 from ..formats import bits_problem, image_format
 from .atomic import remove_stale
@@ -29,7 +31,9 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
     light (the flame), the albedo as emissive, its base colour factor black (PNG copies ``<map>_gltf.png`` when the
     format is not PNG); ``<name>.obj`` + MTL if ``obj``; ``report.json`` last, so its
     presence means the rest is complete. Colour maps are sRGB; the normal map and the
-    coverage are data (a linear PNG: ``texbake.output.images``).
+    coverage are data (a linear PNG: ``texbake.output.images``). A material's bake writes
+    a map per channel (``base_color``, ``emissive`` colour; the rest data) and its packed
+    maps (``orm``...), and its GLB's material is whole (:func:`_glb_textures`).
     """
     fmt = image_format(fmt)
     if bits is not None and (problem := bits_problem(fmt, bits)):
@@ -42,29 +46,18 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
     remove_stale(folder)  # what a killed earlier bake into this folder left half-written
 
     start = time.perf_counter()
-    jobs = {name: (folder / f"{name}.{fmt}", pixels, bits, "data" if name == "normal" else "linear")  # a normal map is no colour
+    jobs = {name: (folder / f"{name}.{fmt}", pixels, bits, "linear" if is_colour(name) else "data")  # a normal map is no colour
             for name, pixels in result.images.items()}
     jobs["coverage"] = (folder / "coverage.png", result.coverage[:, :, None], None, "data")
     with ThreadPoolExecutor(2, thread_name_prefix="texbake-write") as pool:  # two at once: OpenImageIO's compression releases the GIL
         futures = {name: pool.submit(write_image, path, pixels, bits=b, colorspace=kind) for name, (path, pixels, b, kind) in jobs.items()}
         written = {name: future.result() for name, future in futures.items()}
 
-    # the GLB's textures (glTF embeds PNG or JPEG only: PNG copies of other formats)
-    colour = "albedo" if "albedo" in result.images else min(n for n in result.images if n.startswith("albedo_"))
-    slot_maps = {"baseColor": colour, **({"normal": "normal"} if "normal" in result.images else {})}
-    slots = {}
-    for slot, name in slot_maps.items():
-        slots[slot] = folder / f"{name}.png"
-        if fmt != "png":
-            slots[slot] = folder / f"{name}_gltf.png"
-            written[f"{name}_gltf"] = write_image(slots[slot], result.images[name], colorspace="data" if name == "normal" else "linear")
-    emits = result.settings.texture.emits  # the flame: its colour is light, not paint
-    if emits:
-        slots["emissive"] = slots["baseColor"]
+    slots, factor, material = _glb_textures(result, folder, fmt, written)
     texture = slots["baseColor"]
     m = result.mesh
     written["glb"] = write_glb(folder / f"{m.name}.glb", m.vertices, m.faces, m.uv, slots, normals=m.normals, tangents=m.tangents,
-                               name=m.name, base_factor=(0.0, 0.0, 0.0, 1.0) if emits else (1.0, 1.0, 1.0, 1.0))
+                               name=m.name, base_factor=factor, material=material)
     if obj:
         written["obj"] = write_obj(folder / f"{m.name}.obj", m.vertices, m.faces, m.uv, texture.name, normals=m.normals)
 
@@ -74,3 +67,58 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
     write_json(folder / "report.json", report)
     result.report = report
     return written
+
+
+COLOUR_MAPS = ("lit", "flipbook", "base_color", "emissive")  # and albedo, albedo_0000...: sRGB; every other map is data
+
+
+def is_colour(name: str) -> bool:
+    """Whether the map ``name`` is colour (written sRGB) rather than data (linear)."""
+    return name in COLOUR_MAPS or name.startswith("albedo")
+
+
+def _glb_textures(result, folder: Path, fmt: str, written: dict) -> tuple[dict[str, Path], tuple, dict]:
+    """``(slots, base colour factor, material fields)`` of the GLB's material: the PNG of each
+    texture slot (glTF embeds PNG or JPEG only: PNG copies ``<map>_gltf.png`` of other
+    formats, and of what glTF reads otherwise: a base colour with the opacity as its alpha,
+    a normal map with green up, an ORM map where the packing has none)."""
+    images = result.images
+    if result.settings.material is None:
+        colour = "albedo" if "albedo" in images else min(n for n in images if n.startswith("albedo_"))
+        emits = result.settings.texture.emits  # the flame: its colour is light, not paint
+        slots = {"baseColor": colour, **({"normal": "normal"} if "normal" in images else {}), **({"emissive": colour} if emits else {})}
+        return _pngs(result, folder, fmt, written, slots, {}), (0.0, 0.0, 0.0, 1.0) if emits else (1.0, 1.0, 1.0, 1.0), {}
+    from ..materials import DEFAULTS, PACKINGS, pack
+
+    copies: dict[str, object] = {}
+    slots = {"baseColor": "base_color"}
+    fields: dict = {}  # without a metallic-roughness map the GLB's factors are the defaults': metallic 0, roughness 1
+    if "opacity" in images:  # glTF reads the opacity from the base colour's alpha
+        copies["base_color"] = np.concatenate([images["base_color"], images["opacity"]], axis=2)
+        mode = result.settings.material.alpha_mode
+        fields.update(alphaMode=mode.upper(), **({"alphaCutoff": result.settings.material.alpha_cutoff} if mode == "mask" else {}))
+    if {"roughness", "metallic", "occlusion"} & set(images):
+        if "orm" not in images:
+            copies["orm"] = pack(PACKINGS["orm"], images, DEFAULTS)
+        slots.update(metallicRoughness="orm", **({"occlusion": "orm"} if "occlusion" in images else {}))
+    if "normal" in images:
+        slots["normal"] = "normal"
+        if result.settings.normal_convention == "directx":  # glTF's is +Y
+            copies["normal"] = np.concatenate([images["normal"][..., :1], 1.0 - images["normal"][..., 1:2], images["normal"][..., 2:]], axis=2)
+    if "emissive" in images:
+        slots["emissive"] = "emissive"
+    return _pngs(result, folder, fmt, written, slots, copies), (1.0, 1.0, 1.0, 1.0), fields
+
+
+def _pngs(result, folder: Path, fmt: str, written: dict, slots: dict[str, str], copies: dict) -> dict[str, Path]:
+    """The PNG of each slot's map: the map's own file, or a ``<map>_gltf.png`` written of
+    ``copies[map]`` (or of the map, in a format that is not PNG)."""
+    out = {}
+    for slot, name in slots.items():
+        out[slot] = folder / f"{name}.png"
+        if fmt != "png" or name in copies:
+            out[slot] = folder / f"{name}_gltf.png"
+            if f"{name}_gltf" not in written:
+                pixels = copies.get(name, result.images.get(name))
+                written[f"{name}_gltf"] = write_image(out[slot], pixels, colorspace="linear" if is_colour(name) else "data")
+    return out
