@@ -48,6 +48,12 @@ export const SETTING_WORDS = {
   bits: { label: "Bit depth", none: "Format default", options: { 8: "8 bits", 16: "16 bits", 32: "32 bits" },
     hint: "PNG takes 8 or 16, EXR 16 (half float) or 32, TIFF 8, 16 or 32. Default: PNG 8, EXR 16, TIFF 16." },
   obj: { label: "Also write OBJ + MTL", hint: "Beside the GLB, for tools that do not read glTF." },
+  material: { label: "PBR material", none: "No material (the texture)",
+    options: { polished_marble: "Polished marble", oak_planks: "Oak planks", lava: "Lava", rusted_iron: "Rusted iron",
+      glazed_ceramic_checker: "Glazed ceramic checker" },
+    hint: "A built-in material: base colour, roughness, metallic, normal and more maps (and an ORM map) instead of the texture." },
+  normal_convention: { label: "Normal map convention", options: { opengl: "OpenGL (+Y, glTF)", directx: "DirectX (-Y)" },
+    hint: "The normal map's green channel; the GLB always gets OpenGL's." },
 };
 
 const OCTAVES = {
