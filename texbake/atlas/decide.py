@@ -61,12 +61,13 @@ class Atlas:
 
     vmapping: np.ndarray  # (k,) int64: atlas vertex -> mesh vertex
     faces: np.ndarray  # (m, 3) int64: faces in atlas-vertex indices, same order as the mesh's
-    uv: np.ndarray  # (k, 2) float64 in [0, 1], OpenGL convention (v up)
+    uv: np.ndarray  # (k, 2) float64 in [0, 1], OpenGL convention (v up); in UDIM tiles where ``udim``
     method: str  # "kept" | "planar" | "xatlas" | "xatlas-patches" | "fallback-grid", or "kept+" one of those (UVs kept in part)
     reason: str  # why this method (and what failed before it)
     stats: dict = field(default_factory=dict)  # charts, utilisation, stretch, overlap, seconds
     warnings: list[str] = field(default_factory=list)  # what a user should know of this atlas
     cached: bool = False  # taken from a cache of an earlier bake (texbake.atlas.cache), not made now
+    udim: bool = False  # the UVs lie in UDIM tiles (u in [0, 10), v >= 0, each face in one: uvcheck.udim_tiles), kept as they are
 
 
 def make_atlas(

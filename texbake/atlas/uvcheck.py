@@ -124,6 +124,31 @@ def unwrap_problem(vmapping: np.ndarray, faces: np.ndarray, uv: np.ndarray, mesh
     return None
 
 
+# -- UDIM tiles ----------------------------------------------------------------------
+
+UDIM_COLUMNS = 10  # tiles a row: u in [0, 10)
+
+
+def udim_tiles(uv: np.ndarray, faces: np.ndarray) -> np.ndarray | None:
+    """``(m,)`` int64 the UDIM tile of each face (``1001 + u + 10 v`` of the integer tile
+    ``(u, v)`` its UV triangle lies in, within ``UV_EPS`` of the tile's edges), or None
+    when some face leaves its tile, or lies left of 0, right of 10 or below 0."""
+    corners = np.asarray(uv, dtype=np.float64)[faces]  # (m, 3, 2)
+    if not np.isfinite(corners).all():
+        return None
+    low = np.floor(corners.min(axis=1) + UV_EPS)  # (m, 2): the tile of a face's lowest corner
+    inside = (corners.max(axis=1) <= low + 1 + UV_EPS).all(axis=1)
+    if not inside.all() or low.min() < 0 or low[:, 0].max() >= UDIM_COLUMNS:
+        return None
+    return (1001 + low[:, 0] + UDIM_COLUMNS * low[:, 1]).astype(np.int64)
+
+
+def udim_offset(tile: int) -> tuple[int, int]:
+    """The corner ``(u, v)`` of UDIM tile ``tile`` (1001 -> (0, 0), 1012 -> (1, 1))."""
+    v, u = divmod(int(tile) - 1001, UDIM_COLUMNS)
+    return u, v
+
+
 # -- statistics ----------------------------------------------------------------------
 
 
