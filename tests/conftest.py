@@ -98,6 +98,34 @@ def two_material_scene(path: Path) -> None:
     scene.export(path)
 
 
+def udim_boxes(path: Path, tiles: int = 4) -> dict:
+    """Write an OBJ (``path``) of ``tiles`` unit boxes in a row, box ``k``'s 12 triangles
+    each in a cell of a 4 x 3 grid of UDIM tile ``1001 + k`` (u from k to k + 1): a UDIM
+    asset. Returns ``{"uv": (12 tiles, 3, 2) per face corner, "tile": (12 tiles,)}`` in
+    face order."""
+    import numpy as np
+    import trimesh
+
+    lines, uvs, tile_of, base = [], [], [], 0
+    for k in range(tiles):
+        box = trimesh.creation.box(extents=(1, 1, 1))
+        box.unmerge_vertices()
+        box.apply_translation((1.5 * k, 0, 0))
+        for i, face in enumerate(box.faces):
+            row, col = divmod(i // 2, 4)
+            x, y, s = k + col * 0.25 + 0.02, row / 3 + 0.02, 0.2
+            corners = [(x, y), (x + s, y), (x + s, y + s)] if i % 2 == 0 else [(x, y), (x + s, y + s), (x, y + s)]
+            for j, (a, b) in zip(face, corners, strict=True):
+                lines.append("v {:.9g} {:.9g} {:.9g}".format(*box.vertices[j]))
+                lines.append(f"vt {a:.9g} {b:.9g}")
+            lines.append("f " + " ".join(f"{base + n}/{base + n}" for n in (1, 2, 3)))
+            base += 3
+            uvs.append(corners)
+            tile_of.append(1001 + k)
+    path.write_text("\n".join(lines) + "\n")
+    return {"uv": np.array(uvs, dtype=np.float64), "tile": np.array(tile_of)}
+
+
 def glb_with_image_uri(uri):
     doc = json.dumps({"asset": {"version": "2.0"}, "images": [{"uri": uri}]}).encode()
     doc += b" " * (-len(doc) % 4)

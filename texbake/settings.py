@@ -300,7 +300,7 @@ def names_problem(template: str) -> str | None:
     return None
 
 
-def file_name(template: str, *, mesh: str, set: str | None, map: str, tile: int | None, ext: str) -> str:
+def file_name(template: str, *, mesh: str, set: str | None, map: str, tile: int | str | None, ext: str) -> str:
     """A map's file name from a ``names`` template: ``file_name("{set}_{map}.{tile}.{ext}",
     mesh="truck", set="wheels", map="albedo", tile=None, ext="png") == "wheels_albedo.png"``.
     A field without a value (``set`` or ``tile`` None) is left out with the separator

@@ -94,7 +94,8 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
 
 
 def _namer(result):
-    """``name_of(baked set, map, ext)``: a map's file name (``texbake.settings.file_name``);
+    """``name_of(baked set, map, ext, tile=its tile)``: a map's file name (``texbake.settings.file_name``;
+    ``tile="<UDIM>"`` names the maps of all its tiles);
     :class:`ParameterError` naming ``names`` when the template gives two maps one name."""
     from ..sets import file_stems
 
@@ -102,8 +103,9 @@ def _namer(result):
     stems = file_stems(names)
     template, mesh = result.settings.names, result.sets[0].mesh.name
 
-    def name_of(b, map_name: str, ext: str) -> str:
-        return file_name(template, mesh=mesh, set=stems[b.name] if len(names) > 1 else None, map=map_name, tile=b.tile, ext=ext)
+    def name_of(b, map_name: str, ext: str, tile: int | str | None = -1) -> str:
+        return file_name(template, mesh=mesh, set=stems[b.name] if len(names) > 1 else None, map=map_name,
+                         tile=b.tile if tile == -1 else tile, ext=ext)
 
     files = [name_of(b, m, "png") for b in result.sets for m in [*b.images, "coverage"]]
     if len(set(files)) < len(files):
