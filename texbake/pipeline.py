@@ -35,7 +35,7 @@ from .memory import check_fits
 from .mesh import LoadedMesh, load_mesh, mesh_from_trimesh, split_normals, vertex_tangents
 from .output import BakeTally, bake_report
 from .sampling import Sampler, sample_offsets, sample_uv, tiles
-from .sets import TextureSet, Tile, texture_sets
+from .sets import TextureSet, Tile, images_of, texture_sets
 from .sets import tiles as set_tiles
 from .settings import BakeSettings
 from .textures.mapping import TextureMapping
@@ -255,8 +255,9 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
         mesh = as_mesh(mesh_or_path, settings.max_faces, "mesh")
         src = None if source is None else as_mesh(source, settings.max_faces, "source")
     sets = texture_sets(mesh, settings)
+    images = [(s.settings, images_of(s)) for s in sets]
     check_fits(settings, len(mesh.faces) + (0 if src is None else len(src.faces)), workers, tile_samples,  # before the unwrap
-               sets=None if len(sets) == 1 else [(s.settings, 1) for s in sets])
+               sets=None if images == [(settings, 1)] else images)
     say(0.05)
     store = None if cache is None else cache if isinstance(cache, AtlasCache) else AtlasCache(cache)
     baked: list[BakedSet] = []

@@ -106,6 +106,16 @@ def texture_sets(mesh: LoadedMesh, settings: BakeSettings) -> list[TextureSet]:
     return sets
 
 
+def images_of(texture_set: TextureSet) -> int:
+    """How many images a set will bake, as far as its mesh tells before its atlas: one per
+    UDIM tile its own UVs lie in (they may yet be unwrapped into one), else one."""
+    mesh = texture_set.mesh
+    if mesh.uv is None or mesh.has_uv is not None or texture_set.settings.uv == "unwrap":
+        return 1
+    tiles = udim_tiles(mesh.uv, mesh.faces)
+    return 1 if tiles is None else len(np.unique(tiles))
+
+
 def restricted(mesh: LoadedMesh, faces: np.ndarray, name: str) -> LoadedMesh:
     """The faces ``faces`` (indices) of ``mesh`` as a mesh of their own: the vertices they
     use, their UVs, parts and ``has_uv``; its hash is the mesh's and the faces' (the atlas
