@@ -125,6 +125,8 @@ def check_fits(settings, faces: int, workers: int = 2, tile_samples: int = TILE_
 
     ``size: a 65536x65536 bake needs about 40 GB; 20 GB are available``.
     """
+    if sets is not None and len(sets) == 1 and sets[0][1] == 1:  # one image: a bake as there were before sets
+        settings, sets = sets[0][0], None
     need = bake_bytes(settings, faces, workers, tile_samples) if sets is None else sets_bytes(sets, faces, workers, tile_samples)
     have = available_bytes() if limit is None else int(limit)
     if need > have:

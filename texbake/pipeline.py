@@ -255,9 +255,8 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
         mesh = as_mesh(mesh_or_path, settings.max_faces, "mesh")
         src = None if source is None else as_mesh(source, settings.max_faces, "source")
     sets = texture_sets(mesh, settings)
-    images = [(s.settings, images_of(s)) for s in sets]
     check_fits(settings, len(mesh.faces) + (0 if src is None else len(src.faces)), workers, tile_samples,  # before the unwrap
-               sets=None if images == [(settings, 1)] else images)
+               sets=[(s.settings, images_of(s)) for s in sets])
     say(0.05)
     store = None if cache is None else cache if isinstance(cache, AtlasCache) else AtlasCache(cache)
     baked: list[BakedSet] = []

@@ -83,14 +83,19 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
         written["obj"] = write_obj_parts(folder / f"{m.name}.obj", [ObjPart(b.mesh.vertices, b.mesh.faces, b.mesh.uv, texture.name, b.name,
                                                                              b.mesh.normals) for b, texture in obj_parts])
 
-    report = dict(result.report)
-    report["seconds"] = {**report.get("seconds", {}), "write": round(time.perf_counter() - start, 4)}
+    result.report = _report(result.report, written, owner, time.perf_counter() - start)
+    write_json(folder / "report.json", result.report)
+    return written
+
+
+def _report(report: dict, written: dict, owner: dict[str, str], seconds: float) -> dict:
+    """The bake's report with its ``outputs``, each set's, and the seconds of the writing."""
+    report = dict(report)
+    report["seconds"] = {**report.get("seconds", {}), "write": round(seconds, 4)}
     report["outputs"] = {k: {"path": Path(v["path"]).name, **{x: y for x, y in v.items() if x != "path"}} for k, v in written.items()}
     for entry in report.get("sets", []):
         entry["outputs"] = sorted(file for file, name in owner.items() if name == entry["name"])
-    write_json(folder / "report.json", report)
-    result.report = report
-    return written
+    return report
 
 
 def _namer(result):
