@@ -80,7 +80,7 @@ def test_a_scene_with_uvs_on_some_parts_keeps_them_and_the_job_says_so(server, t
 
     url, *_ = server
     mixed_uv_scene(tmp_path / "scene.glb", 0.5)
-    job = wait(url, upload(url, tmp_path / "scene.glb", {"uv": "keep", "size": 64}).json()["id"])
+    job = wait(url, upload(url, tmp_path / "scene.glb", {"uv": "keep", "size": 64, "texture_set": "single"}).json()["id"])
     assert job["state"] == "done", job["error"]
     assert job["report"]["atlas"]["method"].startswith("kept+") and job["report"]["atlas"]["kept_scale"] == 1.0
     assert job["warnings"] == job["report"]["warnings"]

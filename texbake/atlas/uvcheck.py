@@ -124,6 +124,80 @@ def unwrap_problem(vmapping: np.ndarray, faces: np.ndarray, uv: np.ndarray, mesh
     return None
 
 
+# -- UDIM tiles ----------------------------------------------------------------------
+
+UDIM_COLUMNS = 10  # tiles a row: u in [0, 10)
+
+
+def udim_tiles(uv: np.ndarray, faces: np.ndarray) -> np.ndarray | None:
+    """``(m,)`` int64 the UDIM tile of each face (``1001 + u + 10 v`` of the integer tile
+    ``(u, v)`` its UV triangle lies in, within ``UV_EPS`` of the tile's edges), or None
+    when some face leaves its tile, lies left of 0, right of 10 or below 0, or an island
+    (a connected piece of the layout) lies in two tiles: a layout that runs on across
+    tiles repeats a tiling texture, it is not in tiles."""
+    corners = np.asarray(uv, dtype=np.float64)[faces]  # (m, 3, 2)
+    if not np.isfinite(corners).all():
+        return None
+    low = np.floor(corners.min(axis=1) + UV_EPS)  # (m, 2): the tile of a face's lowest corner
+    inside = (corners.max(axis=1) <= low + 1 + UV_EPS).all(axis=1)
+    if not inside.all() or low.min() < 0 or low[:, 0].max() >= UDIM_COLUMNS:
+        return None
+    tile = (1001 + low[:, 0] + UDIM_COLUMNS * low[:, 1]).astype(np.int64)
+    label = chart_labels(faces, len(uv))
+    first = np.zeros(int(label.max()) + 1, dtype=np.int64)
+    first[label[::-1]] = tile[::-1]  # each island's tile (of its first face)
+    return tile if np.array_equal(first[label], tile) else None
+
+
+def udim_overlap(uv: np.ndarray, faces: np.ndarray, tiles: np.ndarray, grid: int) -> tuple[float, int]:
+    """:func:`overlap` of a UDIM layout (``tiles``: :func:`udim_tiles`), each tile on its own
+    ``grid``-square raster: the share of covered texel centres under two or more faces."""
+    covered = over = most = 0
+    for tile in np.unique(tiles).tolist():
+        counts = coverage_counts(np.asarray(uv, dtype=np.float64) - udim_offset(tile), faces[tiles == tile], grid)
+        covered, over, most = covered + int((counts > 0).sum()), over + int((counts > 1).sum()), max(most, int(counts.max()))
+    return (over / covered if covered else 0.0), most
+
+
+def udim_offset(tile: int) -> tuple[int, int]:
+    """The corner ``(u, v)`` of UDIM tile ``tile`` (1001 -> (0, 0), 1012 -> (1, 1))."""
+    v, u = divmod(int(tile) - 1001, UDIM_COLUMNS)
+    return u, v
+
+
+# -- islands -------------------------------------------------------------------------
+
+
+def folded_faces(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``(m,)`` bool: the faces of no UV area, and those whose UV triangle turns the other
+    way to the most of their island's (by area): where an island folds over itself."""
+    uv = np.asarray(uv, dtype=np.float64)
+    t = uv[faces]
+    signed = 0.5 * ((t[:, 1, 0] - t[:, 0, 0]) * (t[:, 2, 1] - t[:, 0, 1]) - (t[:, 2, 0] - t[:, 0, 0]) * (t[:, 1, 1] - t[:, 0, 1]))
+    label = chart_labels(faces, len(uv))
+    way = np.sign(np.bincount(label, signed))[label]  # each island's way round
+    return (signed * way <= 0) | (uv_areas(uv, faces) <= 0)
+
+
+def island_overlap(uv: np.ndarray, faces: np.ndarray, grid: int) -> float:
+    """The share of texel centres that two faces of one island cover, each island (a
+    connected piece of the layout) rasterised alone at the texel size of a ``grid``-square
+    tile: how much the islands overlap themselves, wherever they lie."""
+    label = chart_labels(faces, len(uv))
+    order = np.argsort(label, kind="stable")
+    cuts = np.flatnonzero(np.diff(label[order])) + 1
+    texel = 1.0 / grid
+    covered = over = 0
+    for members in np.split(order, cuts):
+        used, local = np.unique(faces[members], return_inverse=True)
+        part = np.asarray(uv, dtype=np.float64)[used]
+        lo = part.min(axis=0)
+        n = int(np.ceil(float((part.max(axis=0) - lo).max()) / texel)) + 2
+        counts = coverage_counts((part - lo + texel) / (n * texel), local.reshape(-1, 3), n)
+        covered, over = covered + int((counts > 0).sum()), over + int((counts > 1).sum())
+    return over / covered if covered else 0.0
+
+
 # -- statistics ----------------------------------------------------------------------
 
 

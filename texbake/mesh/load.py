@@ -12,9 +12,14 @@ a :class:`~texbake.errors.MeshError` naming the file; zero-area faces are remove
 Vertices that are equal in position *and* UV are merged (file formats and trimesh split
 every face corner), so UV seams survive and a closed surface stays connected.
 
-UVs are kept per part: in a scene where some parts have UVs and others have none, the
-parts that have them keep them (``LoadedMesh.has_uv`` says which faces), and the atlas
-unwraps only the others.
+UVs are kept per part: in a scene where some parts have UVs and others have none (or an
+OBJ where some groups have ``vt`` and others not), the parts that have them keep them
+(``LoadedMesh.has_uv`` says which faces), and the atlas unwraps only the others.
+
+Parts and materials: each face has its part (a scene's mesh, an OBJ's ``g``/``o`` group)
+and its material (a glTF primitive's material, an OBJ's ``usemtl``; a PLY, STL or OFF is
+one part of one material, ``default``), with their names; the texture sets
+(:mod:`texbake.sets`) are made per material.
 """
 
 from __future__ import annotations
@@ -28,12 +33,13 @@ import re
 import struct
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
+from typing import NamedTuple
 
 import numpy as np
 
 from ..errors import MeshError, ParameterError
 from .grouping import first_order_ranks, group_rows
-from .objfile import read_obj
+from .objfile import DEFAULT, read_obj
 from .plyfile import read_ply
 from .uvgeometry import areas
 
@@ -90,7 +96,15 @@ class LoadedMesh:
         Each face's part (index into ``part_names``) for a mesh of several parts (a
         scene's meshes); None for one part. The atlas keeps or unwraps UVs part by part.
     part_names : list of str
-        The parts' names (a scene's mesh names, with the node where a mesh is used twice).
+        The parts' names (a scene's mesh names, with the node where a mesh is used twice;
+        an OBJ's group names).
+    material : (m,) int32 or None
+        Each face's material (index into ``material_names``) for a mesh of several; None
+        for one.
+    material_names : list of str
+        The materials' names, one or more, each once (a glTF's material names, an OBJ's
+        ``usemtl`` names; ``default`` for faces without one; ``material_N`` for the N-th
+        unnamed glTF material), in order of first use.
     warnings : list of str
         What a user should know of the loading (one line each; the report collects them).
     """
@@ -107,6 +121,8 @@ class LoadedMesh:
     part: np.ndarray | None = None
     part_names: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    material: np.ndarray | None = None
+    material_names: list[str] = field(default_factory=lambda: [DEFAULT])
 
     @property
     def without_uv(self) -> list[str]:
@@ -151,16 +167,17 @@ def load_mesh(path, *, max_faces: int = 5_000_000) -> LoadedMesh:
     except OSError as exc:
         raise MeshError(where, f"cannot read: {exc.strerror}") from None
     sha256 = hashlib.sha256(data).hexdigest()
+    warnings: list[str] = []
     try:
         with np.errstate(over="raise"):  # a float32 field overflowing to inf
-            parts = _read(data, kind, path)
+            parts = _read(data, kind, path, warnings)
     except MeshError:
         raise
     except FloatingPointError:
         raise MeshError(where, f"a number overflows when read: coordinates must lie within float32 range (|x| <= {FLOAT32_MAX:.3g})") from None
     except Exception as exc:  # the parsers raise many kinds on corrupt input
         raise MeshError(where, f"cannot parse {kind.upper()} file: {_short(exc)}") from None
-    return _validate(parts, path.stem, where, sha256, max_faces)
+    return _validate(parts, path.stem, where, sha256, max_faces, warnings)
 
 
 def check_file(path) -> str:
@@ -202,18 +219,29 @@ def check_file(path) -> str:
     return kind
 
 
-def _read(data: bytes, kind: str, path: Path) -> list:
-    """Parse checked file bytes into ``(vertices, faces, uv or None)`` parts."""
-    if kind == "obj":  # our own reader: trimesh 5.2 resolves relative indices wrongly
-        def check(name, what):
-            _check_reference(name, path, what)
-            _check_mtl(path.parent / name, path)
+class _Piece(NamedTuple):
+    """A mesh as a reader gives it, before the pieces are joined and checked: ``part`` and
+    ``material`` (m,) index its own ``part_names`` and ``material_names`` (None: all the
+    first); ``has_uv`` (m,) says which faces have UVs when only some do."""
 
-        return [read_obj(data, path, check)]
+    vertices: np.ndarray
+    faces: np.ndarray
+    uv: np.ndarray | None
+    part_names: list[str]
+    material_names: list[str]
+    has_uv: np.ndarray | None = None
+    part: np.ndarray | None = None
+    material: np.ndarray | None = None
+
+
+def _read(data: bytes, kind: str, path: Path, warnings: list[str]) -> list[_Piece]:
+    """Parse checked file bytes into pieces; what a user should know goes to ``warnings``."""
+    if kind == "obj":  # our own reader: trimesh 5.2 resolves relative indices wrongly
+        return [_read_obj(data, path, warnings)]
     if kind == "ply":  # our own reader first: trimesh reads no triangle strips, nor mixed binary polygons
         ply = read_ply(data)
         if ply is not None:
-            return [ply]
+            return [_Piece(*ply, ["mesh"], [DEFAULT])]
 
     import trimesh  # pip install trimesh
 
@@ -224,6 +252,30 @@ def _read(data: bytes, kind: str, path: Path) -> list:
         process=False,
     )
     return _parts(loaded)
+
+
+def _read_obj(data: bytes, path: Path, warnings: list[str]) -> _Piece:
+    """An OBJ as one piece of its groups and materials; a material library that is missing,
+    or a ``usemtl`` name none of them defines, is a warning."""
+    missing: list[str] = []
+    defined: set[str] = set()
+
+    def check(name, what):
+        _check_reference(name, path, what)
+        names = _check_mtl(path.parent / name, path)
+        if names is None:
+            missing.append(name)
+        else:
+            defined.update(names)
+
+    obj = read_obj(data, path, check)
+    for name in missing:
+        warnings.append(f"the material library {name!r} (mtllib) is missing beside the mesh: its materials are known by "
+                        "their usemtl names alone")
+    unknown = [name for name in obj.material_names if name != DEFAULT and name not in defined]
+    if unknown and defined:  # (all of them missing: said above)
+        warnings.append(f"usemtl names materials that no material library defines: {', '.join(map(repr, unknown))}")
+    return _Piece(obj.vertices, obj.faces, obj.uv, obj.part_names, obj.material_names, obj.has_uv, obj.part, obj.material)
 
 
 def mesh_from_trimesh(mesh, *, name: str = "mesh", max_faces: int = 5_000_000) -> LoadedMesh:
@@ -278,9 +330,14 @@ def _check_reference(ref: str, path: Path, what: str) -> None:
 _MTL_MAPS = re.compile(r"^\s*(map_\w+|bump|disp|decal|refl|norm)\s+(.*)$", re.M | re.I)
 
 
-def _check_mtl(mtl: Path, path: Path) -> None:
+_NEWMTL = re.compile(r"^\s*newmtl\s+(.*?)\s*$", re.M)
+
+
+def _check_mtl(mtl: Path, path: Path) -> set[str] | None:
+    """The names of the materials ``mtl`` defines, its texture maps checked; None when it
+    is missing (a missing MTL only loses the materials' definitions)."""
     if not mtl.is_file():
-        return  # a missing MTL only loses materials
+        return None
     try:
         text = mtl.read_text(errors="replace")
     except OSError as exc:
@@ -289,6 +346,7 @@ def _check_mtl(mtl: Path, path: Path) -> None:
         words = args.split()
         if words:  # the file name is the last word; options come before it
             _check_reference(words[-1], path, f"texture in {mtl.name}")
+    return {" ".join(name.split()) for name in _NEWMTL.findall(text)}
 
 
 def _gltf_json(path: Path, kind: str, where: str) -> tuple[dict, int | None]:
@@ -441,18 +499,19 @@ def _check_stl_header(head: bytes, size: int, where: str) -> None:
 # -- geometry ----------------------------------------------------------------------
 
 
-def _parts(loaded):
-    """(vertices, faces, uv or None, name) of every triangle mesh, transforms applied;
-    a scene's parts are named by their meshes."""
+def _parts(loaded) -> list[_Piece]:
+    """A piece for every triangle mesh, transforms applied; a scene's parts are named by
+    their meshes, and each has its material (:func:`_material_names`)."""
     import trimesh
 
     if isinstance(loaded, trimesh.Trimesh):
-        return [(loaded.vertices, loaded.faces, _uv(loaded), "mesh")]
+        return [_Piece(loaded.vertices, loaded.faces, _uv(loaded), ["mesh"], [DEFAULT])]
     if not isinstance(loaded, trimesh.Scene):
         return []
     parts = []
     nodes = loaded.graph.nodes_geometry
     uses = collections.Counter(loaded.graph.transforms.node_data[node]["geometry"] for node in nodes)
+    materials = _material_names(loaded)
     for node in nodes:
         transform, name = _world_transform(loaded.graph, node), loaded.graph.transforms.node_data[node]["geometry"]
         g = loaded.geometry[name]
@@ -463,8 +522,25 @@ def _parts(loaded):
             if np.linalg.det(transform[:3, :3]) < 0:  # a mirroring node: keep faces outward
                 f = f[:, ::-1]
             # the mesh's name (trimesh names a glTF file's unnamed nodes at random), and its node's where it is used twice
-            parts.append((v, f, _uv(g), name if uses[name] == 1 else f"{name} at node {node}"))
+            parts.append(_Piece(v, f, _uv(g), [name if uses[name] == 1 else f"{name} at node {node}"], [materials[name]]))
     return parts
+
+
+def _material_names(scene) -> dict[str, str]:
+    """Each geometry's material name: its own, ``material_N`` for the N-th unnamed one
+    (trimesh keeps one object per glTF material), ``default`` without one."""
+    names: dict[str, str] = {}
+    unnamed: dict[int, str] = {}
+    for key, g in scene.geometry.items():
+        material = getattr(getattr(g, "visual", None), "material", None)
+        name = getattr(material, "name", None)
+        if material is None:
+            names[key] = DEFAULT
+        elif isinstance(name, str) and name.strip():
+            names[key] = " ".join(name.split())
+        else:
+            names[key] = unnamed.setdefault(id(material), f"material_{len(unnamed)}")
+    return names
 
 
 _IDENTITY = np.eye(4)
@@ -535,32 +611,47 @@ def _weld(vertices, faces, uv):
     return vertices[keep], rank[inverse][faces], None if uv is None else uv[keep]
 
 
-def _joined_uv(parts, face_parts) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """``(uv, has_uv)`` of the parts ``(vertices, faces, uv or None, ...)`` put together:
-    UVs with NaN rows for the parts that have none (None if none has any), and which
-    faces have UVs (None if all or none do)."""
-    given = [p[2] is not None for p in parts]
-    if not any(given):
+def _joined_uv(parts: list[_Piece]) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """``(uv, has_uv)`` of the pieces put together: UVs with NaN rows for the pieces that
+    have none (None if none has any), and which faces have UVs (None if all or none do)."""
+    if all(p.uv is None for p in parts):
         return None, None
-    uv = np.concatenate([np.asarray(p[2], dtype=np.float64) if p[2] is not None else np.full((len(p[0]), 2), np.nan)
+    uv = np.concatenate([np.asarray(p.uv, dtype=np.float64) if p.uv is not None else np.full((len(p.vertices), 2), np.nan)
                          for p in parts])
-    if all(given):
-        return uv, None
-    return uv, np.concatenate([np.full(len(f), g) for f, g in zip(face_parts, given, strict=True)])
+    has = np.concatenate([p.has_uv if p.has_uv is not None else np.full(len(p.faces), p.uv is not None) for p in parts])
+    return uv, None if has.all() else has
 
 
-def _validate(parts, name: str, where: str, sha256: str, max_faces: int) -> LoadedMesh:
-    """One checked mesh from ``(vertices, faces, uv or None)`` parts."""
-    parts = [p for p in parts if len(p[1])]
+def _joined_labels(parts: list[_Piece], what: str) -> tuple[np.ndarray | None, list[str]]:
+    """``(label (m,) int32 or None, names)`` of the pieces' ``what``: "part", each piece's
+    parts its own; "material", one per name whichever piece has it. None for one name."""
+    known: dict[str, int] = {}  # material name -> its index
+    names: list[str] = []
+    labels = []
+    for p in parts:
+        local, given = (p.part_names, p.part) if what == "part" else (p.material_names, p.material)
+        if what == "part":
+            code = list(range(len(names), len(names) + len(local)))
+            names += local
+        else:
+            code = [known.setdefault(n, len(known)) for n in local]
+            names = list(known)
+        labels.append(np.asarray(code, dtype=np.int32)[np.zeros(len(p.faces), dtype=np.int64) if given is None else given])
+    return (np.concatenate(labels) if len(names) > 1 else None), names
+
+
+def _validate(parts: list[_Piece], name: str, where: str, sha256: str, max_faces: int, warnings: list[str] | None = None) -> LoadedMesh:
+    """One checked mesh from the pieces a reader gave."""
+    parts = [p for p in parts if len(p.faces)]
     if not parts:
         raise MeshError(where, "no faces: the file holds no triangle geometry")
-    n_faces = sum(len(p[1]) for p in parts)
+    n_faces = sum(len(p.faces) for p in parts)
     if n_faces > max_faces:
         raise MeshError(where, f"{n_faces} faces is more than the limit of {max_faces}")
     vertex_parts, face_parts, offset = [], [], 0
-    for v, f, *_ in parts:
-        v = np.asarray(v, dtype=np.float64)
-        f = np.asarray(f)
+    for p in parts:
+        v = np.asarray(p.vertices, dtype=np.float64)
+        f = np.asarray(p.faces)
         if f.ndim != 2 or f.shape[1] != 3:
             raise MeshError(where, f"faces must be triangles, got shape {f.shape}")
         if f.min() < 0 or f.max() >= len(v):
@@ -570,9 +661,9 @@ def _validate(parts, name: str, where: str, sha256: str, max_faces: int) -> Load
         offset += len(v)
     vertices = np.concatenate(vertex_parts)
     faces = np.concatenate(face_parts)
-    uv, has_uv = _joined_uv(parts, face_parts)
-    part = np.concatenate([np.full(len(f), i, dtype=np.int32) for i, f in enumerate(face_parts)]) if len(parts) > 1 else None
-    names = [p[3] if len(p) > 3 else f"part {i}" for i, p in enumerate(parts)]
+    uv, has_uv = _joined_uv(parts)
+    part, names = _joined_labels(parts, "part")
+    material, material_names = _joined_labels(parts, "material")
     vertices, faces, uv = _weld(vertices, faces, uv)
     if not np.isfinite(vertices).all():
         bad = int((~np.isfinite(vertices)).any(axis=1).sum())
@@ -588,12 +679,24 @@ def _validate(parts, name: str, where: str, sha256: str, max_faces: int) -> Load
     unique = _without_duplicates(faces[keep])
     faces_kept = faces[keep][unique]
     part = None if part is None else part[keep][unique]
+    material, material_names = _used_materials(None if material is None else material[keep][unique], material_names)
     if has_uv is not None:
         has_uv = has_uv[keep][unique]
         if has_uv.all() or not has_uv.any():  # the parts with (or without) UVs were all degenerate
             uv, has_uv = (uv, None) if has_uv.all() else (None, None)
     return LoadedMesh(vertices, faces_kept, uv, name, where, int((~keep).sum()), sha256, int(keep.sum()) - len(unique),
-                      has_uv, part, names)
+                      has_uv, part, names, list(warnings or []), material, material_names)
+
+
+def _used_materials(material: np.ndarray | None, names: list[str]) -> tuple[np.ndarray | None, list[str]]:
+    """The materials some face kept (the faces removed may take a material's all), numbered
+    in order; None for one."""
+    if material is None:
+        return None, names
+    used, label = np.unique(material, return_inverse=True)
+    if len(used) == 1:
+        return None, [names[used[0]]]
+    return label.astype(np.int32).ravel(), [names[i] for i in used]
 
 
 def _without_duplicates(faces: np.ndarray) -> np.ndarray:

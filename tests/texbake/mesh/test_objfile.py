@@ -13,6 +13,10 @@ QUAD = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0
 
 
 def read(text):
+    return read_obj(text.encode(), Path("t.obj"), lambda name, what: None)[:3]
+
+
+def read_all(text):
     return read_obj(text.encode(), Path("t.obj"), lambda name, what: None)
 
 
@@ -70,9 +74,11 @@ def both(text):
         assert fast[0] == names
         for a, b in zip(fast[1], slow, strict=True):
             assert (a is None) == (b is None)
-            if a is not None:
+            if isinstance(a, list):
+                assert a == b
+            elif a is not None:
                 assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
-    return fast is not None, slow
+    return fast is not None, slow[:3]
 
 
 TRIANGLE = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n"
@@ -166,3 +172,23 @@ def test_polygons_with_texture_and_normal_indices_are_fans(corner):
     assert (uv is not None) == ("/{i}" in corner)
     if uv is not None:
         assert np.array_equal(uv[f[:3]], [[[0, 0], [1, 0], [1, 0.5]], [[0, 0], [1, 0.5], [0.5, 1]], [[0, 0], [0.5, 1], [0, 0.5]]])
+
+
+def test_groups_and_materials_name_each_face():
+    # g/o lines name parts, usemtl lines materials, each in order of first use; "default" before any
+    text = (QUAD + "v 2 0 0\nf 1 2 3\ng side\nusemtl red\nf 1 2 3 4\no other\nusemtl blue paint\nf 2 5 3\n"
+            "g side\nusemtl red\nf 3 4 1\n")
+    for taken, mesh in [(True, _read_fast(text.encode())[1]), (False, read_all(text))]:
+        assert mesh.part_names == ["default", "side", "other"] and mesh.part.tolist() == [0, 1, 1, 2, 1], taken
+        assert mesh.material_names == ["default", "red", "blue paint"] and mesh.material.tolist() == [0, 1, 1, 2, 1]
+        assert mesh.has_uv is None and mesh.uv is None
+
+
+def test_texture_coordinates_of_some_groups_are_kept():
+    # a group with vt and a group without: the first keeps its UVs (the second's vertices get NaN)
+    text = QUAD + "v 2 0 0\ng textured\nf 1/1 2/2 3/3 4/4\ng bare\nf 2 5 3\n"
+    mesh = read_all(text)
+    assert mesh.has_uv.tolist() == [True, True, False] and mesh.part.tolist() == [0, 0, 1]
+    corners = mesh.uv[mesh.faces]
+    assert np.array_equal(corners[:2], mesh.vertices[mesh.faces[:2]][:, :, :2]) and np.isnan(corners[2]).all()
+    both(text)  # the line reader alone reads it (corners not all alike)

@@ -362,3 +362,33 @@ def png_chunks(path):
         chunks[kind] = data[p + 8 : p + 8 + n]
         p += 12 + n
     return chunks
+
+
+def test_a_glb_keeps_every_material_by_name_one_primitive_each(tmp_path):
+    """Per material (the default) and with one texture set for the mesh: one primitive per
+    material, each material by its name; validator-clean."""
+    from conftest import two_material_scene
+
+    import texbake
+
+    scene = tmp_path / "cart.glb"
+    two_material_scene(scene)
+    per = texbake.bake_mesh(scene, "checker", size=32)
+    per.save(tmp_path / "per")
+    doc = _gltf(tmp_path / "per" / "cart.glb")
+    assert sorted(m["name"] for m in doc["materials"]) == ["body", "wheels"] and len(doc["images"]) == 2
+    assert assert_valid(tmp_path / "per" / "cart.glb")["issues"]["numWarnings"] == 0
+    result = texbake.bake_mesh(scene, "checker", size=32, texture_set="single")
+    assert len(result.sets) == 1 and result.images["albedo"].shape == (32, 32, 3)
+    result.save(tmp_path / "one")
+    assert sorted(p.name for p in (tmp_path / "one").iterdir()) == ["albedo.png", "cart.glb", "coverage.png", "report.json"]
+    report = assert_valid(tmp_path / "one" / "cart.glb")
+    doc = _gltf(tmp_path / "one" / "cart.glb")
+    assert sorted(m["name"] for m in doc["materials"]) == ["body", "wheels"] and len(doc["images"]) == 1
+    assert len(doc["meshes"][0]["primitives"]) == 2 and report["issues"]["numWarnings"] == 0
+
+
+def _gltf(path):
+    data = path.read_bytes()
+    (length,) = struct.unpack_from("<I", data, 12)
+    return json.loads(data[20 : 20 + length])

@@ -1,0 +1,127 @@
+"""The meshes of a bake in UDIM tiles: USD (``<mesh>.usda``) and OBJ + MTL whose materials
+name their maps with the ``<UDIM>`` token (``albedo.<UDIM>.png``), the mesh's own layout,
+tiles and all (glTF has no UDIM: its GLB puts each tile in a primitive of its own).
+
+Each texture set is one mesh of its tiles' faces, UVs back in their tiles (``uv + offset``),
+bound to one material whose colour is the set's albedo through the token (a set without
+tiles names its one map). USD: ``UsdPreviewSurface`` with a ``UsdUVTexture`` reading the
+``st`` primvar (face-varying: seams stay split), Y up as glTF; written with usd-core
+(``pip install usd-core``), imported here only.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from .atomic import write_bytes
+from .export import ObjPart, write_obj_parts
+
+TOKEN = "<UDIM>"
+
+
+def write_udim(result, folder: Path, name_of, *, obj: bool) -> dict:
+    """Write ``<mesh>.usda`` (and ``<mesh>.obj`` + MTL if ``obj``) of ``result`` (a
+    ``BakeResult`` with UDIM tiles) into ``folder``; ``name_of(baked set, map, ext,
+    tile=...)``: the maps' file names. Returns ``{"usd": ..., "obj": ...}`` as
+    :func:`texbake.output.export.write_obj` returns its file."""
+    sets = _joined(result)
+    name = result.sets[0].mesh.name
+    fmt = result.settings.format
+    written = {"usd": _write_usd(folder / f"{name}.usda", name, [(s, v, f, uv, n, name_of(first, "albedo", fmt, tile=tile))
+                                                                   for s, first, tile, v, f, uv, n in sets])}
+    if obj:
+        written["obj"] = write_obj_parts(folder / f"{name}.obj", [ObjPart(v, f, uv, name_of(first, "albedo", fmt, tile=tile), s, n)
+                                                                  for s, first, tile, v, f, uv, n in sets])
+    return written
+
+
+def _joined(result) -> list[tuple]:
+    """Per texture set ``(name, its first BakedSet, the tile field: TOKEN or None, vertices,
+    faces, uv in the tiles, normals)``: its tiles' meshes put together."""
+    out = []
+    for name in dict.fromkeys(b.name for b in result.sets):
+        parts = [b for b in result.sets if b.name == name]
+        offsets = np.cumsum([0] + [len(b.mesh.vertices) for b in parts])
+        vertices = np.concatenate([b.mesh.vertices for b in parts])
+        faces = np.concatenate([b.mesh.faces + k for b, k in zip(parts, offsets, strict=False)])
+        uv = np.concatenate([b.mesh.uv + b.mesh.offset for b in parts])
+        normals = None if any(b.mesh.normals is None for b in parts) else np.concatenate([b.mesh.normals for b in parts])
+        out.append((name, parts[0], None if parts[0].tile is None else TOKEN, vertices, faces, uv, normals))
+    return out
+
+
+def _write_usd(path: Path, name: str, sets: list[tuple]) -> dict:
+    """A USD stage of one mesh per set ``(name, vertices, faces, uv, normals, map file)``,
+    each bound to its material; written atomically as ``.usda`` text."""
+    from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt  # pip install usd-core
+
+    stage = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    root = UsdGeom.Xform.Define(stage, f"/{_prim(name)}")
+    stage.SetDefaultPrim(root.GetPrim())
+    UsdGeom.Scope.Define(stage, f"{root.GetPath()}/Materials")
+    used: set[str] = set()
+    for set_name, v, f, uv, n, image in sets:
+        prim = _unique(_prim(set_name), used)
+        mesh = UsdGeom.Mesh.Define(stage, f"{root.GetPath()}/{prim}")
+        mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(v, dtype=np.float32)))
+        mesh.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(len(f), 3, dtype=np.int32)))
+        mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(np.ascontiguousarray(f.ravel(), dtype=np.int32)))
+        mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+        mesh.CreateExtentAttr([Gf.Vec3f(*map(float, v.min(axis=0))), Gf.Vec3f(*map(float, v.max(axis=0)))])
+        if n is not None:
+            mesh.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(n, dtype=np.float32)))
+            mesh.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
+        st = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex)
+        st.Set(Vt.Vec2fArray.FromNumpy(np.ascontiguousarray(uv, dtype=np.float32)))
+        material = _material(stage, f"{root.GetPath()}/Materials/{prim}", set_name, image)
+        UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
+    text = stage.GetRootLayer().ExportToString()
+    write_bytes(path, text.encode())
+    return {"path": str(path), "bytes": len(text.encode()), "meshes": len(sets)}
+
+
+def _material(stage, where: str, name: str, image: str):
+    """A ``UsdPreviewSurface`` material at ``where`` whose diffuse colour is ``image`` (a
+    file beside the stage, ``<UDIM>`` for tiles) read through the ``st`` primvar."""
+    from pxr import Sdf, UsdShade
+
+    material = UsdShade.Material.Define(stage, where)
+    material.GetPrim().SetCustomDataByKey("texbake:material", name)
+    surface = UsdShade.Shader.Define(stage, f"{where}/Surface")
+    surface.CreateIdAttr("UsdPreviewSurface")
+    surface.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(1.0)
+    surface.CreateInput("metallic", Sdf.ValueTypeNames.Float).Set(0.0)
+    reader = UsdShade.Shader.Define(stage, f"{where}/TexCoords")
+    reader.CreateIdAttr("UsdPrimvarReader_float2")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("st")
+    texture = UsdShade.Shader.Define(stage, f"{where}/Albedo")
+    texture.CreateIdAttr("UsdUVTexture")
+    texture.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(f"./{image}")
+    texture.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set("auto")
+    texture.CreateInput("wrapS", Sdf.ValueTypeNames.Token).Set("clamp")
+    texture.CreateInput("wrapT", Sdf.ValueTypeNames.Token).Set("clamp")
+    texture.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(), "result")
+    rgb = texture.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+    surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(rgb)
+    material.CreateSurfaceOutput().ConnectToSource(surface.ConnectableAPI(), "surface")
+    return material
+
+
+def _prim(name: str) -> str:
+    """A USD prim name from a set's or mesh's name: letters, digits and ``_``, not starting with a digit."""
+    prim = re.sub(r"\W", "_", name, flags=re.ASCII) or "mesh"
+    return f"_{prim}" if prim[0].isdigit() else prim
+
+
+def _unique(name: str, used: set[str]) -> str:
+    out, k = name, 1
+    while out in used:
+        k += 1
+        out = f"{name}_{k}"
+    used.add(out)
+    return out
