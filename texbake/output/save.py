@@ -74,9 +74,11 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
     m = result.sets[0].mesh
     written["glb"] = write_glb_parts(folder / f"{m.name}.glb", glb_parts, name=m.name)
     if any(b.tile is not None for b in result.sets):
-        from .udim import write_udim
+        from .udim import USD_MISSING, write_udim
 
         written.update(write_udim(result, folder, name_of, obj=obj))
+        if "usd" not in written:
+            result.report = {**result.report, "warnings": [*result.report.get("warnings", []), USD_MISSING]}
     elif obj and len(obj_parts) == 1:
         written["obj"] = write_obj(folder / f"{m.name}.obj", m.vertices, m.faces, m.uv, obj_parts[0][1].name, normals=m.normals)
     elif obj:

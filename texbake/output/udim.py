@@ -6,11 +6,14 @@ Each texture set is one mesh of its tiles' faces, UVs back in their tiles (``uv 
 bound to one material whose colour is the set's albedo through the token (a set without
 tiles names its one map). USD: ``UsdPreviewSurface`` with a ``UsdUVTexture`` reading the
 ``st`` primvar (face-varying: seams stay split), Y up as glTF; written with usd-core
-(``pip install usd-core``), imported here only.
+(``pip install 'texbake[usd]'``), imported here only; without it the OBJ + MTL is written
+in its place and a warning says so (usd-core is 200 MB installed: an extra, not a base
+dependency, so a bake that never meets a UDIM asset does not carry it).
 """
 
 from __future__ import annotations
 
+import importlib.util
 import re
 from pathlib import Path
 
@@ -22,17 +25,28 @@ from .export import ObjPart, write_obj_parts
 TOKEN = "<UDIM>"
 
 
+USD_MISSING = ("UDIM tiles: usd-core is not installed, so no <mesh>.usda was written; the OBJ + MTL "
+               "(map_Kd albedo.<UDIM>) was written instead (pip install 'texbake[usd]' for the USD)")
+
+
+def usd_available() -> bool:
+    """Whether usd-core (``pxr``) can be imported, without importing it."""
+    return importlib.util.find_spec("pxr") is not None
+
+
 def write_udim(result, folder: Path, name_of, *, obj: bool) -> dict:
-    """Write ``<mesh>.usda`` (and ``<mesh>.obj`` + MTL if ``obj``) of ``result`` (a
-    ``BakeResult`` with UDIM tiles) into ``folder``; ``name_of(baked set, map, ext,
-    tile=...)``: the maps' file names. Returns ``{"usd": ..., "obj": ...}`` as
-    :func:`texbake.output.export.write_obj` returns its file."""
+    """Write ``<mesh>.usda`` (and ``<mesh>.obj`` + MTL if ``obj``, or if usd-core is not
+    installed) of ``result`` (a ``BakeResult`` with UDIM tiles) into ``folder``;
+    ``name_of(baked set, map, ext, tile=...)``: the maps' file names. Returns
+    ``{"usd": ..., "obj": ...}`` as :func:`texbake.output.export.write_obj` returns its file."""
     sets = _joined(result)
     name = result.sets[0].mesh.name
     fmt = result.settings.format
-    written = {"usd": _write_usd(folder / f"{name}.usda", name, [(s, v, f, uv, n, name_of(first, "albedo", fmt, tile=tile))
-                                                                   for s, first, tile, v, f, uv, n in sets])}
-    if obj:
+    written = {}
+    if usd_available():
+        written["usd"] = _write_usd(folder / f"{name}.usda", name, [(s, v, f, uv, n, name_of(first, "albedo", fmt, tile=tile))
+                                                                     for s, first, tile, v, f, uv, n in sets])
+    if obj or "usd" not in written:
         written["obj"] = write_obj_parts(folder / f"{name}.obj", [ObjPart(v, f, uv, name_of(first, "albedo", fmt, tile=tile), s, n)
                                                                   for s, first, tile, v, f, uv, n in sets])
     return written

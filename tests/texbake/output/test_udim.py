@@ -73,3 +73,16 @@ def test_the_usd_and_the_obj_keep_the_layout_and_name_the_tiles(baked):
     vt = np.array([[float(x) for x in line.split()[1:]] for line in (folder / "out" / "boxes.obj").read_text().splitlines()
                    if line.startswith("vt ")])
     assert np.abs(np.sort(vt, axis=0) - np.sort(layout["uv"].reshape(-1, 2), axis=0)).max() < 1e-8
+
+
+def test_without_usd_core_the_obj_is_written_in_its_place_with_a_warning(baked, tmp_path, monkeypatch):
+    # usd-core is an extra (texbake[usd]): an install without it still gets a mesh that names the tiles
+    from texbake.output import udim
+
+    folder, _, result, _ = baked
+    monkeypatch.setattr(udim, "usd_available", lambda: False)
+    written = result.save(tmp_path / "out", obj=False)
+    assert "usd" not in written and not (tmp_path / "out" / "boxes.usda").exists()
+    assert "albedo.<UDIM>.png" in (tmp_path / "out" / "boxes.mtl").read_text()
+    report = json.loads((tmp_path / "out" / "report.json").read_text())
+    assert udim.USD_MISSING in report["warnings"] and udim.USD_MISSING in result.warnings
