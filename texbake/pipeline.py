@@ -207,7 +207,7 @@ def as_mesh(mesh_or_path, max_faces: int, what: str) -> LoadedMesh:
 
 def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *, source=None, workers: int = 2,
               progress: Callable[[float], None] | None = None, tile_samples: int = 1 << 20,
-              cache: str | Path | AtlasCache | None = None, **options) -> BakeResult:
+              cache: str | Path | AtlasCache | None = None, memory_limit: int | None = None, **options) -> BakeResult:
     """Bake a solid texture into the UV atlas of a mesh.
 
     Parameters
@@ -233,6 +233,10 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
         (``uv``, size, ``charting``) then skips the unwrap (``report["atlas"]["cached"]``).
         An ``AtlasCache`` also keeps its latest lookups in memory: the next bake of the
         atlas at the same size, samples and seed casts no ray (``report["rays"]["lookup_reused"]``).
+    memory_limit : int, optional
+        Bytes the bake may take at most (a server's limit a bake); None: the memory
+        available. Checked against the estimate of every texture set and tile before the
+        atlas is made (``texbake.memory.check_fits``).
 
     Returns
     -------
@@ -256,7 +260,7 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
         src = None if source is None else as_mesh(source, settings.max_faces, "source")
     sets = texture_sets(mesh, settings)
     check_fits(settings, len(mesh.faces) + (0 if src is None else len(src.faces)), workers, tile_samples,  # before the unwrap
-               sets=[(s.settings, images_of(s)) for s in sets])
+               limit=memory_limit, sets=[(s.settings, images_of(s)) for s in sets])
     say(0.05)
     store = None if cache is None else cache if isinstance(cache, AtlasCache) else AtlasCache(cache)
     baked: list[BakedSet] = []

@@ -76,7 +76,7 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
     if any(b.tile is not None for b in result.sets):
         from .udim import USD_MISSING, write_udim
 
-        written.update(write_udim(result, folder, name_of, obj=obj))
+        written.update(write_udim(result, folder, name_of, fmt=fmt, obj=obj))
         if "usd" not in written:
             result.report = {**result.report, "warnings": [*result.report.get("warnings", []), USD_MISSING]}
     elif obj and len(obj_parts) == 1:

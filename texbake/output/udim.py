@@ -3,9 +3,13 @@ name their maps with the ``<UDIM>`` token (``albedo.<UDIM>.png``), the mesh's ow
 tiles and all (glTF has no UDIM: its GLB puts each tile in a primitive of its own).
 
 Each texture set is one mesh of its tiles' faces, UVs back in their tiles (``uv + offset``),
-bound to one material whose colour is the set's albedo through the token (a set without
-tiles names its one map). USD: ``UsdPreviewSurface`` with a ``UsdUVTexture`` reading the
-``st`` primvar (face-varying: seams stay split), Y up as glTF; written with usd-core
+bound to one material whose maps are the set's through the token (a set without tiles
+names its one map). USD: ``UsdPreviewSurface`` with a ``UsdUVTexture`` a map reading the
+``st`` primvar (face-varying: seams stay split), Y up as glTF, binding what the GLB binds:
+the albedo (the first frame's) as diffuse colour, or for a texture that emits light (the
+flame) as emissive colour over black; the normal map (raw, ``2 n - 1``: tangent space, +Y
+up, as UsdPreviewSurface's ``normal`` takes it); not the lit map, whose light is baked in
+(as a surface's colour it would be lit again), as the GLB does not; written with usd-core
 (``pip install 'texbake[usd]'``), imported here only; without it the OBJ + MTL is written
 in its place and a warning says so (usd-core is 200 MB installed: an extra, not a base
 dependency, so a bake that never meets a UDIM asset does not carry it).
@@ -34,22 +38,36 @@ def usd_available() -> bool:
     return importlib.util.find_spec("pxr") is not None
 
 
-def write_udim(result, folder: Path, name_of, *, obj: bool) -> dict:
+def write_udim(result, folder: Path, name_of, *, fmt: str, obj: bool) -> dict:
     """Write ``<mesh>.usda`` (and ``<mesh>.obj`` + MTL if ``obj``, or if usd-core is not
     installed) of ``result`` (a ``BakeResult`` with UDIM tiles) into ``folder``;
-    ``name_of(baked set, map, ext, tile=...)``: the maps' file names. Returns
-    ``{"usd": ..., "obj": ...}`` as :func:`texbake.output.export.write_obj` returns its file."""
+    ``name_of(baked set, map, ext, tile=...)``: the maps' file names, in format ``fmt``.
+    Returns ``{"usd": ..., "obj": ...}`` as :func:`texbake.output.export.write_obj` returns its file."""
     sets = _joined(result)
     name = result.sets[0].mesh.name
-    fmt = result.settings.format
     written = {}
     if usd_available():
-        written["usd"] = _write_usd(folder / f"{name}.usda", name, [(s, v, f, uv, n, name_of(first, "albedo", fmt, tile=tile))
+        written["usd"] = _write_usd(folder / f"{name}.usda", name, [(s, v, f, uv, n, _usd_maps(first, name_of, fmt, tile))
                                                                      for s, first, tile, v, f, uv, n in sets])
     if obj or "usd" not in written:
-        written["obj"] = write_obj_parts(folder / f"{name}.obj", [ObjPart(v, f, uv, name_of(first, "albedo", fmt, tile=tile), s, n)
+        written["obj"] = write_obj_parts(folder / f"{name}.obj", [ObjPart(v, f, uv, name_of(first, _colour(first), fmt, tile=tile), s, n)
                                                                   for s, first, tile, v, f, uv, n in sets])
     return written
+
+
+def _colour(b) -> str:
+    """A set's colour map: its albedo, or its first frame's."""
+    return "albedo" if "albedo" in b.images else min(n for n in b.images if n.startswith("albedo_"))
+
+
+def _usd_maps(b, name_of, fmt: str, tile) -> dict[str, str]:
+    """The files a set's USD material reads, by its input (``diffuseColor`` or
+    ``emissiveColor``, ``normal``), as the GLB binds them (texbake.output.save)."""
+    colour = name_of(b, _colour(b), fmt, tile=tile)
+    maps = {"emissiveColor" if b.settings.texture.emits else "diffuseColor": colour}
+    if "normal" in b.images:
+        maps["normal"] = name_of(b, "normal", fmt, tile=tile)
+    return maps
 
 
 def _joined(result) -> list[tuple]:
@@ -68,8 +86,8 @@ def _joined(result) -> list[tuple]:
 
 
 def _write_usd(path: Path, name: str, sets: list[tuple]) -> dict:
-    """A USD stage of one mesh per set ``(name, vertices, faces, uv, normals, map file)``,
-    each bound to its material; written atomically as ``.usda`` text."""
+    """A USD stage of one mesh per set ``(name, vertices, faces, uv, normals, maps)``
+    (:func:`_usd_maps`), each bound to its material; written atomically as ``.usda`` text."""
     from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt  # pip install usd-core
 
     stage = Usd.Stage.CreateInMemory()
@@ -79,7 +97,7 @@ def _write_usd(path: Path, name: str, sets: list[tuple]) -> dict:
     stage.SetDefaultPrim(root.GetPrim())
     UsdGeom.Scope.Define(stage, f"{root.GetPath()}/Materials")
     used: set[str] = set()
-    for set_name, v, f, uv, n, image in sets:
+    for set_name, v, f, uv, n, maps in sets:
         prim = _unique(_prim(set_name), used)
         mesh = UsdGeom.Mesh.Define(stage, f"{root.GetPath()}/{prim}")
         mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(v, dtype=np.float32)))
@@ -92,17 +110,18 @@ def _write_usd(path: Path, name: str, sets: list[tuple]) -> dict:
             mesh.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
         st = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex)
         st.Set(Vt.Vec2fArray.FromNumpy(np.ascontiguousarray(uv, dtype=np.float32)))
-        material = _material(stage, f"{root.GetPath()}/Materials/{prim}", set_name, image)
+        material = _material(stage, f"{root.GetPath()}/Materials/{prim}", set_name, maps)
         UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
     text = stage.GetRootLayer().ExportToString()
     write_bytes(path, text.encode())
     return {"path": str(path), "bytes": len(text.encode()), "meshes": len(sets)}
 
 
-def _material(stage, where: str, name: str, image: str):
-    """A ``UsdPreviewSurface`` material at ``where`` whose diffuse colour is ``image`` (a
-    file beside the stage, ``<UDIM>`` for tiles) read through the ``st`` primvar."""
-    from pxr import Sdf, UsdShade
+def _material(stage, where: str, name: str, maps: dict[str, str]):
+    """A ``UsdPreviewSurface`` material at ``where`` reading each of ``maps`` (input ->
+    a file beside the stage, ``<UDIM>`` for tiles) through the ``st`` primvar; with an
+    emissive colour its diffuse colour is black."""
+    from pxr import Gf, Sdf, UsdShade
 
     material = UsdShade.Material.Define(stage, where)
     material.GetPrim().SetCustomDataByKey("texbake:material", name)
@@ -113,17 +132,28 @@ def _material(stage, where: str, name: str, image: str):
     reader = UsdShade.Shader.Define(stage, f"{where}/TexCoords")
     reader.CreateIdAttr("UsdPrimvarReader_float2")
     reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("st")
-    texture = UsdShade.Shader.Define(stage, f"{where}/Albedo")
-    texture.CreateIdAttr("UsdUVTexture")
-    texture.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(f"./{image}")
-    texture.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set("auto")
-    texture.CreateInput("wrapS", Sdf.ValueTypeNames.Token).Set("clamp")
-    texture.CreateInput("wrapT", Sdf.ValueTypeNames.Token).Set("clamp")
-    texture.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(), "result")
-    rgb = texture.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
-    surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(rgb)
+    if "emissiveColor" in maps:  # the flame: its colour is light, not paint
+        surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0, 0, 0))
+    for slot, image in maps.items():
+        normal = slot == "normal"
+        texture = UsdShade.Shader.Define(stage, f"{where}/{_SHADER_NAMES[slot]}")
+        texture.CreateIdAttr("UsdUVTexture")
+        texture.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(f"./{image}")
+        texture.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set("raw" if normal else "auto")  # a normal map is data
+        texture.CreateInput("wrapS", Sdf.ValueTypeNames.Token).Set("clamp")
+        texture.CreateInput("wrapT", Sdf.ValueTypeNames.Token).Set("clamp")
+        texture.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(), "result")
+        if normal:  # 0.5 + 0.5 n in the file: n = 2 x - 1
+            texture.CreateInput("scale", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(2, 2, 2, 1))
+            texture.CreateInput("bias", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(-1, -1, -1, 0))
+        rgb = texture.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+        kind = Sdf.ValueTypeNames.Normal3f if normal else Sdf.ValueTypeNames.Color3f
+        surface.CreateInput(slot, kind).ConnectToSource(rgb)
     material.CreateSurfaceOutput().ConnectToSource(surface.ConnectableAPI(), "surface")
     return material
+
+
+_SHADER_NAMES = {"diffuseColor": "Albedo", "emissiveColor": "Albedo", "normal": "Normal"}
 
 
 def _prim(name: str) -> str:

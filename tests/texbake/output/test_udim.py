@@ -86,3 +86,44 @@ def test_without_usd_core_the_obj_is_written_in_its_place_with_a_warning(baked, 
     assert "albedo.<UDIM>.png" in (tmp_path / "out" / "boxes.mtl").read_text()
     report = json.loads((tmp_path / "out" / "report.json").read_text())
     assert udim.USD_MISSING in report["warnings"] and udim.USD_MISSING in result.warnings
+
+
+def usd_inputs(folder, name):
+    """``{surface input: (file, colour space, scale, bias)}`` of the USD's one material's
+    textures, and ``{surface input: value}`` of the others."""
+    from pxr import Usd, UsdGeom, UsdShade
+
+    stage = Usd.Stage.Open(str(folder / f"{name}.usda"))
+    (mesh,) = [UsdGeom.Mesh(p) for p in stage.Traverse() if p.IsA(UsdGeom.Mesh)]
+    material, _ = UsdShade.MaterialBindingAPI(mesh.GetPrim()).ComputeBoundMaterial()
+    surface = material.ComputeSurfaceSource()[0]
+    found, values = {}, {}
+    for given in surface.GetInputs():
+        sources = given.GetConnectedSources()[0]
+        if not sources:
+            values[given.GetBaseName()] = given.Get()
+        else:
+            texture = UsdShade.Shader(sources[0].source.GetPrim())
+            found[given.GetBaseName()] = (texture.GetInput("file").Get().path, texture.GetInput("sourceColorSpace").Get(),
+                                          texture.GetInput("scale").Get(), texture.GetInput("bias").Get())
+    return found, values
+
+
+def test_the_usd_binds_the_normal_map_and_a_flames_light_as_the_glb_does(tmp_path):
+    # As the GLB: the albedo as diffuse colour, the normal map raw as the surface's normal
+    # (2 x - 1), the lit map not (its light is baked in); saved as EXR, the USD names the
+    # EXRs; the flame's colour is emissive over a black diffuse.
+    from pxr import Gf
+
+    udim_boxes(tmp_path / "boxes.obj")
+    result = texbake.bake_mesh(tmp_path / "boxes.obj", "checker", size=32, bump="noise", shading="full")
+    result.save(tmp_path / "out", fmt="exr")
+    found, _ = usd_inputs(tmp_path / "out", "boxes")
+    assert found == {"diffuseColor": ("./albedo.<UDIM>.exr", "auto", None, None),
+                     "normal": ("./normal.<UDIM>.exr", "raw", Gf.Vec4f(2, 2, 2, 1), Gf.Vec4f(-1, -1, -1, 0))}, found
+    assert all((tmp_path / "out" / f"{m}.{t}.exr").is_file() for m in ("albedo", "normal", "lit") for t in (1001, 1002, 1003, 1004))
+    flame = texbake.bake_mesh(tmp_path / "boxes.obj", "flame", size=16, frames=[0, 0.5])
+    flame.save(tmp_path / "flame")
+    found, values = usd_inputs(tmp_path / "flame", "boxes")
+    assert found == {"emissiveColor": ("./albedo_0000.<UDIM>.png", "auto", None, None)}, found
+    assert values["diffuseColor"] == Gf.Vec3f(0, 0, 0)

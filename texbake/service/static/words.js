@@ -48,6 +48,9 @@ export const SETTING_WORDS = {
   bits: { label: "Bit depth", none: "Format default", options: { 8: "8 bits", 16: "16 bits", 32: "32 bits" },
     hint: "PNG takes 8 or 16, EXR 16 (half float) or 32, TIFF 8, 16 or 32. Default: PNG 8, EXR 16, TIFF 16." },
   obj: { label: "Also write OBJ + MTL", hint: "Beside the GLB, for tools that do not read glTF." },
+  texture_set: { label: "Texture sets", options: { "per-material": "One per material (its own maps)", single: "One for the whole mesh" },
+    hint: "One per material: each material its own atlas and maps, and its own texture if given one under Materials." },
+  names: { label: "File names", hint: "A template of {mesh}, {set} (the material), {map}, {tile} (UDIM) and {ext}; a field without a value is left out." },
 };
 
 const OCTAVES = {
