@@ -7,36 +7,10 @@
 #include <vector>
 
 #include "arrays.hpp"
+#include "unionfind.hpp"
 
 namespace texbake {
 namespace {
-
-// the root of node i, halving the path to it on the way
-inline int64_t root(int64_t* parent, int64_t i) {
-  while (parent[i] != i) {
-    parent[i] = parent[parent[i]];
-    i = parent[i];
-  }
-  return i;
-}
-
-// join the sets of i and j; the smaller root stays the root, and is returned
-inline int64_t join(int64_t* parent, int64_t i, int64_t j) {
-  const int64_t x = root(parent, i), y = root(parent, j);
-  if (x != y) parent[std::max(x, y)] = std::min(x, y);
-  return std::min(x, y);
-}
-
-// labels of the sets, in the order of their smallest node (a set's label is given there)
-void number(int64_t* parent, int64_t n, int64_t* label) {
-  std::fill(label, label + n, -1);
-  int64_t count = 0;
-  for (int64_t i = 0; i < n; ++i) {
-    const int64_t r = root(parent, i);
-    if (label[r] < 0) label[r] = count++;
-    label[i] = label[r];
-  }
-}
 
 void check_node(int64_t i, int64_t n) {
   if (i < 0 || i >= n) throw nb::index_error(("node " + std::to_string(i) + " outside [0, " + std::to_string(n) + ")").c_str());

@@ -232,8 +232,9 @@ def _bounds(mesh: LoadedMesh) -> tuple[np.ndarray, np.ndarray]:
 def _output_mesh(mesh: LoadedMesh, atlas: Atlas, *, tangents: bool) -> BakedMesh:
     """The mesh as it is written: atlas vertices split again at hard edges, with shading
     normals and, for a normal map, the tangents it is baked in."""
-    source_vertex, faces, normals = split_normals(mesh.vertices[atlas.vmapping], atlas.faces)
-    vertices, uv = mesh.vertices[atlas.vmapping][source_vertex], atlas.uv[source_vertex]
+    atlas_vertices = mesh.vertices[atlas.vmapping]
+    source_vertex, faces, normals = split_normals(atlas_vertices, atlas.faces)
+    vertices, uv = atlas_vertices[source_vertex], atlas.uv[source_vertex]
     frame = vertex_tangents(vertices, faces, uv, normals) if tangents else None
     return BakedMesh(vertices, faces, uv, mesh.name, normals, frame)
 

@@ -32,7 +32,7 @@ from pathlib import Path, PurePosixPath
 import numpy as np
 
 from ..errors import MeshError, ParameterError
-from .grouping import first_order_ranks, group_rows
+from .grouping import group_rows
 from .objfile import read_obj
 from .plyfile import read_ply
 from .uvgeometry import areas
@@ -510,7 +510,7 @@ def _weld(vertices, faces, uv):
 
     Exact equality only: corners that differ in UV stay separate (UV seams survive), and
     a welded surface keeps its connectivity for the unwrap and the normals. Rows are
-    grouped by a 64-bit hash of their bits, then checked for exact equality. A vertex
+    grouped by their bits (:func:`~texbake.mesh.grouping.group_rows`), kept in file order. A vertex
     without UVs (NaN, from a part that has none) merges only with others without them.
     """
     if uv is None:
@@ -520,19 +520,8 @@ def _weld(vertices, faces, uv):
         rows = np.hstack([vertices, np.where(missing[:, None], 0.0, uv), missing[:, None].astype(np.float64)])
     if not np.isfinite(rows).all():
         return vertices, faces, uv  # rejected (vertices) or judged by the atlas (UVs)
-    rows = np.ascontiguousarray(rows + 0.0)  # -0.0 and 0.0 are the same coordinate
-    bits = rows.view(np.uint64)
-    weights = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9, 0xD6E8FEB86659FD93, 0xFF51AFD7ED558CCD,
-                        0x94D049BB133111EB], dtype=np.uint64)
-    key = (bits * weights[: rows.shape[1]]).sum(axis=1, dtype=np.uint64)
-    _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
-    inverse = inverse.ravel()
-    if not np.array_equal(rows[first[inverse]], rows):  # a hash collision: sort exactly
-        _, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
-        inverse = inverse.ravel()
-    rank = first_order_ranks(first, len(rows))  # keep vertices in file order
-    keep = np.sort(first)
-    return vertices[keep], rank[inverse][faces], None if uv is None else uv[keep]
+    first, inverse = group_rows(rows)  # numbered in file order: the first of each group kept
+    return vertices[first], inverse[faces], None if uv is None else uv[first]
 
 
 def _joined_uv(parts, face_parts) -> tuple[np.ndarray | None, np.ndarray | None]:
@@ -602,5 +591,4 @@ def _without_duplicates(faces: np.ndarray) -> np.ndarray:
     splits charts."""
     start = np.argmin(faces, axis=1)  # each face rotated to start at its smallest corner
     corners = np.take_along_axis(faces, (start[:, None] + np.arange(3)) % 3, axis=1)
-    first = group_rows(corners)[0]
-    return np.sort(first)
+    return group_rows(corners)[0]  # ascending

@@ -21,7 +21,7 @@ import numpy as np
 
 from .. import _native
 from ..errors import ParameterError
-from ..mesh import group_rows, uv_inverse
+from ..mesh import group_rows, key_pairs, uv_inverse
 from .rays import Scene
 
 _DOWN = np.array([0.0, 0.0, -1.0], dtype=np.float32)  # the direction of every lookup ray
@@ -213,10 +213,7 @@ def uv_neighbours(uv: np.ndarray, faces: np.ndarray, usable: np.ndarray) -> np.n
     corner = weld.ravel()[np.asarray(faces, dtype=np.int64)]  # (m, 3) welded corners
     a, b = corner[:, [1, 2, 0]].ravel(), corner[:, [2, 0, 1]].ravel()  # edge opposite corner c
     key = np.minimum(a, b) * (int(weld.max()) + 1) + np.maximum(a, b)
-    half = np.arange(3 * m)[np.repeat(usable, 3) & (a != b)]
-    half = half[np.argsort(key[half], kind="stable")]
-    pair = np.flatnonzero(key[half[1:]] == key[half[:-1]])
-    lo, hi = half[pair], half[pair + 1]
+    lo, hi = key_pairs(key, np.repeat(usable, 3) & (a != b))  # the half-edges of one edge, in order
     across.ravel()[lo] = hi // 3
     across.ravel()[hi] = lo // 3
     return across

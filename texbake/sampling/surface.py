@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import _native
-from ..mesh import edges, sample_frames, uv_jacobian
+from ..mesh import edges, group_rows, sample_frames, uv_jacobian
 
 # Footprints are clamped to this many object-space units per texel (finite, never NaN).
 _MAX_FOOTPRINT = 1e30
@@ -40,8 +40,7 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     Vertices split at UV seams still get one normal per position, so normals (and the
     transfer rays cast along them) do not break at seams.
     """
-    _, key = np.unique(vertices, axis=0, return_inverse=True)
-    key = key.ravel()
+    key = group_rows(vertices)[1]
     tri = vertices[faces]
     area_normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     acc = np.zeros((key.max() + 1, 3))
