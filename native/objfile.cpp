@@ -1,0 +1,275 @@
+// The OBJ reader's bulk path (texbake/mesh/objfile.py), in one pass over the bytes: positions,
+// texture coordinates and faces, fan-triangulated, one vertex per distinct (position,
+// texcoord) pair in order of first use. It takes only files it reads exactly as the line
+// reader does and gives up (None) on anything else, which objfile.py then reads: a byte
+// outside ASCII or an odd space (a line break or separator to str.split()), a number field
+// that is not a plain decimal, a face corner not written like the file's first, a sign before
+// an index, an index of 0 or out of range, a short line. Numbers are converted by
+// std::from_chars, correctly rounded, as float() rounds.
+#include <nanobind/stl/optional.h>
+#include <nanobind/stl/string.h>
+#include <nanobind/stl/tuple.h>
+#include <nanobind/stl/vector.h>
+
+#include <charconv>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <tuple>
+#include <unordered_map>
+#include <vector>
+
+#include "arrays.hpp"
+
+namespace texbake {
+namespace {
+
+inline bool is_space(char c) { return c == ' ' || c == '\t'; }
+
+// a decimal number field: sign, digits with at most one point, an exponent (float()'s syntax less
+// "inf", "nan" and underscores)
+bool parse_number(std::string_view field, double& out) {
+  size_t i = 0, n = field.size();
+  if (i < n && (field[i] == '+' || field[i] == '-')) ++i;
+  size_t digits = 0;
+  while (i < n && field[i] >= '0' && field[i] <= '9') ++i, ++digits;
+  if (i < n && field[i] == '.') {
+    ++i;
+    while (i < n && field[i] >= '0' && field[i] <= '9') ++i, ++digits;
+  }
+  if (digits == 0) return false;
+  if (i < n && (field[i] == 'e' || field[i] == 'E')) {
+    ++i;
+    if (i < n && (field[i] == '+' || field[i] == '-')) ++i;
+    size_t exponent = 0;
+    while (i < n && field[i] >= '0' && field[i] <= '9') ++i, ++exponent;
+    if (exponent == 0) return false;
+  }
+  if (i != n) return false;
+  const char* begin = field.data() + (field[0] == '+' ? 1 : 0);
+  const auto [end, error] = std::from_chars(begin, field.data() + n, out);
+  return error == std::errc() && end == field.data() + n;
+}
+
+// an index: optional '-', 1 to 18 digits
+bool parse_index(std::string_view field, int64_t& out) {
+  size_t i = field.size() && field[0] == '-' ? 1 : 0;
+  if (field.size() == i || field.size() - i > 18) return false;
+  int64_t value = 0;
+  for (; i < field.size(); ++i) {
+    if (field[i] < '0' || field[i] > '9') return false;
+    value = 10 * value + (field[i] - '0');
+  }
+  out = field[0] == '-' ? -value : value;
+  return true;
+}
+
+// the fields of a line after its keyword
+void split(std::string_view line, std::vector<std::string_view>& fields) {
+  fields.clear();
+  size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && is_space(line[i])) ++i;
+    const size_t start = i;
+    while (i < line.size() && !is_space(line[i])) ++i;
+    if (i > start) fields.push_back(line.substr(start, i - start));
+  }
+}
+
+enum class Form { unknown, v, v_vt, v__vn, v_vt_vn };
+
+Form form_of(std::string_view corner) {
+  const size_t a = corner.find('/');
+  if (a == std::string_view::npos) return Form::v;
+  const size_t b = corner.find('/', a + 1);
+  if (b == std::string_view::npos) return Form::v_vt;
+  if (corner.find('/', b + 1) != std::string_view::npos) return Form::unknown;
+  return b == a + 1 ? Form::v__vn : Form::v_vt_vn;
+}
+
+struct Parsed {
+  std::vector<double> v, vt;
+  std::vector<int64_t> sizes, vi, ti;  // per polygon; per corner, 0-based
+  std::vector<std::string> mtllibs;
+  Form form = Form::unknown;
+};
+
+// one face line's corners into parsed (indices resolved against the elements so far)
+bool face_line(const std::vector<std::string_view>& corners, int64_t v_so_far, int64_t vt_so_far, Parsed& p) {
+  if (corners.size() < 3) return false;
+  for (std::string_view corner : corners) {
+    const Form form = form_of(corner);
+    if (form == Form::unknown || (p.form != Form::unknown && form != p.form)) return false;
+    p.form = form;
+    const size_t a = corner.find('/');
+    int64_t position, texcoord = 0, normal;
+    if (!parse_index(corner.substr(0, a), position) || position == 0) return false;
+    p.vi.push_back(position < 0 ? v_so_far + position : position - 1);
+    if (form == Form::v_vt || form == Form::v_vt_vn) {
+      const size_t b = corner.find('/', a + 1);
+      if (!parse_index(corner.substr(a + 1, b == std::string_view::npos ? std::string_view::npos : b - a - 1), texcoord) ||
+          texcoord == 0)
+        return false;
+      p.ti.push_back(texcoord < 0 ? vt_so_far + texcoord : texcoord - 1);
+    }
+    if ((form == Form::v__vn || form == Form::v_vt_vn) && !parse_index(corner.substr(corner.rfind('/') + 1), normal))
+      return false;
+  }
+  p.sizes.push_back(int64_t(corners.size()));
+  return true;
+}
+
+// one line (leading spaces stripped, tabs as spaces): false where objfile.py must read the file
+bool take_line(std::string_view line, Parsed& p, std::vector<std::string_view>& fields) {
+  const char c0 = line.size() > 0 ? line[0] : '\0', c1 = line.size() > 1 ? line[1] : '\0';
+  const char c2 = line.size() > 2 ? line[2] : '\0';
+  if (c0 == 'v' && is_space(c1)) {
+    split(line.substr(2), fields);
+    if (fields.size() < 3) return false;
+    double x;
+    for (size_t k = 0; k < fields.size(); ++k) {
+      if (!parse_number(fields[k], x)) return false;
+      if (k < 3) p.v.push_back(x);
+    }
+  } else if (c0 == 'v' && c1 == 't' && (is_space(c2) || line.size() == 2)) {
+    split(line.substr(2), fields);
+    double x = 0.0, y = 0.0, value;  // missing ones are 0
+    for (size_t k = 0; k < fields.size(); ++k) {
+      if (!parse_number(fields[k], value)) return false;
+      if (k == 0) x = value;
+      if (k == 1) y = value;
+    }
+    p.vt.push_back(x);
+    p.vt.push_back(y);
+  } else if (c0 == 'f' && is_space(c1)) {
+    split(line.substr(2), fields);
+    if (!face_line(fields, int64_t(p.v.size() / 3), int64_t(p.vt.size() / 2), p)) return false;
+  } else if (c0 == 'm' && c1 == 't') {
+    split(line, fields);
+    if (fields[0] == "mtllib") {
+      for (size_t k = 1; k < fields.size(); ++k) p.mtllibs.emplace_back(fields[k]);
+    }
+  }
+  return true;
+}
+
+bool parse(std::string_view data, Parsed& p) {
+  for (unsigned char c : data) {  // bytes str.split() or str.splitlines() would break at, or beyond ASCII
+    if (c >= 0x80 || c == 0x0b || c == 0x0c || (c >= 0x1c && c <= 0x1f)) return false;
+  }
+  std::vector<std::string_view> fields;
+  std::string line;
+  size_t i = 0;
+  while (i < data.size()) {
+    size_t end = i;
+    while (end < data.size() && data[end] != '\n' && data[end] != '\r') ++end;
+    size_t start = i;
+    while (start < end && is_space(data[start])) ++start;
+    if (!take_line(data.substr(start, end - start), p, fields)) return false;
+    i = end + (end + 1 < data.size() && data[end] == '\r' && data[end + 1] == '\n' ? 2 : 1);
+  }
+  const int64_t nv = int64_t(p.v.size() / 3), nvt = int64_t(p.vt.size() / 2);
+  for (int64_t x : p.vi) {
+    if (x < 0 || x >= nv) return false;
+  }
+  for (int64_t x : p.ti) {
+    if (x < 0 || x >= nvt) return false;
+  }
+  return true;
+}
+
+// fan triangles, and one vertex per distinct (position, texcoord) pair numbered in order of
+// first use; the texcoord alone is the key where each is used with one position
+void build(const Parsed& p, std::vector<double>& vertices, std::vector<int64_t>& faces, std::vector<double>& uv) {
+  const bool has_uv = !p.ti.empty();
+  const int64_t corners = int64_t(p.vi.size()), nv = int64_t(p.v.size() / 3), nvt = int64_t(p.vt.size() / 2);
+  std::vector<int64_t> number(corners);  // each corner's new vertex
+  std::vector<int64_t> first;            // each new vertex's first corner
+  auto by_table = [&](const std::vector<int64_t>& key, int64_t size) {
+    std::vector<int64_t> seen(size, -1);
+    for (int64_t c = 0; c < corners; ++c) {
+      int64_t& s = seen[key[c]];
+      if (s < 0) {
+        s = int64_t(first.size());
+        first.push_back(c);
+      }
+      number[c] = s;
+    }
+  };
+  bool one_position = has_uv;
+  if (has_uv) {
+    std::vector<int64_t> owner(nvt, -1);
+    for (int64_t c = 0; c < corners && one_position; ++c) {
+      int64_t& o = owner[p.ti[c]];
+      one_position = o < 0 || o == p.vi[c];
+      o = p.vi[c];
+    }
+  }
+  if (!has_uv) {
+    by_table(p.vi, nv);
+  } else if (one_position) {
+    by_table(p.ti, nvt);
+  } else {  // (position, texcoord) pairs
+    std::unordered_map<uint64_t, int64_t> pairs;
+    pairs.reserve(size_t(corners));
+    for (int64_t c = 0; c < corners; ++c) {
+      const auto [at, added] = pairs.try_emplace(uint64_t(p.vi[c]) * uint64_t(nvt) + uint64_t(p.ti[c]), int64_t(first.size()));
+      if (added) first.push_back(c);
+      number[c] = at->second;
+    }
+  }
+  vertices.resize(3 * first.size());
+  if (has_uv) uv.resize(2 * first.size());
+  for (size_t k = 0; k < first.size(); ++k) {
+    const int64_t c = first[k];
+    for (int j = 0; j < 3; ++j) vertices[3 * k + j] = p.v[3 * p.vi[c] + j];
+    if (has_uv) {
+      uv[2 * k] = p.vt[2 * p.ti[c]];
+      uv[2 * k + 1] = p.vt[2 * p.ti[c] + 1];
+    }
+  }
+  int64_t start = 0;
+  for (int64_t size : p.sizes) {
+    for (int64_t k = 1; k + 1 < size; ++k) {
+      faces.push_back(number[start]);
+      faces.push_back(number[start + k]);
+      faces.push_back(number[start + k + 1]);
+    }
+    start += size;
+  }
+}
+
+using Doubles = nb::ndarray<nb::numpy, double>;
+using Ints = nb::ndarray<nb::numpy, int64_t>;
+using Mesh = std::tuple<std::vector<std::string>, Doubles, Ints, std::optional<Doubles>>;
+
+std::optional<Mesh> read_obj(nb::bytes data) {
+  Parsed p;
+  std::vector<double> vertices, uv;
+  std::vector<int64_t> faces;
+  const std::string_view text(data.c_str(), data.size());
+  {
+    nb::gil_scoped_release unlocked;
+    if (!parse(text, p)) return std::nullopt;
+    if (p.sizes.empty()) {  // no faces: the positions as they are
+      vertices = std::move(p.v);
+    } else {
+      build(p, vertices, faces, uv);
+    }
+  }
+  const size_t n = vertices.size() / 3, m = faces.size() / 3;
+  std::optional<Doubles> texcoords;
+  if (!p.ti.empty()) texcoords = owned(std::move(uv), {n, 2});
+  return Mesh{std::move(p.mtllibs), owned(std::move(vertices), {n, 3}), owned(std::move(faces), {m, 3}), std::move(texcoords)};
+}
+
+}  // namespace
+
+void bind_objfile(nb::module_& m) {
+  m.def("read_obj", &read_obj, nb::arg("data"),
+        "(mtllib names, vertices (n, 3) float64, faces (m, 3) int64, uv (n, 2) float64 or None) of OBJ bytes, or None "
+        "where texbake.mesh.objfile's own readers must read them.");
+}
+
+}  // namespace texbake
