@@ -1,5 +1,6 @@
-// Grouping (texbake/mesh/grouping.py): equal rows, and the items of equal keys paired in
-// index order, by hashing (hashing.hpp) in linear time.
+// Grouping (texbake/mesh/grouping.py): equal rows; and the UV neighbours of the texel lookup
+// (texbake/sampling/lookup.py), edges paired by their welded ends. Linear time (grouping.hpp).
+#include <cstring>
 #include <stdexcept>
 #include <tuple>
 #include <vector>
@@ -7,7 +8,7 @@
 #include <nanobind/stl/tuple.h>
 
 #include "arrays.hpp"
-#include "hashing.hpp"
+#include "grouping.hpp"
 
 namespace texbake {
 namespace {
@@ -25,20 +26,38 @@ std::tuple<Array, Array> group_rows(In<uint64_t, nb::ndim<2>> rows) {
   return {owned(std::move(first), {g}), owned(std::move(inverse), {size_t(n)})};
 }
 
-std::tuple<Array, Array> key_pairs(In<uint64_t, nb::ndim<1>> key, In<bool, nb::ndim<1>> take) {
-  const int64_t n = key.shape(0);
-  if (int64_t(take.shape(0)) != n) throw std::invalid_argument("key_pairs: key and take of one length");
-  std::vector<int64_t> lo, hi;
-  {
-    nb::gil_scoped_release unlocked;
-    const bool* t = take.data();
-    consecutive_pairs(key.data(), n, [t](int64_t i) { return t[i]; }, [&](int64_t h, int64_t k) {
-      lo.push_back(h);
-      hi.push_back(k);
-    });
+// across (m, 3): the face across the UV edge opposite each corner (texbake/sampling/lookup.py)
+void uv_neighbours(In<double, shape<-1, 2>> uv, In<int64_t, shape<-1, 3>> faces, In<bool, nb::ndim<1>> usable,
+                   Out<int64_t, shape<-1, 3>> across) {
+  const int64_t k = uv.shape(0), m = faces.shape(0), n = 3 * m;
+  if (int64_t(usable.shape(0)) != m || int64_t(across.shape(0)) != m) throw std::invalid_argument("uv_neighbours: usable, across of m rows");
+  const int64_t* f = faces.data();
+  for (int64_t c = 0; c < n; ++c) {
+    if (f[c] < 0 || f[c] >= k) throw nb::index_error("uv_neighbours: a face index outside the UVs");
   }
-  const size_t p = lo.size();
-  return {owned(std::move(lo), {p}), owned(std::move(hi), {p})};
+  nb::gil_scoped_release unlocked;
+  std::vector<uint64_t> bits(2 * k);
+  for (int64_t i = 0; i < 2 * k; ++i) {
+    const double x = uv.data()[i] + 0.0;  // -0.0 is 0.0
+    std::memcpy(&bits[i], &x, 8);
+  }
+  std::vector<int64_t> weld(k), a(n), b(n);
+  const int64_t positions = int64_t(group_words(bits.data(), k, 2, weld.data()).size());
+  for (int64_t c = 0; c < n; ++c) {  // the edge opposite corner c
+    const int64_t base = c - c % 3;
+    a[c] = weld[f[base + (c % 3 + 1) % 3]];
+    b[c] = weld[f[base + (c % 3 + 2) % 3]];
+  }
+  std::vector<int64_t> lo, hi;
+  const bool* ok = usable.data();
+  edge_pairs(a.data(), b.data(), n, positions, [&](int64_t h) { return ok[h / 3] && a[h] != b[h]; }, [&](int64_t h, int64_t j) {
+    lo.push_back(h);
+    hi.push_back(j);
+  });
+  int64_t* out = across.data();
+  std::fill(out, out + n, int64_t(-1));
+  for (size_t i = 0; i < lo.size(); ++i) out[lo[i]] = hi[i] / 3;  // then the later of each pair wins, as numpy's two assignments
+  for (size_t i = 0; i < lo.size(); ++i) out[hi[i]] = lo[i] / 3;
 }
 
 }  // namespace
@@ -47,8 +66,9 @@ void bind_grouping(nb::module_& m) {
   m.def("group_rows", &group_rows, nb::arg("rows"),
         "(first (g,), inverse (n,)) int64 of the (n, d) uint64 rows grouped where all their words are equal, groups "
         "numbered in the order of their first row.");
-  m.def("key_pairs", &key_pairs, nb::arg("key"), nb::arg("take"),
-        "(lo (p,), hi (p,)) int64: the items i < j with take, one key and no taken item of that key between them.");
+  m.def("uv_neighbours", &uv_neighbours, nb::arg("uv"), nb::arg("faces"), nb::arg("usable"), nb::arg("across").noconvert(),
+        "Fill across (m, 3) with the face across the UV edge opposite each corner (-1: none), corners matched by UV "
+        "position, edges between usable faces only; of more than two on one edge, each with the next in order.");
 }
 
 }  // namespace texbake

@@ -1,6 +1,6 @@
 // Shading normals split at hard edges (texbake/mesh/normals.py): corners joined into fans
 // across soft edges, one area-weighted normal a fan, one new vertex per (vertex, fan).
-// Linear time (hash tables where the numpy version sorted twice); the sums run in corner
+// Linear time (a hash table and buckets, where the numpy version sorted twice); the sums run in corner
 // order, as numpy's bincount adds, so the normals have the same bits.
 #include <algorithm>
 #include <cmath>
@@ -14,7 +14,7 @@
 #include <nanobind/stl/tuple.h>
 
 #include "arrays.hpp"
-#include "hashing.hpp"
+#include "grouping.hpp"
 #include "unionfind.hpp"
 
 namespace texbake {
@@ -37,18 +37,16 @@ std::vector<int64_t> fans(const int64_t* faces, int64_t m, const std::vector<int
                           double cos_angle) {
   const int64_t n = 3 * m;
   auto next = [](int64_t c) { return c - c % 3 + (c % 3 + 1) % 3; };  // the corner after c in its face
-  std::vector<uint64_t> key(n);
-  std::vector<int64_t> start(n);
-  const uint64_t span = uint64_t(*std::max_element(pos.begin(), pos.end())) + 1;
+  std::vector<int64_t> start(n), end(n);
   for (int64_t c = 0; c < n; ++c) {
-    const uint64_t s = uint64_t(pos[faces[c]]), e = uint64_t(pos[faces[next(c)]]);
-    start[c] = int64_t(s);
-    key[c] = std::min(s, e) * span + std::max(s, e);
+    start[c] = pos[faces[c]];
+    end[c] = pos[faces[next(c)]];
   }
+  const int64_t ends = m ? *std::max_element(pos.begin(), pos.end()) + 1 : 0;
   std::vector<int64_t> parent(n);
   std::iota(parent.begin(), parent.end(), int64_t(0));
   const double* u = unit.data();
-  consecutive_pairs(key.data(), n, [](int64_t) { return true; }, [&](int64_t h, int64_t k) {
+  edge_pairs(start.data(), end.data(), n, ends, [](int64_t) { return true; }, [&](int64_t h, int64_t k) {
     const double *a = u + 3 * (h / 3), *b = u + 3 * (k / 3);
     // numpy's einsum("ij,ij->i") of three terms adds the first and the last first
     if (!((a[0] * b[0] + a[2] * b[2]) + a[1] * b[1] >= cos_angle)) return;  // a hard edge

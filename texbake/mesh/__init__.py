@@ -5,8 +5,8 @@ What the rest of texbake uses is named here; the modules are this folder's own:
 - ``load``: :func:`load_mesh` and :func:`mesh_from_trimesh` -> :class:`LoadedMesh`
   (float64 vertices, int64 faces, UVs where usable), the formats and their checks;
 - ``objfile``: the OBJ reader; ``components``: connected components (union-find);
-- ``grouping``: equal keys grouped with one vectorised sort, equal rows and the pairs of
-  equal keys with a compiled hash table;
+- ``grouping``: equal keys grouped with one vectorised sort, equal rows with a compiled
+  hash table;
 - ``normals``: the output mesh's shading normals, split at hard edges;
 - ``tangents``: tangent frames (the glTF attribute, the normal map's frame);
 - ``uvgeometry``: triangle areas and edges, the UV Jacobian (numpy only: the unwrap's
@@ -21,7 +21,7 @@ from .._lazy import lazy_names
 
 if TYPE_CHECKING:
     from .components import DisjointSets, connected_components
-    from .grouping import group_rows, groups, key_pairs, stable_order
+    from .grouping import group_rows, groups, stable_order
     from .load import FORMATS, LoadedMesh, check_file, load_mesh, mesh_from_trimesh
     from .normals import split_normals
     from .objfile import read_obj
@@ -32,11 +32,11 @@ _HOMES = {name: module for module, names in {
     "load": ["LoadedMesh", "load_mesh", "mesh_from_trimesh", "check_file", "FORMATS"],
     "objfile": ["read_obj"],
     "components": ["connected_components", "DisjointSets"],
-    "grouping": ["group_rows", "groups", "key_pairs", "stable_order"],
+    "grouping": ["group_rows", "groups", "stable_order"],
     "normals": ["split_normals"],
     "tangents": ["vertex_tangents", "sample_frames"],
     "uvgeometry": ["areas", "uv_areas", "edges", "uv_edges", "uv_inverse", "uv_jacobian", "inverse_det"],
 }.items() for name in names}
 
-__all__ = ["LoadedMesh", "load_mesh", "mesh_from_trimesh", "check_file", "FORMATS", "read_obj", "connected_components", "DisjointSets", "group_rows", "groups", "key_pairs", "stable_order", "split_normals", "vertex_tangents", "sample_frames", "areas", "uv_areas", "edges", "uv_edges", "uv_inverse", "uv_jacobian", "inverse_det"]
+__all__ = ["LoadedMesh", "load_mesh", "mesh_from_trimesh", "check_file", "FORMATS", "read_obj", "connected_components", "DisjointSets", "group_rows", "groups", "stable_order", "split_normals", "vertex_tangents", "sample_frames", "areas", "uv_areas", "edges", "uv_edges", "uv_inverse", "uv_jacobian", "inverse_det"]
 __getattr__ = lazy_names(__name__, _HOMES)

@@ -6,8 +6,8 @@ sort indices, several times slower than ``np.sort`` of the values (vectorised), 
 ``np.unique(rows, axis=0)`` compares rows byte by byte. Here every sort is ``np.sort`` of
 int64 values that carry their index in the low bits: sorting them sorts the keys, ties
 in index order (stable), and several keys are sorted least significant first (a radix
-sort by whole keys), each pass one such sort. Rows, and items of equal keys taken pairwise,
-go through a compiled hash table instead (linear).
+sort by whole keys), each pass one such sort. Rows go through a compiled hash table instead
+(linear).
 """
 
 from __future__ import annotations
@@ -98,16 +98,6 @@ def group_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     elif rows.dtype != np.int64:
         rows = rows.astype(np.int64)
     return _native.group_rows(rows.view(np.uint64))
-
-
-def key_pairs(key: np.ndarray, take: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """``(lo (p,), hi (p,))`` int64: each pair of items ``lo < hi`` of the ``(n,)`` integer
-    ``key`` with equal keys and no item of that key between them (what consecutive items of
-    a stable sort by key give), of the items where ``take`` ``(n,)`` bool is True (all where
-    None); in linear time (a hash table, ``native/grouping.cpp``)."""
-    key = np.ascontiguousarray(key, dtype=np.int64)
-    take = np.ones(len(key), dtype=bool) if take is None else np.ascontiguousarray(take, dtype=bool)
-    return _native.key_pairs(key.view(np.uint64), take)
 
 
 def first_order_ranks(first: np.ndarray, n: int) -> np.ndarray:

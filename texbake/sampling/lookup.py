@@ -21,7 +21,7 @@ import numpy as np
 
 from .. import _native
 from ..errors import ParameterError
-from ..mesh import group_rows, key_pairs, uv_inverse
+from ..mesh import uv_inverse
 from .rays import Scene
 
 _DOWN = np.array([0.0, 0.0, -1.0], dtype=np.float32)  # the direction of every lookup ray
@@ -203,17 +203,10 @@ def uv_neighbours(uv: np.ndarray, faces: np.ndarray, usable: np.ndarray) -> np.n
     ``uv``: ``(k, 2)`` float; ``faces``: ``(m, 3)`` int into it; ``usable``: ``(m,)`` bool,
     faces that may be crossed into (not UV-degenerate). Corners are matched by their UV
     position, not their index (an atlas may repeat a vertex along a seam it does not cut);
-    an edge of more than two faces (overlapping UVs) links one pair of them.
+    an edge of more than two faces (overlapping UVs) links each with the next in their
+    order. Compiled (``native/grouping.cpp``: linear).
     """
-    m = len(faces)
-    across = np.full((m, 3), -1, dtype=np.int64)
-    if m == 0:
-        return across
-    weld = group_rows(np.asarray(uv, dtype=np.float64))[1]  # one id per UV position
-    corner = weld.ravel()[np.asarray(faces, dtype=np.int64)]  # (m, 3) welded corners
-    a, b = corner[:, [1, 2, 0]].ravel(), corner[:, [2, 0, 1]].ravel()  # edge opposite corner c
-    key = np.minimum(a, b) * (int(weld.max()) + 1) + np.maximum(a, b)
-    lo, hi = key_pairs(key, np.repeat(usable, 3) & (a != b))  # the half-edges of one edge, in order
-    across.ravel()[lo] = hi // 3
-    across.ravel()[hi] = lo // 3
+    faces = np.ascontiguousarray(faces, dtype=np.int64)
+    across = np.empty((len(faces), 3), dtype=np.int64)
+    _native.uv_neighbours(np.ascontiguousarray(uv, dtype=np.float64), faces, np.ascontiguousarray(usable, dtype=bool), across)
     return across
