@@ -136,9 +136,53 @@ void uv_jacobian(In<double, shape<-1, 3>> vertices, Faces faces, In<double, shap
   });
 }
 
+// np.minimum / np.maximum: NaN wins
+inline double nan_min(double a, double b) { return (b < a || std::isnan(b)) ? b : a; }
+inline double nan_max(double a, double b) { return (b > a || std::isnan(b)) ? b : a; }
+
+// lo, hi (k, 2) (in: their start) := the bounding box of the UV corners of each label's faces,
+// as np.minimum.at / np.maximum.at of each face's corner minimum and maximum
+void label_boxes(In<double, shape<-1, 2>> uv, Faces faces, In<int64_t, nb::ndim<1>> label, Out<double, shape<-1, 2>> lo,
+                 Out<double, shape<-1, 2>> hi) {
+  const int64_t m = faces.shape(0), k = lo.shape(0);
+  if (int64_t(label.shape(0)) != m || int64_t(hi.shape(0)) != k) throw std::invalid_argument("label_boxes: label of m, lo and hi of k rows");
+  check_faces(faces, uv.shape(0), "label_boxes");
+  const double* t = uv.data();
+  const int64_t* f = faces.data();
+  for (int64_t i = 0; i < m; ++i) {
+    const int64_t g = label.data()[i];
+    if (g < 0 || g >= k) throw nb::index_error("label_boxes: a label outside [0, k)");
+    for (int j = 0; j < 2; ++j) {
+      const double a = t[2 * f[3 * i] + j], b = t[2 * f[3 * i + 1] + j], c = t[2 * f[3 * i + 2] + j];
+      double* l = lo.data() + 2 * g + j;
+      double* h = hi.data() + 2 * g + j;
+      *l = nan_min(*l, nan_min(nan_min(a, b), c));
+      *h = nan_max(*h, nan_max(nan_max(a, b), c));
+    }
+  }
+}
+
+// out (m, 3) := each face rotated to start at its smallest corner (the first of equals)
+void rotated_faces(Faces faces, Out<int64_t, shape<-1, 3>> out) {
+  const int64_t m = faces.shape(0);
+  if (int64_t(out.shape(0)) != m) throw std::invalid_argument("rotated_faces: out of m rows");
+  parallel_for(m, [&](int64_t begin, int64_t end) {
+    for (int64_t i = begin; i < end; ++i) {
+      const int64_t* f = faces.data() + 3 * i;
+      const int s = f[1] < f[0] ? (f[2] < f[1] ? 2 : 1) : (f[2] < f[0] ? 2 : 0);
+      for (int j = 0; j < 3; ++j) out.data()[3 * i + j] = f[(s + j) % 3];
+    }
+  });
+}
+
 }  // namespace
 
 void bind_geometry(nb::module_& m) {
+  m.def("label_boxes", &label_boxes, nb::arg("uv"), nb::arg("faces"), nb::arg("label"), nb::arg("lo").noconvert(),
+        nb::arg("hi").noconvert(), Release(),
+        "Grow lo, hi (k, 2) to the UV bounding box of each label's faces (label (m,) in [0, k)); NaN wins.");
+  m.def("rotated_faces", &rotated_faces, nb::arg("faces"), nb::arg("out").noconvert(), Release(),
+        "Fill out (m, 3) with each face rotated to start at its smallest corner (np.argmin's: the first of equals).");
   m.def("face_edges", &face_edges, nb::arg("points"), nb::arg("faces"), nb::arg("p0").noconvert(), nb::arg("e1").noconvert(),
         nb::arg("e2").noconvert(), Release(),
         "Fill p0, e1, e2 (m, d) with each face's first corner and its edges from it, of points (n, d) and faces (m, 3).");

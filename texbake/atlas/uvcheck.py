@@ -215,10 +215,8 @@ def packing_estimate(vertices: np.ndarray, faces: np.ndarray, uv_faces: np.ndarr
     k = int(label.max()) + 1
     a3 = np.bincount(label, areas(vertices, faces), minlength=k)
     auv = np.bincount(label, uv_areas(uv, uv_faces), minlength=k)
-    corners = uv[uv_faces]  # (m, 3, 2)
     lo, hi = np.full((k, 2), np.inf), np.full((k, 2), -np.inf)
-    np.minimum.at(lo, label, corners.min(axis=1))
-    np.maximum.at(hi, label, corners.max(axis=1))
+    _native.label_boxes(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(uv_faces, dtype=np.int64), label, lo, hi)
     ok = (auv > 0) & (a3 > 0)
     if not ok.any():
         return 0.0

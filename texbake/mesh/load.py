@@ -31,6 +31,7 @@ from pathlib import Path, PurePosixPath
 
 import numpy as np
 
+from .. import _native
 from ..errors import MeshError, ParameterError
 from .grouping import group_rows
 from .objfile import read_obj
@@ -589,6 +590,6 @@ def _without_duplicates(faces: np.ndarray) -> np.ndarray:
     """The indices, in order, of ``faces`` (of welded vertices) less those that repeat an
     earlier face's corners in the same winding: a doubled face takes atlas space twice and
     splits charts."""
-    start = np.argmin(faces, axis=1)  # each face rotated to start at its smallest corner
-    corners = np.take_along_axis(faces, (start[:, None] + np.arange(3)) % 3, axis=1)
+    corners = np.empty_like(faces)
+    _native.rotated_faces(np.ascontiguousarray(faces, dtype=np.int64), corners)  # each face from its smallest corner
     return group_rows(corners)[0]  # ascending

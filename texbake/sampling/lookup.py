@@ -15,6 +15,7 @@ centre at ``u = (col + 0.5) / width``, ``v = 1 - (row + 0.5) / height`` (row 0 a
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -101,9 +102,12 @@ class UVLookup:
         self.degenerate = ~ok
         self._any_degenerate = bool(self.degenerate.any())
         self._across = uv_neighbours(uv, faces, ok)  # (m, 3): the face across each edge
-        self._tri = uv[faces][ok]  # (k, 3, 2): the UV triangles a point can lie in
-        v = self._tri[:, :, 1]
-        self._rows = np.stack([1.0 - v.max(axis=1), 1.0 - v.min(axis=1)], axis=1)  # (k, 2): top and bottom, in image heights
+        self._tri = uv[faces][ok] if self._any_degenerate else uv[faces]  # (k, 3, 2): the UV triangles a point can lie in
+        v = self._tri[:, :, 1]  # elementwise over the corners: numpy's reduce along an axis of 3 is several times slower
+        highest, lowest = np.maximum(np.maximum(v[:, 0], v[:, 1]), v[:, 2]), np.minimum(np.minimum(v[:, 0], v[:, 1]), v[:, 2])
+        self._rows = np.stack([1.0 - highest, 1.0 - lowest], axis=1)  # (k, 2): top and bottom, in image heights
+        self._row_ranges: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._lock = threading.Lock()
 
     def candidates(self, tile: Tile, width: int, height: int) -> np.ndarray:
         """Indices of the texels of ``tile`` whose square some face's UV triangle touches
@@ -115,12 +119,21 @@ class UVLookup:
         int64 texel indices within the tile (row-major).
         """
         rows = tile.stop - tile.start
-        top = np.floor(self._rows[:, 0] * height - TOUCH_MARGIN)
-        bottom = np.floor(self._rows[:, 1] * height + TOUCH_MARGIN)
+        top, bottom = self._row_range(height)
         near = np.flatnonzero((bottom >= tile.start) & (top < tile.stop))
         touched = np.zeros(rows * width, dtype=np.bool_)
         _native.touched(self._tri, near, width, height, tile.start, rows, TOUCH_MARGIN, touched)
         return np.flatnonzero(touched)
+
+    def _row_range(self, height: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(top, bottom)``, ``(k,)`` float64: the first and last texel row each UV triangle
+        touches in an image ``height`` rows high; made once a height (every tile reads them)."""
+        with self._lock:
+            found = self._row_ranges.get(height)
+            if found is None:
+                found = (np.floor(self._rows[:, 0] * height - TOUCH_MARGIN), np.floor(self._rows[:, 1] * height + TOUCH_MARGIN))
+                self._row_ranges[height] = found
+            return found
 
     def faces_at(self, uv: np.ndarray) -> np.ndarray:
         """``(n,)`` int32 face under each ``(n, 2)`` UV point, -1 where no face is."""

@@ -69,9 +69,13 @@ class SurfaceMap:
         faces = np.asarray(faces, dtype=np.int64)
         self._p0, self._e1, self._e2 = (np.ascontiguousarray(a) for a in edges(vertices, faces))
         dpdu, dpdv, _ = uv_jacobian(vertices, faces, uv, uv_faces)
-        # One texel right is du = 1/width; one texel down is dv = -1/height.
-        self._dpdx = np.clip(dpdu / width, -_MAX_FOOTPRINT, _MAX_FOOTPRINT)
-        self._dpdy = np.clip(-dpdv / height, -_MAX_FOOTPRINT, _MAX_FOOTPRINT)
+        # One texel right is du = 1/width; one texel down is dv = -1/height (in place: these
+        # are (m, 3) arrays of millions of rows)
+        dpdu /= width
+        self._dpdx = np.clip(dpdu, -_MAX_FOOTPRINT, _MAX_FOOTPRINT, out=dpdu)
+        np.negative(dpdv, out=dpdv)
+        dpdv /= height
+        self._dpdy = np.clip(dpdv, -_MAX_FOOTPRINT, _MAX_FOOTPRINT, out=dpdv)
         # (m, 3, 3) corner normals, only when asked for (shading and transfer rays need them)
         self._vn: np.ndarray | None = None
         if isinstance(normals, np.ndarray):
