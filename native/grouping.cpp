@@ -1,10 +1,13 @@
 // Grouping (texbake/mesh/grouping.py): equal rows; and the UV neighbours of the texel lookup
 // (texbake/sampling/lookup.py), edges paired by their welded ends. Linear time (grouping.hpp).
+#include <cmath>
 #include <cstring>
+#include <optional>
 #include <stdexcept>
 #include <tuple>
 #include <vector>
 
+#include <nanobind/stl/optional.h>
 #include <nanobind/stl/tuple.h>
 
 #include "arrays.hpp"
@@ -17,6 +20,7 @@ using Array = nb::ndarray<nb::numpy, int64_t>;
 
 std::tuple<Array, Array> group_rows(In<uint64_t, nb::ndim<2>> rows) {
   const int64_t n = rows.shape(0), d = rows.shape(1);
+  if (d > 8) throw std::invalid_argument("group_rows: at most 8 columns");
   std::vector<int64_t> inverse(n), first;
   {
     nb::gil_scoped_release unlocked;
@@ -24,6 +28,46 @@ std::tuple<Array, Array> group_rows(In<uint64_t, nb::ndim<2>> rows) {
   }
   const size_t g = first.size();
   return {owned(std::move(first), {g}), owned(std::move(inverse), {size_t(n)})};
+}
+
+inline uint64_t bits_of(double x) {
+  x += 0.0;  // -0.0 is 0.0
+  uint64_t b;
+  std::memcpy(&b, &x, 8);
+  return b;
+}
+
+// (first, inverse) of the vertices welded by position and UV (texbake/mesh/load.py's _weld):
+// rows (x, y, z, u, v, missing) with a vertex whose u and v are both NaN (a part without UVs)
+// as (x, y, z, 0, 0, 1); None where a row is not finite then (the weld leaves such a mesh)
+std::optional<std::tuple<Array, Array>> weld(In<double, shape<-1, 3>> vertices, std::optional<In<double, shape<-1, 2>>> uv) {
+  const int64_t n = vertices.shape(0);
+  if (uv && int64_t(uv->shape(0)) != n) throw std::invalid_argument("weld: uv of the vertices' rows");
+  std::vector<int64_t> inverse(n), first;
+  {
+    nb::gil_scoped_release unlocked;
+    const double* p = vertices.data();
+    const double* t = uv ? uv->data() : nullptr;
+    for (int64_t i = 0; i < n; ++i) {
+      bool finite = std::isfinite(p[3 * i]) && std::isfinite(p[3 * i + 1]) && std::isfinite(p[3 * i + 2]);
+      if (t) {
+        const bool missing = std::isnan(t[2 * i]) && std::isnan(t[2 * i + 1]);
+        finite = finite && (missing || (std::isfinite(t[2 * i]) && std::isfinite(t[2 * i + 1])));
+      }
+      if (!finite) return std::nullopt;
+    }
+    auto row = [p, t](int64_t i, uint64_t* out) {
+      for (int k = 0; k < 3; ++k) out[k] = bits_of(p[3 * i + k]);
+      if (!t) return;
+      const bool missing = std::isnan(t[2 * i]) && std::isnan(t[2 * i + 1]);
+      out[3] = bits_of(missing ? 0.0 : t[2 * i]);
+      out[4] = bits_of(missing ? 0.0 : t[2 * i + 1]);
+      out[5] = bits_of(missing ? 1.0 : 0.0);
+    };
+    first = group_rows_of(n, t ? 6 : 3, row, inverse.data());
+  }
+  const size_t g = first.size();
+  return std::tuple<Array, Array>{owned(std::move(first), {g}), owned(std::move(inverse), {size_t(n)})};
 }
 
 // across (m, 3): the face across the UV edge opposite each corner (texbake/sampling/lookup.py)
@@ -36,13 +80,12 @@ void uv_neighbours(In<double, shape<-1, 2>> uv, In<int64_t, shape<-1, 3>> faces,
     if (f[c] < 0 || f[c] >= k) throw nb::index_error("uv_neighbours: a face index outside the UVs");
   }
   nb::gil_scoped_release unlocked;
-  std::vector<uint64_t> bits(2 * k);
-  for (int64_t i = 0; i < 2 * k; ++i) {
-    const double x = uv.data()[i] + 0.0;  // -0.0 is 0.0
-    std::memcpy(&bits[i], &x, 8);
-  }
   std::vector<int64_t> weld(k), a(n), b(n);
-  const int64_t positions = int64_t(group_words(bits.data(), k, 2, weld.data()).size());
+  const double* t = uv.data();
+  const int64_t positions = int64_t(group_rows_of(k, 2, [t](int64_t i, uint64_t* out) {
+    out[0] = bits_of(t[2 * i]);
+    out[1] = bits_of(t[2 * i + 1]);
+  }, weld.data()).size());
   for (int64_t c = 0; c < n; ++c) {  // the edge opposite corner c
     const int64_t base = c - c % 3;
     a[c] = weld[f[base + (c % 3 + 1) % 3]];
@@ -66,6 +109,9 @@ void bind_grouping(nb::module_& m) {
   m.def("group_rows", &group_rows, nb::arg("rows"),
         "(first (g,), inverse (n,)) int64 of the (n, d) uint64 rows grouped where all their words are equal, groups "
         "numbered in the order of their first row.");
+  m.def("weld", &weld, nb::arg("vertices"), nb::arg("uv").none(),
+        "(first, inverse) of the vertices (n, 3) grouped where position and uv (n, 2; a row of two NaN: none) are "
+        "equal, numbered in the order of their first vertex; None where a position or a UV is not finite.");
   m.def("uv_neighbours", &uv_neighbours, nb::arg("uv"), nb::arg("faces"), nb::arg("usable"), nb::arg("across").noconvert(),
         "Fill across (m, 3) with the face across the UV edge opposite each corner (-1: none), corners matched by UV "
         "position, edges between usable faces only; of more than two on one edge, each with the next in order.");

@@ -25,11 +25,12 @@ inline uint64_t hash_words(const uint64_t* row, int64_t d) {
   return h;
 }
 
-// inverse[i] (n,) := the group of row i of rows (n, d); returns each group's first row. The
-// rows' slots are prefetched a block ahead (the table is larger than the caches), and a slot
-// holds 32 bits of its row's hash beside the group, so that rows are compared only where
-// those bits agree.
-inline std::vector<int64_t> group_words(const uint64_t* rows, int64_t n, int64_t d, int64_t* inverse) {
+// inverse[i] (n,) := the group of row i, of n rows of d <= 8 words that row(i, words) writes;
+// returns each group's first row. The rows' slots are prefetched a block ahead (the table is
+// larger than the caches), and a slot holds 32 bits of its row's hash beside the group, so
+// that rows are compared only where those bits agree.
+template <class Row>
+inline std::vector<int64_t> group_rows_of(int64_t n, int64_t d, Row&& row, int64_t* inverse) {
   uint64_t cap = 2;
   while (cap < uint64_t(2 * n)) cap <<= 1;
   const uint64_t mask = cap - 1;
@@ -37,15 +38,15 @@ inline std::vector<int64_t> group_words(const uint64_t* rows, int64_t n, int64_t
   std::vector<uint64_t> slot(cap, EMPTY);  // hash bits << 32 | group
   std::vector<int64_t> first;
   constexpr int64_t BLOCK = 32;
-  uint64_t hashes[BLOCK];
+  uint64_t hashes[BLOCK], words[BLOCK][8], other[8];
   for (int64_t b = 0; b < n; b += BLOCK) {
     const int64_t e = std::min(n, b + BLOCK);
     for (int64_t i = b; i < e; ++i) {
-      hashes[i - b] = hash_words(rows + d * i, d);
+      row(i, words[i - b]);
+      hashes[i - b] = hash_words(words[i - b], d);
       __builtin_prefetch(&slot[hashes[i - b] & mask]);
     }
     for (int64_t i = b; i < e; ++i) {
-      const uint64_t* row = rows + d * i;
       const uint64_t h = hashes[i - b], tag = h >> 32;
       for (uint64_t j = h & mask;; j = (j + 1) & mask) {
         const uint64_t s = slot[j];
@@ -56,14 +57,22 @@ inline std::vector<int64_t> group_words(const uint64_t* rows, int64_t n, int64_t
           break;
         }
         const int64_t g = int64_t(s & 0xFFFFFFFFu);
-        if ((s >> 32) == tag && std::memcmp(rows + d * first[g], row, size_t(d) * 8) == 0) {
-          inverse[i] = g;
-          break;
+        if ((s >> 32) == tag) {
+          row(first[g], other);
+          if (std::memcmp(other, words[i - b], size_t(d) * 8) == 0) {
+            inverse[i] = g;
+            break;
+          }
         }
       }
     }
   }
   return first;
+}
+
+// group_rows_of the rows (n, d) of words
+inline std::vector<int64_t> group_words(const uint64_t* rows, int64_t n, int64_t d, int64_t* inverse) {
+  return group_rows_of(n, d, [rows, d](int64_t i, uint64_t* out) { std::memcpy(out, rows + d * i, size_t(d) * 8); }, inverse);
 }
 
 // For the edges (a[h], b[h]) of ends in [0, ends) with take(h): pair(h, k) for each k whose

@@ -22,13 +22,13 @@ namespace {
 
 // each vertex's position id: equal ids where the coordinates are (-0.0 is 0.0)
 std::vector<int64_t> position_ids(const double* v, int64_t k) {
-  std::vector<uint64_t> bits(3 * k);
-  for (int64_t i = 0; i < 3 * k; ++i) {
-    const double x = v[i] + 0.0;
-    std::memcpy(&bits[i], &x, 8);
-  }
   std::vector<int64_t> id(k);
-  group_words(bits.data(), k, 3, id.data());
+  group_rows_of(k, 3, [v](int64_t i, uint64_t* out) {
+    for (int j = 0; j < 3; ++j) {
+      const double x = v[3 * i + j] + 0.0;
+      std::memcpy(&out[j], &x, 8);
+    }
+  }, id.data());
   return id;
 }
 

@@ -12,7 +12,9 @@
 #include <nanobind/stl/vector.h>
 
 #include <charconv>
+#include <climits>
 #include <cstdint>
+#include <cstring>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -52,10 +54,10 @@ bool parse_number(std::string_view field, double& out) {
   return error == std::errc() && end == field.data() + n;
 }
 
-// an index: optional '-', 1 to 18 digits
+// an index: optional '-', 1 to 10 digits
 bool parse_index(std::string_view field, int64_t& out) {
   size_t i = field.size() && field[0] == '-' ? 1 : 0;
-  if (field.size() == i || field.size() - i > 18) return false;
+  if (field.size() == i || field.size() - i > 10) return false;
   int64_t value = 0;
   for (; i < field.size(); ++i) {
     if (field[i] < '0' || field[i] > '9') return false;
@@ -90,7 +92,8 @@ Form form_of(std::string_view corner) {
 
 struct Parsed {
   std::vector<double> v, vt;
-  std::vector<int64_t> sizes, vi, ti;  // per polygon; per corner, 0-based
+  std::vector<int64_t> sizes;
+  std::vector<int32_t> vi, ti;  // per corner, 0-based (a file of 2**31 elements or more is left to objfile.py)
   std::vector<std::string> mtllibs;
   Form form = Form::unknown;
 };
@@ -104,14 +107,14 @@ bool face_line(const std::vector<std::string_view>& corners, int64_t v_so_far, i
     p.form = form;
     const size_t a = corner.find('/');
     int64_t position, texcoord = 0, normal;
-    if (!parse_index(corner.substr(0, a), position) || position == 0) return false;
-    p.vi.push_back(position < 0 ? v_so_far + position : position - 1);
+    if (!parse_index(corner.substr(0, a), position) || position == 0 || position > INT32_MAX || position < -v_so_far) return false;
+    p.vi.push_back(int32_t(position < 0 ? v_so_far + position : position - 1));
     if (form == Form::v_vt || form == Form::v_vt_vn) {
       const size_t b = corner.find('/', a + 1);
       if (!parse_index(corner.substr(a + 1, b == std::string_view::npos ? std::string_view::npos : b - a - 1), texcoord) ||
-          texcoord == 0)
+          texcoord == 0 || texcoord > INT32_MAX || texcoord < -vt_so_far)
         return false;
-      p.ti.push_back(texcoord < 0 ? vt_so_far + texcoord : texcoord - 1);
+      p.ti.push_back(int32_t(texcoord < 0 ? vt_so_far + texcoord : texcoord - 1));
     }
     if ((form == Form::v__vn || form == Form::v_vt_vn) && !parse_index(corner.substr(corner.rfind('/') + 1), normal))
       return false;
@@ -154,12 +157,33 @@ bool take_line(std::string_view line, Parsed& p, std::vector<std::string_view>& 
   return true;
 }
 
+// the arrays' room, from a count of the lines by their first bytes (growing them by doubling
+// would allocate, and the kernel zero, twice the memory)
+void reserve(std::string_view data, Parsed& p) {
+  size_t v = 0, vt = 0, f = 0;
+  for (size_t i = 0; i < data.size();) {
+    size_t start = i;
+    while (start < data.size() && is_space(data[start])) ++start;
+    const char c0 = start < data.size() ? data[start] : '\0', c1 = start + 1 < data.size() ? data[start + 1] : '\0';
+    v += c0 == 'v' && is_space(c1);
+    vt += c0 == 'v' && c1 == 't';
+    f += c0 == 'f' && is_space(c1);
+    const void* end = std::memchr(data.data() + start, '\n', data.size() - start);
+    i = end ? size_t(static_cast<const char*>(end) - data.data()) + 1 : data.size();
+  }
+  p.v.reserve(3 * v);
+  p.vt.reserve(2 * vt);
+  p.sizes.reserve(f);
+  p.vi.reserve(3 * f);
+  if (vt) p.ti.reserve(3 * f);
+}
+
 bool parse(std::string_view data, Parsed& p) {
   for (unsigned char c : data) {  // bytes str.split() or str.splitlines() would break at, or beyond ASCII
     if (c >= 0x80 || c == 0x0b || c == 0x0c || (c >= 0x1c && c <= 0x1f)) return false;
   }
+  reserve(data, p);
   std::vector<std::string_view> fields;
-  std::string line;
   size_t i = 0;
   while (i < data.size()) {
     size_t end = i;
@@ -170,10 +194,10 @@ bool parse(std::string_view data, Parsed& p) {
     i = end + (end + 1 < data.size() && data[end] == '\r' && data[end + 1] == '\n' ? 2 : 1);
   }
   const int64_t nv = int64_t(p.v.size() / 3), nvt = int64_t(p.vt.size() / 2);
-  for (int64_t x : p.vi) {
+  for (int32_t x : p.vi) {
     if (x < 0 || x >= nv) return false;
   }
-  for (int64_t x : p.ti) {
+  for (int32_t x : p.ti) {
     if (x < 0 || x >= nvt) return false;
   }
   return true;
@@ -184,9 +208,10 @@ bool parse(std::string_view data, Parsed& p) {
 void build(const Parsed& p, std::vector<double>& vertices, std::vector<int64_t>& faces, std::vector<double>& uv) {
   const bool has_uv = !p.ti.empty();
   const int64_t corners = int64_t(p.vi.size()), nv = int64_t(p.v.size() / 3), nvt = int64_t(p.vt.size() / 2);
-  std::vector<int64_t> number(corners);  // each corner's new vertex
+  const bool triangles = corners == 3 * int64_t(p.sizes.size());  // every polygon a triangle (none has fewer corners)
+  std::vector<int64_t> number(corners);  // each corner's new vertex: the faces themselves when all are triangles
   std::vector<int64_t> first;            // each new vertex's first corner
-  auto by_table = [&](const std::vector<int64_t>& key, int64_t size) {
+  auto by_table = [&](const std::vector<int32_t>& key, int64_t size) {
     std::vector<int64_t> seen(size, -1);
     for (int64_t c = 0; c < corners; ++c) {
       int64_t& s = seen[key[c]];
@@ -199,9 +224,9 @@ void build(const Parsed& p, std::vector<double>& vertices, std::vector<int64_t>&
   };
   bool one_position = has_uv;
   if (has_uv) {
-    std::vector<int64_t> owner(nvt, -1);
+    std::vector<int32_t> owner(nvt, -1);
     for (int64_t c = 0; c < corners && one_position; ++c) {
-      int64_t& o = owner[p.ti[c]];
+      int32_t& o = owner[p.ti[c]];
       one_position = o < 0 || o == p.vi[c];
       o = p.vi[c];
     }
@@ -223,11 +248,15 @@ void build(const Parsed& p, std::vector<double>& vertices, std::vector<int64_t>&
   if (has_uv) uv.resize(2 * first.size());
   for (size_t k = 0; k < first.size(); ++k) {
     const int64_t c = first[k];
-    for (int j = 0; j < 3; ++j) vertices[3 * k + j] = p.v[3 * p.vi[c] + j];
+    for (int j = 0; j < 3; ++j) vertices[3 * k + j] = p.v[3 * size_t(p.vi[c]) + j];
     if (has_uv) {
-      uv[2 * k] = p.vt[2 * p.ti[c]];
-      uv[2 * k + 1] = p.vt[2 * p.ti[c] + 1];
+      uv[2 * k] = p.vt[2 * size_t(p.ti[c])];
+      uv[2 * k + 1] = p.vt[2 * size_t(p.ti[c]) + 1];
     }
+  }
+  if (triangles) {
+    faces = std::move(number);
+    return;
   }
   int64_t start = 0;
   for (int64_t size : p.sizes) {

@@ -243,7 +243,9 @@ def mesh_from_trimesh(mesh, *, name: str = "mesh", max_faces: int = 5_000_000) -
         if isinstance(g, trimesh.Trimesh):
             h.update(np.ascontiguousarray(g.vertices, dtype=np.float64).tobytes())
             h.update(np.ascontiguousarray(g.faces, dtype=np.int64).tobytes())
-    return _validate(_parts(mesh), name, "<mesh>", h.hexdigest(), max_faces)
+    # copies: the loaded mesh must not share the caller's arrays
+    parts = [(np.array(v, dtype=np.float64), np.array(f), *rest) for v, f, *rest in _parts(mesh)]
+    return _validate(parts, name, "<mesh>", h.hexdigest(), max_faces)
 
 
 def _check_max_faces(max_faces) -> None:
@@ -510,18 +512,17 @@ def _weld(vertices, faces, uv):
     """Merge vertices equal in position and UV (trimesh splits every face corner).
 
     Exact equality only: corners that differ in UV stay separate (UV seams survive), and
-    a welded surface keeps its connectivity for the unwrap and the normals. Rows are
-    grouped by their bits (:func:`~texbake.mesh.grouping.group_rows`), kept in file order. A vertex
+    a welded surface keeps its connectivity for the unwrap and the normals. Rows of
+    position and UV are grouped by their bits in a compiled hash table
+    (``native/grouping.cpp``), kept in file order. A vertex
     without UVs (NaN, from a part that has none) merges only with others without them.
     """
-    if uv is None:
-        rows = vertices
-    else:
-        missing = np.isnan(uv).all(axis=1)
-        rows = np.hstack([vertices, np.where(missing[:, None], 0.0, uv), missing[:, None].astype(np.float64)])
-    if not np.isfinite(rows).all():
-        return vertices, faces, uv  # rejected (vertices) or judged by the atlas (UVs)
-    first, inverse = group_rows(rows)  # numbered in file order: the first of each group kept
+    welded = _native.weld(np.ascontiguousarray(vertices, dtype=np.float64), None if uv is None else np.ascontiguousarray(uv, dtype=np.float64))
+    if welded is None:
+        return vertices, faces, uv  # not finite: rejected (vertices) or judged by the atlas (UVs)
+    first, inverse = welded  # numbered in file order: the first of each group kept
+    if len(first) == len(vertices):  # nothing merged: the arrays as they are
+        return vertices, faces, uv
     return vertices[first], inverse[faces], None if uv is None else uv[first]
 
 
@@ -556,10 +557,12 @@ def _validate(parts, name: str, where: str, sha256: str, max_faces: int) -> Load
         if f.min() < 0 or f.max() >= len(v):
             raise MeshError(where, f"face index {int(f.max()) if f.max() >= len(v) else int(f.min())} out of range ({len(v)} vertices)")
         vertex_parts.append(v)
-        face_parts.append(f.astype(np.int64) + offset)
+        f = np.asarray(f, dtype=np.int64)
+        face_parts.append(f + offset if offset else f)
         offset += len(v)
-    vertices = np.concatenate(vertex_parts)
-    faces = np.concatenate(face_parts)
+    # one part (a file of one mesh): its arrays as they are; copies of millions of rows cost
+    vertices = vertex_parts[0] if len(parts) == 1 else np.concatenate(vertex_parts)
+    faces = face_parts[0] if len(parts) == 1 else np.concatenate(face_parts)
     uv, has_uv = _joined_uv(parts, face_parts)
     part = np.concatenate([np.full(len(f), i, dtype=np.int32) for i, f in enumerate(face_parts)]) if len(parts) > 1 else None
     names = [p[3] if len(p) > 3 else f"part {i}" for i, p in enumerate(parts)]
@@ -567,16 +570,20 @@ def _validate(parts, name: str, where: str, sha256: str, max_faces: int) -> Load
     if not np.isfinite(vertices).all():
         bad = int((~np.isfinite(vertices)).any(axis=1).sum())
         raise MeshError(where, f"{bad} vertices have non-finite (NaN or infinite) coordinates")
-    if np.abs(vertices).max() > FLOAT32_MAX:
-        raise MeshError(where, f"coordinate {np.abs(vertices).max():.3g} is beyond float32 range")
+    largest = max(-float(vertices.min()), float(vertices.max()))  # np.abs(vertices).max() of finite ones
+    if largest > FLOAT32_MAX:
+        raise MeshError(where, f"coordinate {largest:.3g} is beyond float32 range")
 
-    area2 = 2.0 * areas(vertices, faces)  # |e1 x e2|
+    area2 = areas(vertices, faces)
+    area2 *= 2.0  # |e1 x e2|
     diag = float(np.linalg.norm(vertices.max(axis=0) - vertices.min(axis=0)))
     keep = area2 > 1e-30 * diag * diag
     if not keep.any():
         raise MeshError(where, f"all {len(faces)} faces are degenerate (zero area at the scale of the bounding-box diagonal {diag:.3g})")
-    unique = _without_duplicates(faces[keep])
-    faces_kept = faces[keep][unique]
+    faces_kept = faces if keep.all() else faces[keep]
+    unique = _without_duplicates(faces_kept)
+    if len(unique) < len(faces_kept):
+        faces_kept = faces_kept[unique]
     part = None if part is None else part[keep][unique]
     if has_uv is not None:
         has_uv = has_uv[keep][unique]
