@@ -245,13 +245,13 @@ def _sampler(mesh: LoadedMesh, atlas: Atlas, baked: BakedMesh, src: LoadedMesh |
     assert baked.normals is not None  # _output_mesh gives normals
     # a double-sided mesh's back faces lie on their front faces' texels: those hold the front side
     front = Sides.of(mesh.faces).front if atlas.stats.get("double_sided_faces") else slice(None)
-    corner_normals = baked.normals[baked.faces][front]  # (m, 3, 3): shading (the lit map) sees the GLB's normals
+    corner_normals = (baked.normals, baked.faces[front])  # shading (the lit map) sees the GLB's normals
     lo, hi = _bounds(mesh)
     reach = settings.cage if settings.cage is not None else 0.05 * float(np.linalg.norm(hi - lo))
     return Sampler(mesh.vertices, mesh.faces[front], atlas.uv, atlas.faces[front], *settings.width_height,
                    normals=corner_normals if needs_normals else False,
                    source=None if src is None else (src.vertices, src.faces), reach=reach,
-                   frame=None if baked.tangents is None else (corner_normals, baked.tangents[baked.faces][front]),
+                   frame=None if baked.tangents is None else (baked.normals[baked.faces][front], baked.tangents[baked.faces][front]),
                    footprints=settings.filtering or settings.bump is not None)
 
 
