@@ -1,5 +1,6 @@
 // Grouping (texbake/mesh/grouping.py): equal rows; and the UV neighbours of the texel lookup
 // (texbake/sampling/lookup.py), edges paired by their welded ends. Linear time (grouping.hpp).
+#include <climits>
 #include <cmath>
 #include <cstring>
 #include <optional>
@@ -79,21 +80,20 @@ void uv_neighbours(In<double, shape<-1, 2>> uv, In<int64_t, shape<-1, 3>> faces,
   for (int64_t c = 0; c < n; ++c) {
     if (f[c] < 0 || f[c] >= k) throw nb::index_error("uv_neighbours: a face index outside the UVs");
   }
+  if (n >= INT32_MAX) throw std::invalid_argument("uv_neighbours: at most 715 million faces");
   nb::gil_scoped_release unlocked;
-  std::vector<int64_t> weld(k), a(n), b(n);
+  std::vector<int64_t> weld(k);
   const double* t = uv.data();
   const int64_t positions = int64_t(group_rows_of(k, 2, [t](int64_t i, uint64_t* out) {
     out[0] = bits_of(t[2 * i]);
     out[1] = bits_of(t[2 * i + 1]);
   }, weld.data()).size());
-  for (int64_t c = 0; c < n; ++c) {  // the edge opposite corner c
-    const int64_t base = c - c % 3;
-    a[c] = weld[f[base + (c % 3 + 1) % 3]];
-    b[c] = weld[f[base + (c % 3 + 2) % 3]];
-  }
+  // the edge opposite corner c: its next two corners
+  auto a = [&](int64_t c) { return weld[f[c - c % 3 + (c % 3 + 1) % 3]]; };
+  auto b = [&](int64_t c) { return weld[f[c - c % 3 + (c % 3 + 2) % 3]]; };
   std::vector<int64_t> lo, hi;
   const bool* ok = usable.data();
-  edge_pairs(a.data(), b.data(), n, positions, [&](int64_t h) { return ok[h / 3] && a[h] != b[h]; }, [&](int64_t h, int64_t j) {
+  edge_pairs(a, b, n, positions, [&](int64_t h) { return ok[h / 3] && a(h) != b(h); }, [&](int64_t h, int64_t j) {
     lo.push_back(h);
     hi.push_back(j);
   });

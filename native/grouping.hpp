@@ -75,30 +75,31 @@ inline std::vector<int64_t> group_words(const uint64_t* rows, int64_t n, int64_t
   return group_rows_of(n, d, [rows, d](int64_t i, uint64_t* out) { std::memcpy(out, rows + d * i, size_t(d) * 8); }, inverse);
 }
 
-// For the edges (a[h], b[h]) of ends in [0, ends) with take(h): pair(h, k) for each k whose
+// For the edges (a(h), b(h)) of ends in [0, ends) with take(h): pair(h, k) for each k whose
 // ends (either way round) an earlier taken edge h has, h the latest such (the edges of one
 // pair of ends paired in index order: (h0, h1), (h1, h2), ...), as a stable sort by the
-// ends pairs neighbours
-template <class Take, class Pair>
-inline void edge_pairs(const int64_t* a, const int64_t* b, int64_t n, int64_t ends, Take&& take, Pair&& pair) {
-  std::vector<int64_t> offset(ends + 1, 0);
+// ends pairs neighbours. n < 2**31.
+template <class A, class B, class Take, class Pair>
+inline void edge_pairs(A&& a, B&& b, int64_t n, int64_t ends, Take&& take, Pair&& pair) {
+  std::vector<int32_t> offset(ends + 1, 0);
   for (int64_t h = 0; h < n; ++h) {
-    if (take(h)) ++offset[std::min(a[h], b[h]) + 1];
+    if (take(h)) ++offset[std::min(a(h), b(h)) + 1];
   }
   std::partial_sum(offset.begin(), offset.end(), offset.begin());
-  std::vector<int64_t> bucket(offset.back()), fill(offset.begin(), offset.end() - 1);
+  std::vector<int32_t> bucket(offset.back()), fill(offset.begin(), offset.end() - 1);
   for (int64_t h = 0; h < n; ++h) {  // each bucket in index order
-    if (take(h)) bucket[fill[std::min(a[h], b[h])]++] = h;
+    if (take(h)) bucket[fill[std::min(a(h), b(h))]++] = int32_t(h);
   }
-  std::vector<int64_t> sorted;
+  std::vector<int32_t> sorted;
+  auto other = [&](int64_t h) { return std::max(a(h), b(h)); };
   for (int64_t u = 0; u < ends; ++u) {
-    int64_t* items = bucket.data() + offset[u];
+    int32_t* items = bucket.data() + offset[u];
     const int64_t size = offset[u + 1] - offset[u];
-    auto other = [&](int64_t h) { return std::max(a[h], b[h]); };
     if (size <= 16) {  // a vertex's few edges: the latest earlier one of the same other end
       for (int64_t i = 1; i < size; ++i) {
+        const int64_t end = other(items[i]);
         for (int64_t j = i - 1; j >= 0; --j) {
-          if (other(items[j]) == other(items[i])) {
+          if (other(items[j]) == end) {
             pair(items[j], items[i]);
             break;
           }
@@ -107,7 +108,7 @@ inline void edge_pairs(const int64_t* a, const int64_t* b, int64_t n, int64_t en
       continue;
     }
     sorted.assign(items, items + size);  // a vertex of many edges: sorted by the other end, stably
-    std::stable_sort(sorted.begin(), sorted.end(), [&](int64_t x, int64_t y) { return other(x) < other(y); });
+    std::stable_sort(sorted.begin(), sorted.end(), [&](int32_t x, int32_t y) { return other(x) < other(y); });
     for (int64_t i = 1; i < size; ++i) {
       if (other(sorted[i - 1]) == other(sorted[i])) pair(sorted[i - 1], sorted[i]);
     }

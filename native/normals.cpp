@@ -4,6 +4,7 @@
 // order, as numpy's bincount adds, so the normals have the same bits.
 #include <algorithm>
 #include <cmath>
+#include <climits>
 #include <cstring>
 #include <numeric>
 #include <stdexcept>
@@ -33,25 +34,29 @@ std::vector<int64_t> position_ids(const double* v, int64_t k) {
 }
 
 // the fan of each corner 3 f + c: corners joined across the soft edges
-std::vector<int64_t> fans(const int64_t* faces, int64_t m, const std::vector<int64_t>& pos, const std::vector<double>& unit,
+std::vector<int64_t> fans(const int64_t* faces, int64_t m, const std::vector<int64_t>& pos, const std::vector<double>& weighted,
                           double cos_angle) {
   const int64_t n = 3 * m;
   auto next = [](int64_t c) { return c - c % 3 + (c % 3 + 1) % 3; };  // the corner after c in its face
-  std::vector<int64_t> start(n), end(n);
-  for (int64_t c = 0; c < n; ++c) {
-    start[c] = pos[faces[c]];
-    end[c] = pos[faces[next(c)]];
-  }
+  auto start = [&](int64_t c) { return pos[faces[c]]; };
+  auto end = [&](int64_t c) { return pos[faces[next(c)]]; };
   const int64_t ends = m ? *std::max_element(pos.begin(), pos.end()) + 1 : 0;
+  // face f's unit normal (zero for a face of zero area), as numpy's divide where length > 0
+  auto unit = [&](int64_t f, double* out) {
+    const double* x = &weighted[3 * f];
+    const double length = std::sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
+    for (int j = 0; j < 3; ++j) out[j] = length > 0 ? x[j] / length : 0.0;
+  };
   std::vector<int64_t> parent(n);
   std::iota(parent.begin(), parent.end(), int64_t(0));
-  const double* u = unit.data();
-  edge_pairs(start.data(), end.data(), n, ends, [](int64_t) { return true; }, [&](int64_t h, int64_t k) {
-    const double *a = u + 3 * (h / 3), *b = u + 3 * (k / 3);
+  edge_pairs(start, end, n, ends, [](int64_t) { return true; }, [&](int64_t h, int64_t k) {
+    double a[3], b[3];
+    unit(h / 3, a);
+    unit(k / 3, b);
     // numpy's einsum("ij,ij->i") of three terms adds the first and the last first
     if (!((a[0] * b[0] + a[2] * b[2]) + a[1] * b[1] >= cos_angle)) return;  // a hard edge
     // the half-edges may run either way: match the corners by position
-    const bool forward = start[k] == start[h];
+    const bool forward = start(k) == start(h);
     join(parent.data(), h, forward ? k : next(k));
     join(parent.data(), next(h), forward ? next(k) : k);
   });
@@ -71,12 +76,13 @@ std::tuple<Ints, Ints, Doubles> split_normals(In<double, shape<-1, 3>> vertices,
     if (faces[c] < 0 || faces[c] >= k)
       throw nb::index_error(("split_normals: face index " + std::to_string(faces[c]) + " outside [0, " + std::to_string(k) + ")").c_str());
   }
+  if (n >= INT32_MAX) throw std::invalid_argument("split_normals: at most 715 million faces");
   std::vector<int64_t> source, out_faces(n);
   std::vector<double> normals;
   {
     nb::gil_scoped_release unlocked;
     const double* v = vertices.data();
-    std::vector<double> weighted(3 * m), unit(3 * m);  // e1 x e2 (twice the area), and unit
+    std::vector<double> weighted(3 * m);  // e1 x e2: twice the area
     for (int64_t f = 0; f < m; ++f) {
       const double *a = v + 3 * faces[3 * f], *b = v + 3 * faces[3 * f + 1], *c = v + 3 * faces[3 * f + 2];
       const double u0 = b[0] - a[0], u1 = b[1] - a[1], u2 = b[2] - a[2], w0 = c[0] - a[0], w1 = c[1] - a[1], w2 = c[2] - a[2];
@@ -84,10 +90,8 @@ std::tuple<Ints, Ints, Doubles> split_normals(In<double, shape<-1, 3>> vertices,
       x[0] = u1 * w2 - u2 * w1;
       x[1] = u2 * w0 - u0 * w2;
       x[2] = u0 * w1 - u1 * w0;
-      const double length = std::sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
-      for (int j = 0; j < 3; ++j) unit[3 * f + j] = length > 0 ? x[j] / length : 0.0;
     }
-    const std::vector<int64_t> fan = m ? fans(faces, m, position_ids(v, k), unit, cos_angle) : std::vector<int64_t>();
+    const std::vector<int64_t> fan = m ? fans(faces, m, position_ids(v, k), weighted, cos_angle) : std::vector<int64_t>();
     const int64_t n_fans = m ? *std::max_element(fan.begin(), fan.end()) + 1 : 0;
     std::vector<double> fan_normal(3 * n_fans, 0.0);
     for (int64_t c = 0; c < n; ++c) {
@@ -111,6 +115,8 @@ std::tuple<Ints, Ints, Doubles> split_normals(In<double, shape<-1, 3>> vertices,
     std::vector<int64_t> fill(offset.begin(), offset.end() - 1);
     for (int64_t c = 0; c < n; ++c) corners[fill[faces[c]]++] = c;
     std::vector<int64_t> seen;
+    source.reserve(k);  // one new vertex a vertex, more at hard edges
+    normals.reserve(3 * k);
     for (int64_t i = 0; i < k; ++i) {
       seen.clear();
       for (int64_t j = offset[i]; j < offset[i + 1]; ++j) seen.push_back(fan[corners[j]]);
