@@ -22,7 +22,7 @@ import numpy as np
 
 from .. import _native
 from ..errors import ParameterError
-from ..mesh import uv_inverse
+from ..mesh import uv_dets
 from .rays import Scene
 
 _DOWN = np.array([0.0, 0.0, -1.0], dtype=np.float32)  # the direction of every lookup ray
@@ -90,22 +90,19 @@ class UVLookup:
     """
 
     def __init__(self, uv: np.ndarray, faces: np.ndarray):
-        uv = np.asarray(uv, dtype=np.float64)
-        faces = np.asarray(faces, dtype=np.int64)
-        flat = np.zeros((len(uv), 3), dtype=np.float32)
-        flat[:, :2] = uv
-        self._scene = Scene(flat, faces, recentre=False)  # UVs in [0, 1]: cast as they are
+        self._uv = np.ascontiguousarray(uv, dtype=np.float64)
+        self._faces = np.ascontiguousarray(faces, dtype=np.int64)
+        flat = np.zeros((len(self._uv), 3), dtype=np.float32)
+        flat[:, :2] = self._uv
+        self._scene = Scene(flat, self._faces, recentre=False)  # UVs in [0, 1]: cast as they are
 
-        # Per-face inverse of the UV edge matrix, for float64 barycentrics.
-        origin, inv, ok = uv_inverse(uv, faces)  # (m, 2), (m, 2, 2), (m,)
-        self._origin, self._inv = np.ascontiguousarray(origin), np.ascontiguousarray(inv)
+        # The barycentrics are solved in float64 from each face's UV corners (the inverse of
+        # its UV edge matrix, as uv_inverse has it), read where a sample needs them.
+        ok = np.abs(uv_dets(self._uv, self._faces)) > 0  # (m,): not UV-degenerate
         self.degenerate = ~ok
         self._any_degenerate = bool(self.degenerate.any())
-        self._across = uv_neighbours(uv, faces, ok)  # (m, 3): the face across each edge
-        self._tri = uv[faces][ok] if self._any_degenerate else uv[faces]  # (k, 3, 2): the UV triangles a point can lie in
-        v = self._tri[:, :, 1]  # elementwise over the corners: numpy's reduce along an axis of 3 is several times slower
-        highest, lowest = np.maximum(np.maximum(v[:, 0], v[:, 1]), v[:, 2]), np.minimum(np.minimum(v[:, 0], v[:, 1]), v[:, 2])
-        self._rows = np.stack([1.0 - highest, 1.0 - lowest], axis=1)  # (k, 2): top and bottom, in image heights
+        self._usable = ok if self._any_degenerate else None  # faces a texel may be touched by
+        self._across = uv_neighbours(self._uv, self._faces, ok)  # (m, 3): the face across each edge
         self._row_ranges: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._lock = threading.Lock()
 
@@ -120,9 +117,11 @@ class UVLookup:
         """
         rows = tile.stop - tile.start
         top, bottom = self._row_range(height)
-        near = np.flatnonzero((bottom >= tile.start) & (top < tile.stop))
+        near = (bottom >= tile.start) & (top < tile.stop)
+        if self._usable is not None:
+            near &= self._usable
         touched = np.zeros(rows * width, dtype=np.bool_)
-        _native.touched(self._tri, near, width, height, tile.start, rows, TOUCH_MARGIN, touched)
+        _native.touched(self._uv, self._faces, np.flatnonzero(near), width, height, tile.start, rows, TOUCH_MARGIN, touched)
         return np.flatnonzero(touched)
 
     def _row_range(self, height: int) -> tuple[np.ndarray, np.ndarray]:
@@ -131,7 +130,8 @@ class UVLookup:
         with self._lock:
             found = self._row_ranges.get(height)
             if found is None:
-                found = (np.floor(self._rows[:, 0] * height - TOUCH_MARGIN), np.floor(self._rows[:, 1] * height + TOUCH_MARGIN))
+                found = (np.empty(len(self._faces)), np.empty(len(self._faces)))
+                _native.row_range(self._uv, self._faces, height, TOUCH_MARGIN, *found)
                 self._row_ranges[height] = found
             return found
 
@@ -163,13 +163,13 @@ class UVLookup:
         inside = np.zeros(len(uv), dtype=np.bool_)
         if samples == 1:
             face = self.faces_at(uv)
-            _native.barycentric(uv, face, self._origin, self._inv, bary, inside)
+            _native.barycentric(uv, face, self._uv, self._faces, bary, inside)
             return face, bary, len(uv)
         if len(uv) % samples:
             raise ValueError(f"locate: {len(uv)} points are not whole texels of {samples} samples")
         first = self.faces_at(uv[::samples])
         face = np.repeat(first, samples).astype(np.int32, copy=False)
-        _native.walk(uv, face, self._origin, self._inv, self._across, WALK_STEPS, bary, inside)
+        _native.walk(uv, face, self._uv, self._faces, self._across, WALK_STEPS, bary, inside)
         inside[::samples] = True  # cast already
         redo = np.flatnonzero(~inside)
         if len(redo):
@@ -186,7 +186,7 @@ class UVLookup:
         """
         bary = np.zeros((len(uv), 3))
         _native.barycentric(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(face, dtype=np.int32),
-                            self._origin, self._inv, bary, np.zeros(len(uv), dtype=np.bool_))
+                            self._uv, self._faces, bary, np.zeros(len(uv), dtype=np.bool_))
         return bary
 
 
