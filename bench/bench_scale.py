@@ -8,8 +8,8 @@ OBJ into ``$TMPDIR/texbake-scale`` and kept there. Each size is baked at ``--siz
 with the default settings in its own process, after a small bake that loads the
 compiled kernels (their start is not the stages' cost). Prints each stage's seconds
 (the bake's report) and, between consecutive sizes, the slope ``k`` of log time against
-log faces (1.0: linear); the targets: ``k <= 1.05`` per stage between 1M and 5M faces,
-and 2M faces baked in 8 s or less.
+log faces (1.0: linear), and from the first size to the last; the targets: ``k <= 1.05``
+per stage between 1M and 5M faces, and 2M faces baked in 8 s or less.
 """
 
 from __future__ import annotations
@@ -118,14 +118,17 @@ def main() -> None:
 def table(results: list[dict], what: str, title: str) -> None:
     """Each stage's ``what`` (seconds or cpu) at each size, and the slopes between sizes."""
     pairs = list(zip(results, results[1:], strict=False))
+    if len(results) > 2:  # and from the first size to the last (the target's 1M to 5M)
+        pairs.append((results[0], results[-1]))
     print(f"\n{title}\n{'stage':<14}" + "".join(f"{r['faces'] / 1e6:>9.2f}M " for r in results)
           + "".join(f"  k {a['faces'] / 1e6:.2g}-{b['faces'] / 1e6:.2g}M" for a, b in pairs))
     total = "wall" if what == "seconds" else "cpu_total"
     for stage in [*STAGES, "bake"]:
         values = [{"bake": r[total]} if stage == "bake" else r[what] for r in results]
         row = "".join(f"{v.get(stage, float('nan')):>9.2f}s " for v in values)
+        ends = list(zip(values, values[1:], strict=False)) + ([(values[0], values[-1])] if len(values) > 2 else [])
         ks = "".join(f"{slope({'faces': a['faces'], what: va}, {'faces': b['faces'], what: vb}, stage, what):>12.2f}"
-                     for (a, b), va, vb in zip(pairs, values, values[1:], strict=False))
+                     for (a, b), (va, vb) in zip(pairs, ends, strict=True))
         print(f"{stage:<14}{row}{ks}")
 
 

@@ -18,6 +18,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <thread>
 #include <tuple>
 #include <unordered_map>
 #include <vector>
@@ -94,6 +95,7 @@ struct Parsed {
   std::vector<double> v, vt;
   std::vector<int64_t> sizes;
   std::vector<int32_t> vi, ti;  // per corner, 0-based (a file of 2**31 elements or more is left to objfile.py)
+  std::vector<int64_t> relative_v, relative_t;  // the corners of relative (negative) indices: a later piece's count from its start
   std::vector<std::string> mtllibs;
   Form form = Form::unknown;
 };
@@ -107,13 +109,15 @@ bool face_line(const std::vector<std::string_view>& corners, int64_t v_so_far, i
     p.form = form;
     const size_t a = corner.find('/');
     int64_t position, texcoord = 0, normal;
-    if (!parse_index(corner.substr(0, a), position) || position == 0 || position > INT32_MAX || position < -v_so_far) return false;
+    if (!parse_index(corner.substr(0, a), position) || position == 0 || position > INT32_MAX || position < -INT32_MAX) return false;
+    if (position < 0) p.relative_v.push_back(int64_t(p.vi.size()));
     p.vi.push_back(int32_t(position < 0 ? v_so_far + position : position - 1));
     if (form == Form::v_vt || form == Form::v_vt_vn) {
       const size_t b = corner.find('/', a + 1);
       if (!parse_index(corner.substr(a + 1, b == std::string_view::npos ? std::string_view::npos : b - a - 1), texcoord) ||
-          texcoord == 0 || texcoord > INT32_MAX || texcoord < -vt_so_far)
+          texcoord == 0 || texcoord > INT32_MAX || texcoord < -INT32_MAX)
         return false;
+      if (texcoord < 0) p.relative_t.push_back(int64_t(p.ti.size()));
       p.ti.push_back(int32_t(texcoord < 0 ? vt_so_far + texcoord : texcoord - 1));
     }
     if ((form == Form::v__vn || form == Form::v_vt_vn) && !parse_index(corner.substr(corner.rfind('/') + 1), normal))
@@ -178,7 +182,8 @@ void reserve(std::string_view data, Parsed& p) {
   if (vt) p.ti.reserve(3 * f);
 }
 
-bool parse(std::string_view data, Parsed& p) {
+// the lines of one piece of the file (relative indices counted from the piece's start)
+bool parse_lines(std::string_view data, Parsed& p) {
   for (unsigned char c : data) {  // bytes str.split() or str.splitlines() would break at, or beyond ASCII
     if (c >= 0x80 || c == 0x0b || c == 0x0c || (c >= 0x1c && c <= 0x1f)) return false;
   }
@@ -192,6 +197,42 @@ bool parse(std::string_view data, Parsed& p) {
     while (start < end && is_space(data[start])) ++start;
     if (!take_line(data.substr(start, end - start), p, fields)) return false;
     i = end + (end + 1 < data.size() && data[end] == '\r' && data[end + 1] == '\n' ? 2 : 1);
+  }
+  return true;
+}
+
+// the second piece after the first: its relative indices moved by the first's elements
+bool append(Parsed& p, Parsed& second) {
+  if (p.form != Form::unknown && second.form != Form::unknown && p.form != second.form) return false;
+  if (p.form == Form::unknown) p.form = second.form;
+  const int64_t nv = int64_t(p.v.size() / 3), nvt = int64_t(p.vt.size() / 2);
+  if (nv + int64_t(second.v.size() / 3) > INT32_MAX || nvt + int64_t(second.vt.size() / 2) > INT32_MAX) return false;
+  for (int64_t c : second.relative_v) second.vi[c] = int32_t(second.vi[c] + nv);  // within [-2**31, 2**31): checked after
+  for (int64_t c : second.relative_t) second.ti[c] = int32_t(second.ti[c] + nvt);
+  p.v.insert(p.v.end(), second.v.begin(), second.v.end());
+  p.vt.insert(p.vt.end(), second.vt.begin(), second.vt.end());
+  p.sizes.insert(p.sizes.end(), second.sizes.begin(), second.sizes.end());
+  p.vi.insert(p.vi.end(), second.vi.begin(), second.vi.end());
+  p.ti.insert(p.ti.end(), second.ti.begin(), second.ti.end());
+  p.mtllibs.insert(p.mtllibs.end(), second.mtllibs.begin(), second.mtllibs.end());
+  return true;
+}
+
+// A file of megabytes is read in two pieces at once, cut at a line's end.
+constexpr size_t TWO_PIECES = 1 << 22;
+
+bool parse(std::string_view data, Parsed& p) {
+  const size_t half = data.size() / 2;
+  const size_t cut = data.size() < TWO_PIECES ? std::string_view::npos : data.find('\n', half);
+  if (cut == std::string_view::npos) {
+    if (!parse_lines(data, p)) return false;
+  } else {
+    Parsed second;
+    bool second_ok = false;
+    std::thread other([&] { second_ok = parse_lines(data.substr(cut + 1), second); });
+    const bool first_ok = parse_lines(data.substr(0, cut + 1), p);
+    other.join();
+    if (!first_ok || !second_ok || !append(p, second)) return false;
   }
   const int64_t nv = int64_t(p.v.size() / 3), nvt = int64_t(p.vt.size() / 2);
   for (int32_t x : p.vi) {

@@ -26,6 +26,8 @@ import itertools
 import json
 import re
 import struct
+import threading
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
@@ -151,7 +153,7 @@ def load_mesh(path, *, max_faces: int = 5_000_000) -> LoadedMesh:
         data = path.read_bytes()
     except OSError as exc:
         raise MeshError(where, f"cannot read: {exc.strerror}") from None
-    sha256 = hashlib.sha256(data).hexdigest()
+    sha256 = _sha256_beside(data)
     try:
         with np.errstate(over="raise"):  # a float32 field overflowing to inf
             parts = _read(data, kind, path)
@@ -161,7 +163,25 @@ def load_mesh(path, *, max_faces: int = 5_000_000) -> LoadedMesh:
         raise MeshError(where, f"a number overflows when read: coordinates must lie within float32 range (|x| <= {FLOAT32_MAX:.3g})") from None
     except Exception as exc:  # the parsers raise many kinds on corrupt input
         raise MeshError(where, f"cannot parse {kind.upper()} file: {_short(exc)}") from None
-    return _validate(parts, path.stem, where, sha256, max_faces)
+    return _validate(parts, path.stem, where, sha256(), max_faces)
+
+
+def _sha256_beside(data: bytes) -> Callable[[], str]:
+    """The hex SHA-256 of ``data``, as a call that waits for it: a file of megabytes is
+    hashed on a thread of its own while it is parsed (hashlib and the compiled reader both
+    let go of the GIL; 0.2 s of a 375 MB OBJ)."""
+    if len(data) < 1 << 23:
+        digest = hashlib.sha256(data).hexdigest()
+        return lambda: digest
+    out: list[str] = []
+    thread = threading.Thread(target=lambda: out.append(hashlib.sha256(data).hexdigest()), daemon=True)
+    thread.start()
+
+    def result() -> str:
+        thread.join()
+        return out[0]
+
+    return result
 
 
 def check_file(path) -> str:

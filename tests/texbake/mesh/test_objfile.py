@@ -216,3 +216,21 @@ def test_polygons_with_texture_and_normal_indices_are_fans(corner):
     assert (uv is not None) == ("/{i}" in corner)
     if uv is not None:
         assert np.array_equal(uv[f[:3]], [[[0, 0], [1, 0], [1, 0.5]], [[0, 0], [1, 0.5], [0.5, 1]], [[0, 0], [0.5, 1], [0, 0.5]]])
+
+
+@pytest.mark.parametrize("end", ["\n", "\r\n"])
+def test_a_file_of_megabytes_is_read_in_two_pieces_as_in_one(end):
+    # past 4 MiB the compiled reader parses two halves at once: relative indices across the
+    # cut count back into the first half, and the arrays are the bulk reader's bit for bit
+    rng = np.random.default_rng(5)
+    blocks = 40_000  # each: 3 positions, 3 texcoords, a triangle of relative and a quad of absolute indices
+    xyz, uv = rng.random((blocks, 9)), rng.random((blocks, 6))
+    absolute = rng.integers(1, 3 * np.arange(1, blocks + 1)[:, None] + 1, (blocks, 8))  # defined so far
+    block = ("v %.6f %.6f %.6f\n" * 3 + "vt %.6f %.6f\n" * 3 + "f -1/-3 -2/-2 -3/-1\n" + "f" + " %d/%d" * 4 + "\n")
+    text = "".join(block % (*a, *b, *c) for a, b, c in zip(xyz, uv, absolute, strict=True)).replace("\n", end)
+    data = text.encode()
+    assert len(data) > 2**22
+    fast, compiled = _read_fast(data), _native.read_obj(data)
+    assert fast is not None and compiled is not None
+    for a, b in zip(compiled[1:], fast[1], strict=True):
+        assert a.shape == b.shape and a.tobytes() == np.asarray(b, dtype=a.dtype).tobytes()
