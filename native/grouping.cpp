@@ -91,16 +91,16 @@ void uv_neighbours(In<double, shape<-1, 2>> uv, In<int64_t, shape<-1, 3>> faces,
   // the edge opposite corner c: its next two corners
   auto a = [&](int64_t c) { return weld[f[c - c % 3 + (c % 3 + 1) % 3]]; };
   auto b = [&](int64_t c) { return weld[f[c - c % 3 + (c % 3 + 2) % 3]]; };
-  std::vector<int64_t> lo, hi;
-  const bool* ok = usable.data();
-  edge_pairs(a, b, n, positions, [&](int64_t h) { return ok[h / 3] && a(h) != b(h); }, [&](int64_t h, int64_t j) {
-    lo.push_back(h);
-    hi.push_back(j);
-  });
+  // of the pairs of one edge (h0, h1), (h1, h2), ...: a half-edge takes its predecessor's
+  // face, else its successor's (as numpy's two assignments, the later winning); a pair comes
+  // after its first half-edge's own predecessor pair, so that one is already set
   int64_t* out = across.data();
   std::fill(out, out + n, int64_t(-1));
-  for (size_t i = 0; i < lo.size(); ++i) out[lo[i]] = hi[i] / 3;  // then the later of each pair wins, as numpy's two assignments
-  for (size_t i = 0; i < lo.size(); ++i) out[hi[i]] = lo[i] / 3;
+  const bool* ok = usable.data();
+  edge_pairs(a, b, n, positions, [&](int64_t h) { return ok[h / 3] && a(h) != b(h); }, [&](int64_t h, int64_t j) {
+    out[j] = h / 3;
+    if (out[h] < 0) out[h] = j / 3;
+  });
 }
 
 }  // namespace
