@@ -5,6 +5,7 @@
 // stride of 16 bytes, uint3 faces, one ray at a time with tnear 0), so the same rays find the
 // same faces. Only the part of Embree's API used here is declared, as include/embree4 has it.
 #include <dlfcn.h>
+#include <unistd.h>
 #include <nanobind/stl/string.h>
 
 #include <cstdint>
@@ -54,6 +55,7 @@ struct Api {
   void (*rtcReleaseGeometry)(RTCGeometry);
   void (*rtcIntersect1)(RTCScene, RayHit*, void*);
   RTCDevice device = nullptr;
+  pid_t pid = 0;  // the process the device was made in
 };
 
 Api api;
@@ -88,7 +90,19 @@ void open_embree(const std::string& path) {
   const ptrdiff_t major = found.rtcGetDeviceProperty(device, PROPERTY_VERSION_MAJOR);
   if (major != 4) throw std::runtime_error("embree: version " + std::to_string(major) + ", not 4");
   found.device = device;
+  found.pid = getpid();
   api = found;
+}
+
+// the device of this process: a child forked after a scene was made gets its own (as embreex
+// makes one a scene), the parent's threads being gone
+RTCDevice device() {
+  if (api.pid != getpid()) {
+    api.device = api.rtcNewDevice(nullptr);
+    api.pid = getpid();
+    if (!api.device) throw std::runtime_error("embree: no device");
+  }
+  return api.device;
 }
 
 class Scene {
@@ -99,10 +113,11 @@ class Scene {
     for (int64_t i = 0; i < 3 * m; ++i) {
       if (faces.data()[i] < 0 || faces.data()[i] >= n) throw nb::index_error("embree: a face index outside the vertices");
     }
+    RTCDevice dev = device();
     nb::gil_scoped_release unlocked;
-    scene_ = api.rtcNewScene(api.device);
+    scene_ = api.rtcNewScene(dev);
     api.rtcSetSceneFlags(scene_, SCENE_FLAG_ROBUST);
-    RTCGeometry geometry = api.rtcNewGeometry(api.device, GEOMETRY_TYPE_TRIANGLE);
+    RTCGeometry geometry = api.rtcNewGeometry(dev, GEOMETRY_TYPE_TRIANGLE);
     auto* v = static_cast<float*>(api.rtcSetNewGeometryBuffer(geometry, BUFFER_TYPE_VERTEX, 0, FORMAT_FLOAT3, 16, size_t(n)));
     auto* t = static_cast<unsigned*>(api.rtcSetNewGeometryBuffer(geometry, BUFFER_TYPE_INDEX, 0, FORMAT_UINT3, 12, size_t(m)));
     if (!v || !t) throw std::runtime_error("embree: no memory for the scene's buffers");
@@ -119,7 +134,7 @@ class Scene {
     api.rtcAttachGeometry(scene_, geometry);
     api.rtcReleaseGeometry(geometry);
     api.rtcCommitScene(scene_);  // the BVH, on Embree's threads
-    if (const int error = api.rtcGetDeviceError(api.device)) throw std::runtime_error("embree: error " + std::to_string(error) + " building the scene");
+    if (const int error = api.rtcGetDeviceError(dev)) throw std::runtime_error("embree: error " + std::to_string(error) + " building the scene");
   }
   ~Scene() {
     if (scene_) api.rtcReleaseScene(scene_);
