@@ -98,11 +98,3 @@ def group_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     elif rows.dtype != np.int64:
         rows = rows.astype(np.int64)
     return _native.group_rows(rows.view(np.uint64))
-
-
-def first_order_ranks(first: np.ndarray, n: int) -> np.ndarray:
-    """``(g,)`` int64 the rank of each of the distinct indices ``first`` (into ``n``
-    items) in ascending order: what ``np.argsort(np.argsort(first))`` gives, in linear time."""
-    marked = np.zeros(n, dtype=np.int64)
-    marked[first] = 1
-    return (np.cumsum(marked) - 1)[first]
