@@ -314,11 +314,10 @@ using Doubles = nb::ndarray<nb::numpy, double>;
 using Ints = nb::ndarray<nb::numpy, int64_t>;
 using Mesh = std::tuple<std::vector<std::string>, Doubles, Ints, std::optional<Doubles>>;
 
-std::optional<Mesh> read_obj(nb::bytes data) {
+std::optional<Mesh> read_text(std::string_view text) {
   Parsed p;
   std::vector<double> vertices, uv;
   std::vector<int64_t> faces;
-  const std::string_view text(data.c_str(), data.size());
   {
     nb::gil_scoped_release unlocked;
     if (!parse(text, p)) return std::nullopt;
@@ -334,11 +333,18 @@ std::optional<Mesh> read_obj(nb::bytes data) {
   return Mesh{std::move(p.mtllibs), owned(std::move(vertices), {n, 3}), owned(std::move(faces), {m, 3}), std::move(texcoords)};
 }
 
+std::optional<Mesh> read_array(In<uint8_t, nb::ndim<1>> data) {
+  return read_text(std::string_view(reinterpret_cast<const char*>(data.data()), data.shape(0)));
+}
+
+std::optional<Mesh> read_bytes(nb::bytes data) { return read_text(std::string_view(data.c_str(), data.size())); }
+
 }  // namespace
 
 void bind_objfile(nb::module_& m) {
-  m.def("read_obj", &read_obj, nb::arg("data"),
-        "(mtllib names, vertices (n, 3) float64, faces (m, 3) int64, uv (n, 2) float64 or None) of OBJ bytes, or None "
+  m.def("read_obj", &read_bytes, nb::arg("data"));
+  m.def("read_obj", &read_array, nb::arg("data"),
+        "(mtllib names, vertices (n, 3) float64, faces (m, 3) int64, uv (n, 2) float64 or None) of OBJ bytes (uint8), or None "
         "where texbake.mesh.objfile's own readers must read them.");
 }
 

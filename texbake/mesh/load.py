@@ -24,10 +24,13 @@ import hashlib
 import io
 import itertools
 import json
+import mmap
+import os
 import re
 import struct
 import threading
 from collections.abc import Callable
+from contextlib import contextmanager, suppress
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
@@ -149,24 +152,43 @@ def load_mesh(path, *, max_faces: int = 5_000_000) -> LoadedMesh:
     path = Path(path)
     where = str(path)
     kind = check_file(path)
+    with _file_bytes(path, kind) as data:
+        sha256 = _sha256_beside(data)
+        try:
+            with np.errstate(over="raise"):  # a float32 field overflowing to inf
+                parts = _read(data, kind, path)
+        except MeshError:
+            raise
+        except FloatingPointError:
+            raise MeshError(where, f"a number overflows when read: coordinates must lie within float32 range (|x| <= {FLOAT32_MAX:.3g})") from None
+        except Exception as exc:  # the parsers raise many kinds on corrupt input
+            raise MeshError(where, f"cannot parse {kind.upper()} file: {_short(exc)}") from None
+        digest = sha256()
+    return _validate(parts, path.stem, where, digest, max_faces)
+
+
+@contextmanager
+def _file_bytes(path: Path, kind: str):
+    """The file's bytes: an OBJ of megabytes mapped (``mmap``: the compiled reader reads the
+    page cache, where a copy of hundreds of MB would be new pages for the kernel to zero),
+    any other file read; a :class:`MeshError` where it cannot be read."""
     try:
-        data = path.read_bytes()
+        with open(path, "rb") as f:
+            if kind != "obj" or os.fstat(f.fileno()).st_size < 1 << 23:
+                data: bytes | mmap.mmap = f.read()
+            else:
+                data = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
     except OSError as exc:
-        raise MeshError(where, f"cannot read: {exc.strerror}") from None
-    sha256 = _sha256_beside(data)
+        raise MeshError(str(path), f"cannot read: {exc.strerror}") from None
     try:
-        with np.errstate(over="raise"):  # a float32 field overflowing to inf
-            parts = _read(data, kind, path)
-    except MeshError:
-        raise
-    except FloatingPointError:
-        raise MeshError(where, f"a number overflows when read: coordinates must lie within float32 range (|x| <= {FLOAT32_MAX:.3g})") from None
-    except Exception as exc:  # the parsers raise many kinds on corrupt input
-        raise MeshError(where, f"cannot parse {kind.upper()} file: {_short(exc)}") from None
-    return _validate(parts, path.stem, where, sha256(), max_faces)
+        yield data
+    finally:
+        if isinstance(data, mmap.mmap):
+            with suppress(BufferError):  # a view still held (a traceback's): the collector closes it
+                data.close()
 
 
-def _sha256_beside(data: bytes) -> Callable[[], str]:
+def _sha256_beside(data: bytes | mmap.mmap) -> Callable[[], str]:
     """The hex SHA-256 of ``data``, as a call that waits for it: a file of megabytes is
     hashed on a thread of its own while it is parsed (hashlib and the compiled reader both
     let go of the GIL; 0.2 s of a 375 MB OBJ)."""

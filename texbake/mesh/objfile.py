@@ -21,6 +21,7 @@ written alike, and every error, so that the messages are that reader's.
 
 from __future__ import annotations
 
+import mmap
 import re
 from pathlib import Path
 
@@ -40,8 +41,8 @@ _SLASH_TO_SPACE = bytes.maketrans(b"/", b" ")
 _OTHER, _V, _VT, _F, _MT, _INDENTED = range(6)  # line kinds
 
 
-def read_obj(data: bytes, path: Path, check_reference) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """Parse OBJ bytes into ``(vertices (n, 3) float64, faces (m, 3) int64, uv)``.
+def read_obj(data: bytes | mmap.mmap, path: Path, check_reference) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Parse OBJ bytes (or a mapped file) into ``(vertices (n, 3) float64, faces (m, 3) int64, uv)``.
 
     Vertices are one per distinct (position, texture coordinate) pair used by a face
     corner, so UV seams survive; ``uv`` is ``(n, 2)`` float64, or None when some face
@@ -53,12 +54,17 @@ def read_obj(data: bytes, path: Path, check_reference) -> tuple[np.ndarray, np.n
     else in bulk (``_read_fast``) when that reader takes it, else a line at a time
     (``_read_lines``), which also raises every ``MeshError``.
     """
-    compiled = _native.read_obj(data)
+    view = np.frombuffer(data, dtype=np.uint8)
+    try:
+        compiled = _native.read_obj(view)
+    finally:
+        del view  # a mapped file can be closed only once no view holds it
     if compiled is not None:
         names, vertices, faces, uv = compiled
         for name in names:
             check_reference(name, "mtllib")
         return vertices, faces, uv
+    data = bytes(data)  # the readers here take bytes (a mapped file is copied only for them)
     fast = _read_fast(data)
     if fast is None:
         return _read_lines(data, str(path), check_reference)
