@@ -244,14 +244,13 @@ bool parse(std::string_view data, Parsed& p) {
   return true;
 }
 
-// fan triangles, and one vertex per distinct (position, texcoord) pair numbered in order of
-// first use; the texcoord alone is the key where each is used with one position
-void build(const Parsed& p, std::vector<double>& vertices, std::vector<int64_t>& faces, std::vector<double>& uv) {
+// number[c] := corner c's new vertex, one per distinct (position, texcoord) pair in order of
+// first use; returns each new vertex's first corner. The texcoord alone is the key where each
+// is used with one position (a table, not a hash)
+std::vector<int64_t> number_corners(const Parsed& p, std::vector<int64_t>& number) {
   const bool has_uv = !p.ti.empty();
   const int64_t corners = int64_t(p.vi.size()), nv = int64_t(p.v.size() / 3), nvt = int64_t(p.vt.size() / 2);
-  const bool triangles = corners == 3 * int64_t(p.sizes.size());  // every polygon a triangle (none has fewer corners)
-  std::vector<int64_t> number(corners);  // each corner's new vertex: the faces themselves when all are triangles
-  std::vector<int64_t> first;            // each new vertex's first corner
+  std::vector<int64_t> first;
   auto by_table = [&](const std::vector<int32_t>& key, int64_t size) {
     std::vector<int64_t> seen(size, -1);
     for (int64_t c = 0; c < corners; ++c) {
@@ -285,6 +284,14 @@ void build(const Parsed& p, std::vector<double>& vertices, std::vector<int64_t>&
       number[c] = at->second;
     }
   }
+  return first;
+}
+
+// fan triangles over the polygons, and the new vertices' positions and UVs
+void build(const Parsed& p, std::vector<double>& vertices, std::vector<int64_t>& faces, std::vector<double>& uv) {
+  const bool has_uv = !p.ti.empty();
+  std::vector<int64_t> number(p.vi.size());  // each corner's new vertex: the faces themselves when all are triangles
+  const std::vector<int64_t> first = number_corners(p, number);
   vertices.resize(3 * first.size());
   if (has_uv) uv.resize(2 * first.size());
   for (size_t k = 0; k < first.size(); ++k) {
@@ -295,7 +302,7 @@ void build(const Parsed& p, std::vector<double>& vertices, std::vector<int64_t>&
       uv[2 * k + 1] = p.vt[2 * size_t(p.ti[c]) + 1];
     }
   }
-  if (triangles) {
+  if (p.vi.size() == 3 * p.sizes.size()) {  // every polygon a triangle (none has fewer corners)
     faces = std::move(number);
     return;
   }
