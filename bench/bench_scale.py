@@ -1,6 +1,6 @@
 """How the per-face stages grow with the faces: bakes of meshes of 256k to 5M faces.
 
-Run: scripts/run python bench/bench_scale.py [--faces 256k 1M 2M 5M] [--size 1024]
+Run: scripts/run python bench/bench_scale.py [--faces 256k 1M 2M 5M] [--size 1024] [--runs 1]
 
 Each mesh is a wavy height field over the unit square, two triangles a grid cell, with
 its own UVs (the cell's position: usable, so the bake keeps them), written once as an
@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -102,17 +103,30 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--faces", nargs="+", default=list(COUNTS), choices=list(COUNTS))
     parser.add_argument("--size", type=int, default=1024)
+    parser.add_argument("--runs", type=int, default=1, help="bakes of each size, alternating sizes: each figure their median")
     args = parser.parse_args()
     folder = Path(tempfile.gettempdir()) / "texbake-scale"
     folder.mkdir(exist_ok=True)
-    results = []
-    for name in args.faces:
-        path = grid_obj(COUNTS[name], folder)
-        results.append(bake(path, args.size))
-        r = results[-1]
-        print(f"{r['faces']:>9,} faces ({r['atlas']}): bake {r['wall']:.2f} s, process {r['process']:.2f} s", flush=True)
+    paths = [grid_obj(COUNTS[name], folder) for name in args.faces]
+    runs: list[list[dict]] = [[] for _ in paths]
+    for _ in range(args.runs):  # the sizes in turn, so that a busy spell of a shared machine falls on all of them
+        for path, done in zip(paths, runs, strict=True):
+            done.append(bake(path, args.size))
+            r = done[-1]
+            print(f"{r['faces']:>9,} faces ({r['atlas']}): bake {r['wall']:.2f} s, process {r['process']:.2f} s", flush=True)
+    results = [median_run(done) for done in runs]
     for what, title in (("seconds", "wall seconds"), ("cpu", "CPU seconds (the tiles': of every thread)")):
         table(results, what, title)
+
+
+def median_run(done: list[dict]) -> dict:
+    """One size's runs as one: the median of each figure."""
+    out = dict(done[0])
+    for key in ("wall", "cpu_total", "process"):
+        out[key] = statistics.median(r[key] for r in done)
+    for what in ("seconds", "cpu"):
+        out[what] = {stage: statistics.median(r[what].get(stage, 0.0) for r in done) for stage in done[0][what]}
+    return out
 
 
 def table(results: list[dict], what: str, title: str) -> None:
