@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import _native
-from ..mesh import areas, connected_components, uv_areas, uv_jacobian
+from ..mesh import areas, uv_areas, uv_jacobian
 
 UV_EPS = 1e-6  # tolerance of the unit-square test of UVs
 OVERLAP_GRID = 2048  # overlap is measured on the bake's texel grid, at most this fine
@@ -204,9 +204,10 @@ def island_overlap(uv: np.ndarray, faces: np.ndarray, grid: int) -> float:
 def chart_labels(uv_faces: np.ndarray, k: int) -> np.ndarray:
     """``(m,)`` int64 the chart of each face: connected pieces of the UV mesh (faces sharing
     one of the ``k`` UV vertices), numbered in the order of their first face."""
-    m = len(uv_faces)
-    rows = np.repeat(np.arange(m), 3)
-    return connected_components(m + k, rows, np.asarray(uv_faces).ravel() + m)[:m]
+    uv_faces = np.ascontiguousarray(uv_faces, dtype=np.int64)
+    labels = np.empty(len(uv_faces), dtype=np.int64)
+    _native.face_components(uv_faces, k, labels)  # connected_components of the m + k nodes, without their edge arrays
+    return labels
 
 
 def atlas_stats(vertices, faces, uv_faces, uv) -> dict:
@@ -289,10 +290,8 @@ def packing_estimate(vertices: np.ndarray, faces: np.ndarray, uv_faces: np.ndarr
     k = int(label.max()) + 1
     a3 = np.bincount(label, areas(vertices, faces), minlength=k)
     auv = np.bincount(label, uv_areas(uv, uv_faces), minlength=k)
-    corners = uv[uv_faces]  # (m, 3, 2)
     lo, hi = np.full((k, 2), np.inf), np.full((k, 2), -np.inf)
-    np.minimum.at(lo, label, corners.min(axis=1))
-    np.maximum.at(hi, label, corners.max(axis=1))
+    _native.label_boxes(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(uv_faces, dtype=np.int64), label, lo, hi)
     ok = (auv > 0) & (a3 > 0)
     if not ok.any():
         return 0.0

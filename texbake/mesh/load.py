@@ -29,16 +29,22 @@ import hashlib
 import io
 import itertools
 import json
+import mmap
+import os
 import re
 import struct
+import threading
+from collections.abc import Callable
+from contextlib import contextmanager, suppress
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 from typing import NamedTuple
 
 import numpy as np
 
+from .. import _native
 from ..errors import MeshError, ParameterError
-from .grouping import first_order_ranks, group_rows
+from .grouping import group_rows
 from .objfile import DEFAULT, read_obj
 from .plyfile import read_ply
 from .uvgeometry import areas
@@ -162,22 +168,59 @@ def load_mesh(path, *, max_faces: int = 5_000_000) -> LoadedMesh:
     path = Path(path)
     where = str(path)
     kind = check_file(path)
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise MeshError(where, f"cannot read: {exc.strerror}") from None
-    sha256 = hashlib.sha256(data).hexdigest()
     warnings: list[str] = []
+    with _file_bytes(path, kind) as data:
+        sha256 = _sha256_beside(data)
+        try:
+            with np.errstate(over="raise"):  # a float32 field overflowing to inf
+                parts = _read(data, kind, path, warnings)
+        except MeshError:
+            raise
+        except FloatingPointError:
+            raise MeshError(where, f"a number overflows when read: coordinates must lie within float32 range (|x| <= {FLOAT32_MAX:.3g})") from None
+        except Exception as exc:  # the parsers raise many kinds on corrupt input
+            raise MeshError(where, f"cannot parse {kind.upper()} file: {_short(exc)}") from None
+        digest = sha256()
+    return _validate(parts, path.stem, where, digest, max_faces, warnings)
+
+
+@contextmanager
+def _file_bytes(path: Path, kind: str):
+    """The file's bytes: an OBJ of megabytes mapped (``mmap``: the compiled reader reads the
+    page cache, where a copy of hundreds of MB would be new pages for the kernel to zero),
+    any other file read; a :class:`MeshError` where it cannot be read."""
     try:
-        with np.errstate(over="raise"):  # a float32 field overflowing to inf
-            parts = _read(data, kind, path, warnings)
-    except MeshError:
-        raise
-    except FloatingPointError:
-        raise MeshError(where, f"a number overflows when read: coordinates must lie within float32 range (|x| <= {FLOAT32_MAX:.3g})") from None
-    except Exception as exc:  # the parsers raise many kinds on corrupt input
-        raise MeshError(where, f"cannot parse {kind.upper()} file: {_short(exc)}") from None
-    return _validate(parts, path.stem, where, sha256, max_faces, warnings)
+        with open(path, "rb") as f:
+            if kind != "obj" or os.fstat(f.fileno()).st_size < 1 << 23:
+                data: bytes | mmap.mmap = f.read()
+            else:
+                data = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
+    except OSError as exc:
+        raise MeshError(str(path), f"cannot read: {exc.strerror}") from None
+    try:
+        yield data
+    finally:
+        if isinstance(data, mmap.mmap):
+            with suppress(BufferError):  # a view still held (a traceback's): the collector closes it
+                data.close()
+
+
+def _sha256_beside(data: bytes | mmap.mmap) -> Callable[[], str]:
+    """The hex SHA-256 of ``data``, as a call that waits for it: a file of megabytes is
+    hashed on a thread of its own while it is parsed (hashlib and the compiled reader both
+    let go of the GIL; 0.2 s of a 375 MB OBJ)."""
+    if len(data) < 1 << 23:
+        digest = hashlib.sha256(data).hexdigest()
+        return lambda: digest
+    out: list[str] = []
+    thread = threading.Thread(target=lambda: out.append(hashlib.sha256(data).hexdigest()), daemon=True)
+    thread.start()
+
+    def result() -> str:
+        thread.join()
+        return out[0]
+
+    return result
 
 
 def check_file(path) -> str:
@@ -294,7 +337,10 @@ def mesh_from_trimesh(mesh, *, name: str = "mesh", max_faces: int = 5_000_000) -
         if isinstance(g, trimesh.Trimesh):
             h.update(np.ascontiguousarray(g.vertices, dtype=np.float64).tobytes())
             h.update(np.ascontiguousarray(g.faces, dtype=np.int64).tobytes())
-    return _validate(_parts(mesh), name, "<mesh>", h.hexdigest(), max_faces)
+    # copies: the loaded mesh must not share the caller's arrays
+    parts = [p._replace(vertices=np.array(p.vertices, dtype=np.float64), faces=np.array(p.faces),
+                        uv=None if p.uv is None else np.array(p.uv, dtype=np.float64)) for p in _parts(mesh)]
+    return _validate(parts, name, "<mesh>", h.hexdigest(), max_faces)
 
 
 def _check_max_faces(max_faces) -> None:
@@ -585,30 +631,18 @@ def _weld(vertices, faces, uv):
     """Merge vertices equal in position and UV (trimesh splits every face corner).
 
     Exact equality only: corners that differ in UV stay separate (UV seams survive), and
-    a welded surface keeps its connectivity for the unwrap and the normals. Rows are
-    grouped by a 64-bit hash of their bits, then checked for exact equality. A vertex
+    a welded surface keeps its connectivity for the unwrap and the normals. Rows of
+    position and UV are grouped by their bits in a compiled hash table
+    (``native/grouping.cpp``), kept in file order. A vertex
     without UVs (NaN, from a part that has none) merges only with others without them.
     """
-    if uv is None:
-        rows = vertices
-    else:
-        missing = np.isnan(uv).all(axis=1)
-        rows = np.hstack([vertices, np.where(missing[:, None], 0.0, uv), missing[:, None].astype(np.float64)])
-    if not np.isfinite(rows).all():
-        return vertices, faces, uv  # rejected (vertices) or judged by the atlas (UVs)
-    rows = np.ascontiguousarray(rows + 0.0)  # -0.0 and 0.0 are the same coordinate
-    bits = rows.view(np.uint64)
-    weights = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9, 0xD6E8FEB86659FD93, 0xFF51AFD7ED558CCD,
-                        0x94D049BB133111EB], dtype=np.uint64)
-    key = (bits * weights[: rows.shape[1]]).sum(axis=1, dtype=np.uint64)
-    _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
-    inverse = inverse.ravel()
-    if not np.array_equal(rows[first[inverse]], rows):  # a hash collision: sort exactly
-        _, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
-        inverse = inverse.ravel()
-    rank = first_order_ranks(first, len(rows))  # keep vertices in file order
-    keep = np.sort(first)
-    return vertices[keep], rank[inverse][faces], None if uv is None else uv[keep]
+    welded = _native.weld(np.ascontiguousarray(vertices, dtype=np.float64), None if uv is None else np.ascontiguousarray(uv, dtype=np.float64))
+    if welded is None:
+        return vertices, faces, uv  # not finite: rejected (vertices) or judged by the atlas (UVs)
+    first, inverse = welded  # numbered in file order: the first of each group kept
+    if len(first) == len(vertices):  # nothing merged: the arrays as they are
+        return vertices, faces, uv
+    return vertices[first], inverse[faces], None if uv is None else uv[first]
 
 
 def _joined_uv(parts: list[_Piece]) -> tuple[np.ndarray | None, np.ndarray | None]:
@@ -616,6 +650,8 @@ def _joined_uv(parts: list[_Piece]) -> tuple[np.ndarray | None, np.ndarray | Non
     have none (None if none has any), and which faces have UVs (None if all or none do)."""
     if all(p.uv is None for p in parts):
         return None, None
+    if len(parts) == 1:  # a file of one mesh: its arrays as they are
+        return np.asarray(parts[0].uv, dtype=np.float64), parts[0].has_uv
     uv = np.concatenate([np.asarray(p.uv, dtype=np.float64) if p.uv is not None else np.full((len(p.vertices), 2), np.nan)
                          for p in parts])
     has = np.concatenate([p.has_uv if p.has_uv is not None else np.full(len(p.faces), p.uv is not None) for p in parts])
@@ -657,10 +693,12 @@ def _validate(parts: list[_Piece], name: str, where: str, sha256: str, max_faces
         if f.min() < 0 or f.max() >= len(v):
             raise MeshError(where, f"face index {int(f.max()) if f.max() >= len(v) else int(f.min())} out of range ({len(v)} vertices)")
         vertex_parts.append(v)
-        face_parts.append(f.astype(np.int64) + offset)
+        f = np.asarray(f, dtype=np.int64)
+        face_parts.append(f + offset if offset else f)
         offset += len(v)
-    vertices = np.concatenate(vertex_parts)
-    faces = np.concatenate(face_parts)
+    # one part (a file of one mesh): its arrays as they are; copies of millions of rows cost
+    vertices = vertex_parts[0] if len(parts) == 1 else np.concatenate(vertex_parts)
+    faces = face_parts[0] if len(parts) == 1 else np.concatenate(face_parts)
     uv, has_uv = _joined_uv(parts)
     part, names = _joined_labels(parts, "part")
     material, material_names = _joined_labels(parts, "material")
@@ -668,16 +706,20 @@ def _validate(parts: list[_Piece], name: str, where: str, sha256: str, max_faces
     if not np.isfinite(vertices).all():
         bad = int((~np.isfinite(vertices)).any(axis=1).sum())
         raise MeshError(where, f"{bad} vertices have non-finite (NaN or infinite) coordinates")
-    if np.abs(vertices).max() > FLOAT32_MAX:
-        raise MeshError(where, f"coordinate {np.abs(vertices).max():.3g} is beyond float32 range")
+    largest = max(-float(vertices.min()), float(vertices.max()))  # np.abs(vertices).max() of finite ones
+    if largest > FLOAT32_MAX:
+        raise MeshError(where, f"coordinate {largest:.3g} is beyond float32 range")
 
-    area2 = 2.0 * areas(vertices, faces)  # |e1 x e2|
+    area2 = areas(vertices, faces)
+    area2 *= 2.0  # |e1 x e2|
     diag = float(np.linalg.norm(vertices.max(axis=0) - vertices.min(axis=0)))
     keep = area2 > 1e-30 * diag * diag
     if not keep.any():
         raise MeshError(where, f"all {len(faces)} faces are degenerate (zero area at the scale of the bounding-box diagonal {diag:.3g})")
-    unique = _without_duplicates(faces[keep])
-    faces_kept = faces[keep][unique]
+    faces_kept = faces if keep.all() else faces[keep]
+    unique = _without_duplicates(faces_kept)
+    if len(unique) < len(faces_kept):
+        faces_kept = faces_kept[unique]
     part = None if part is None else part[keep][unique]
     material, material_names = _used_materials(None if material is None else material[keep][unique], material_names)
     if has_uv is not None:
@@ -703,7 +745,6 @@ def _without_duplicates(faces: np.ndarray) -> np.ndarray:
     """The indices, in order, of ``faces`` (of welded vertices) less those that repeat an
     earlier face's corners in the same winding: a doubled face takes atlas space twice and
     splits charts."""
-    start = np.argmin(faces, axis=1)  # each face rotated to start at its smallest corner
-    corners = np.take_along_axis(faces, (start[:, None] + np.arange(3)) % 3, axis=1)
-    first = group_rows(corners)[0]
-    return np.sort(first)
+    corners = np.empty_like(faces)
+    _native.rotated_faces(np.ascontiguousarray(faces, dtype=np.int64), corners)  # each face from its smallest corner
+    return group_rows(corners)[0]  # ascending

@@ -24,12 +24,14 @@ written alike, and every error, so that the messages are that reader's.
 
 from __future__ import annotations
 
+import mmap
 import re
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
+from .. import _native
 from ..errors import MeshError
 
 # Whitespace other than space, tab, CR and LF (the rest of what str.isspace() accepts):
@@ -64,17 +66,30 @@ class ObjMesh(NamedTuple):
     material_names: list[str]
 
 
-def read_obj(data: bytes, path: Path, check_reference) -> ObjMesh:
-    """Parse OBJ bytes into an :class:`ObjMesh`.
+def read_obj(data: bytes | mmap.mmap, path: Path, check_reference) -> ObjMesh:
+    """Parse OBJ bytes (or a mapped file) into an :class:`ObjMesh`.
 
     Vertices are one per distinct (position, texture coordinate) pair used by a face
     corner, so UV seams survive; a face whose corners do not all have a texture coordinate
     has none (its vertices' ``uv`` rows are NaN). ``check_reference(name, what)`` is called
     for each ``mtllib`` file name.
 
-    Read in bulk (``_read_fast``) when that reader takes the file, else a line at a time
+    Read in one compiled pass (``native/objfile.cpp``) where it takes the file (plain
+    ASCII, plain decimals, corners all written alike: what both readers here read alike),
+    else in bulk (``_read_fast``) when that reader takes it, else a line at a time
     (``_read_lines``), which also raises every ``MeshError``.
     """
+    view = np.frombuffer(data, dtype=np.uint8)
+    try:
+        compiled = _native.read_obj(view)
+    finally:
+        del view  # a mapped file can be closed only once no view holds it
+    if compiled is not None:
+        names, vertices, faces, uv, marks = compiled
+        for name in names:
+            check_reference(name, "mtllib")
+        return ObjMesh(vertices, faces, uv, None, *_marked(marks, len(faces)))
+    data = bytes(data)  # the readers here take bytes (a mapped file is copied only for them)
     fast = _read_fast(data)
     if fast is None:
         return _read_lines(data, str(path), check_reference)
@@ -142,6 +157,26 @@ def _groups(f_lines: np.ndarray, sizes: np.ndarray, words: dict[int, list[str]])
     part, part_names = _labels(f_lines, groups, [" ".join(words[i][1:]) for i in groups], sizes)
     material, material_names = _labels(f_lines, materials, [" ".join(words[i][1:]) for i in materials], sizes)
     return part, part_names, material, material_names
+
+
+def _marked(marks: list[tuple[int, str, int]], m: int) -> tuple[np.ndarray, list[str], np.ndarray, list[str]]:
+    """``(part, part_names, material, material_names)`` of ``m`` triangles from the compiled
+    reader's marks (``(0: g/o or 1: usemtl, name, triangles before it)``), as
+    :func:`_groups` labels face lines: triangle ``t`` as the line ``2 t + 1`` of size 3, a
+    mark before it as the line ``2 * before``."""
+    if not m:  # as _no_faces
+        none = np.zeros(0, dtype=np.int64)
+        return none, [DEFAULT], none, [DEFAULT]
+    out: list = []
+    for kind in (0, 1):
+        at = [before for k, _, before in marks if k == kind]
+        names = [name for k, name, _ in marks if k == kind]
+        if not at or at[-1] == 0:  # none, or all before the first face (a file of one object): one name, no sort
+            out += [np.zeros(m, dtype=np.int64), [names[-1] or DEFAULT if names else DEFAULT]]
+        else:
+            lines, sizes = 2 * np.arange(m, dtype=np.int64) + 1, np.full(m, 3, dtype=np.int64)
+            out += _labels(lines, [2 * a for a in at], names, sizes)
+    return out[0], out[1], out[2], out[3]
 
 
 def _labels(f_lines: np.ndarray, marks: list[int], names: list[str], sizes: np.ndarray) -> tuple[np.ndarray, list[str]]:
