@@ -50,6 +50,7 @@ from texbake.atlas import atlas_stats, make_atlas, overlap  # noqa: E402
 from texbake.atlas.charts import Sides, density_spread  # noqa: E402
 from texbake.checks.cad import meshes as cad_meshes  # noqa: E402
 from texbake.errors import BakeError  # noqa: E402
+from texbake.mesh.load import _weld as weld  # noqa: E402
 from texbake.mesh.load import load_mesh  # noqa: E402
 
 SHARED = ROOT.parent / "shared" / "meshes"
@@ -77,7 +78,10 @@ def all_meshes(only: str | None, cache: Path, max_faces: int) -> dict[str, tuple
             m = load_mesh(path)
         except BakeError:
             continue  # not a mesh (textures, .mtl) or one that does not load
-        out[path.name] = (m.vertices, m.faces)
+        # an OBJ with vt on some groups only (the chair) loaded without UVs before texture
+        # sets; welded by position as then, its row stays comparable with the earlier ones
+        partial = m.has_uv is not None and path.suffix.lower() == ".obj"
+        out[path.name] = weld(m.vertices, m.faces, None)[:2] if partial else (m.vertices, m.faces)
     out.update(cad_meshes())
     out["building-of-boxes"] = building()
     return {k: v for k, v in out.items() if (only is None or only in k) and len(v[1]) <= max_faces}

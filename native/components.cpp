@@ -7,36 +7,10 @@
 #include <vector>
 
 #include "arrays.hpp"
+#include "unionfind.hpp"
 
 namespace texbake {
 namespace {
-
-// the root of node i, halving the path to it on the way
-inline int64_t root(int64_t* parent, int64_t i) {
-  while (parent[i] != i) {
-    parent[i] = parent[parent[i]];
-    i = parent[i];
-  }
-  return i;
-}
-
-// join the sets of i and j; the smaller root stays the root, and is returned
-inline int64_t join(int64_t* parent, int64_t i, int64_t j) {
-  const int64_t x = root(parent, i), y = root(parent, j);
-  if (x != y) parent[std::max(x, y)] = std::min(x, y);
-  return std::min(x, y);
-}
-
-// labels of the sets, in the order of their smallest node (a set's label is given there)
-void number(int64_t* parent, int64_t n, int64_t* label) {
-  std::fill(label, label + n, -1);
-  int64_t count = 0;
-  for (int64_t i = 0; i < n; ++i) {
-    const int64_t r = root(parent, i);
-    if (label[r] < 0) label[r] = count++;
-    label[i] = label[r];
-  }
-}
 
 void check_node(int64_t i, int64_t n) {
   if (i < 0 || i >= n) throw nb::index_error(("node " + std::to_string(i) + " outside [0, " + std::to_string(n) + ")").c_str());
@@ -53,6 +27,22 @@ void labels(int64_t n, In<int64_t, nb::ndim<1>> a, In<int64_t, nb::ndim<1>> b, O
   std::iota(parent.begin(), parent.end(), int64_t(0));
   for (int64_t i = 0; i < e; ++i) join(parent.data(), a.data()[i], b.data()[i]);
   number(parent.data(), n, out.data());
+}
+
+// the chart of each face: faces joined through their (m, 3) corners' k vertices, numbered as
+// labels numbers the m + k nodes (faces first: a chart's label is given at its first face)
+void face_components(In<int64_t, nb::shape<-1, 3>> faces, int64_t k, Out<int64_t, nb::ndim<1>> out) {
+  const int64_t m = faces.shape(0);
+  if (int64_t(out.shape(0)) != m) throw std::invalid_argument("face_components: out of m rows");
+  const int64_t* f = faces.data();
+  for (int64_t i = 0; i < 3 * m; ++i) {
+    if (f[i] < 0 || f[i] >= k) throw std::invalid_argument("face_components: a corner outside [0, k)");
+  }
+  std::vector<int64_t> parent(m + k), label(m + k);
+  std::iota(parent.begin(), parent.end(), int64_t(0));
+  for (int64_t i = 0; i < 3 * m; ++i) join(parent.data(), i / 3, m + f[i]);
+  number(parent.data(), m + k, label.data());
+  std::copy_n(label.begin(), m, out.data());
 }
 
 int64_t sets_root(Out<int64_t, nb::ndim<1>> parent, int64_t i) {
@@ -76,6 +66,8 @@ void sets_labels(Out<int64_t, nb::ndim<1>> parent, Out<int64_t, nb::ndim<1>> out
 void bind_components(nb::module_& m) {
   m.def("labels", &labels, nb::arg("n"), nb::arg("a"), nb::arg("b"), nb::arg("out").noconvert(), Release(),
         "Fill out (n,) int64 with the component of each node joined by the edges (a[i], b[i]).");
+  m.def("face_components", &face_components, nb::arg("faces"), nb::arg("k"), nb::arg("out").noconvert(), Release(),
+        "Fill out (m,) with the component of each face, faces joined where they share one of the k vertices.");
   // one pair at a time from Python: these hold the GIL (taking it back, when another thread
   // holds it, would cost more than the join)
   m.def("sets_root", &sets_root, nb::arg("parent").noconvert(), nb::arg("i"), "The root of node i's set.");

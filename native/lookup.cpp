@@ -24,11 +24,33 @@ struct Bary {
   }
 };
 
-// point i of uv in face f (uv_inverse's origin (m, 2) and inv (m, 2, 2)), unclamped
-inline Bary coordinates(const double* uv, int64_t i, int64_t f, const double* origin, const double* inv) {
-  const double dx = uv[2 * i] - origin[2 * f], dy = uv[2 * i + 1] - origin[2 * f + 1];
-  const double b1 = inv[4 * f] * dx + inv[4 * f + 1] * dy;
-  const double b2 = inv[4 * f + 2] * dx + inv[4 * f + 3] * dy;
+// The atlas: UVs (k, 2) and faces (m, 3) into them, read as they are (per-face arrays of
+// millions of faces would take hundreds of MB)
+struct Atlas {
+  const double* uv;
+  const int64_t* faces;
+  int64_t k, m;
+  Atlas(const In<double, shape<-1, 2>>& uv_, const In<int64_t, shape<-1, 3>>& faces_)
+      : uv(uv_.data()), faces(faces_.data()), k(uv_.shape(0)), m(faces_.shape(0)) {}
+  // checked as read (a call reads few of the faces: checking all would cost each tile O(m))
+  const double* corner(int64_t f, int c) const {
+    const int64_t v = faces[3 * f + c];
+    if (v < 0 || v >= k) throw std::invalid_argument("lookup: a face index outside the UVs");
+    return uv + 2 * v;
+  }
+};
+
+// point i of points in face f, unclamped: (b1, b2) = inv @ (t - t0) with uv_inverse's inverse
+// (texbake/mesh/uvgeometry.py), each entry as it computes it
+inline Bary coordinates(const double* points, int64_t i, int64_t f, const Atlas& atlas) {
+  const double *a = atlas.corner(f, 0), *a1 = atlas.corner(f, 1), *a2 = atlas.corner(f, 2);
+  const double d1u = a1[0] - a[0], d1v = a1[1] - a[1], d2u = a2[0] - a[0], d2v = a2[1] - a[1];
+  const double det = d1u * d2v - d1v * d2u;
+  const double r = std::fabs(det) > 0 ? 1.0 / det : 0.0;
+  const double i00 = d2v * r, i01 = -d2u * r, i10 = -d1v * r, i11 = d1u * r;
+  const double dx = points[2 * i] - a[0], dy = points[2 * i + 1] - a[1];
+  const double b1 = i00 * dx + i01 * dy;
+  const double b2 = i10 * dx + i11 * dy;
   return {1.0 - b1 - b2, b1, b2};
 }
 
@@ -62,18 +84,18 @@ void hits(In<int32_t, nb::ndim<1>> face, In<double, shape<-1, 3>> bary, Out<int6
   }
 }
 
-void touched(In<double, shape<-1, 3, 2>> tri, In<int64_t, nb::ndim<1>> near, int64_t width, int64_t height, int64_t start,
-             int64_t rows, double margin, Out<bool, nb::ndim<1>> out) {
+void touched(In<double, shape<-1, 2>> uv, In<int64_t, shape<-1, 3>> faces, In<int64_t, nb::ndim<1>> near, int64_t width,
+             int64_t height, int64_t start, int64_t rows, double margin, Out<bool, nb::ndim<1>> out) {
   if (int64_t(out.shape(0)) != rows * width) throw std::invalid_argument("touched: out must be (rows * width,)");
-  const int64_t k = tri.shape(0);
+  const Atlas atlas(uv, faces);
   bool* hit = out.data();
   for (size_t n = 0; n < near.shape(0); ++n) {
     const int64_t f = near.data()[n];
-    if (f < 0 || f >= k) throw std::invalid_argument("touched: a face outside tri");
+    if (f < 0 || f >= atlas.m) throw std::invalid_argument("touched: a face outside the atlas");
     double xs[3], ys[3];
     for (int c = 0; c < 3; ++c) {
-      xs[c] = tri.data()[6 * f + 2 * c] * width;
-      ys[c] = (1.0 - tri.data()[6 * f + 2 * c + 1]) * height - start;
+      xs[c] = atlas.corner(f, c)[0] * width;
+      ys[c] = (1.0 - atlas.corner(f, c)[1]) * height - start;
     }
     const double area = (xs[1] - xs[0]) * (ys[2] - ys[0]) - (ys[1] - ys[0]) * (xs[2] - xs[0]);
     const double sign = area > 0 ? 1.0 : -1.0;
@@ -101,25 +123,36 @@ void touched(In<double, shape<-1, 3, 2>> tri, In<int64_t, nb::ndim<1>> near, int
   }
 }
 
-struct Faces {  // uv_inverse's arrays of the atlas's m faces
-  const double *origin, *inv;
-  int64_t m;
-};
+// top, bottom (m,) := the first and last texel row each UV triangle touches, within margin, in
+// an image height rows high: floor((1 - max v) * height - margin), floor((1 - min v) * height + margin)
+void row_range(In<double, shape<-1, 2>> uv, In<int64_t, shape<-1, 3>> faces, int64_t height, double margin,
+               Out<double, nb::ndim<1>> top, Out<double, nb::ndim<1>> bottom) {
+  const Atlas atlas(uv, faces);
+  if (int64_t(top.shape(0)) != atlas.m || int64_t(bottom.shape(0)) != atlas.m) throw std::invalid_argument("row_range: top, bottom of m");
+  for (int64_t f = 0; f < atlas.m; ++f) {
+    const double v0 = atlas.corner(f, 0)[1], v1 = atlas.corner(f, 1)[1], v2 = atlas.corner(f, 2)[1];
+    // np.maximum / np.minimum: NaN wins
+    const double hi01 = (v1 > v0 || std::isnan(v1)) ? v1 : v0, hi = (v2 > hi01 || std::isnan(v2)) ? v2 : hi01;
+    const double lo01 = (v1 < v0 || std::isnan(v1)) ? v1 : v0, lo = (v2 < lo01 || std::isnan(v2)) ? v2 : lo01;
+    top.data()[f] = std::floor((1.0 - hi) * double(height) - margin);
+    bottom.data()[f] = std::floor((1.0 - lo) * double(height) + margin);
+  }
+}
 
-void walk(In<double, shape<-1, 2>> uv, Out<int32_t, nb::ndim<1>> face, In<double, shape<-1, 2>> origin,
-          In<double, shape<-1, 2, 2>> inv, In<int64_t, shape<-1, 3>> across, int64_t steps, Out<double, shape<-1, 3>> bary,
+void walk(In<double, shape<-1, 2>> points, Out<int32_t, nb::ndim<1>> face, In<double, shape<-1, 2>> uv,
+          In<int64_t, shape<-1, 3>> faces, In<int64_t, shape<-1, 3>> across, int64_t steps, Out<double, shape<-1, 3>> bary,
           Out<bool, nb::ndim<1>> inside) {
   const int64_t n = face.shape(0);
-  const Faces faces{origin.data(), inv.data(), int64_t(origin.shape(0))};
-  if (int64_t(uv.shape(0)) != n || int64_t(bary.shape(0)) != n || int64_t(inside.shape(0)) != n ||
-      int64_t(inv.shape(0)) != faces.m || int64_t(across.shape(0)) != faces.m)
-    throw std::invalid_argument("walk: uv, face, bary, inside of n rows; origin, inv, across of m");
+  const Atlas atlas(uv, faces);
+  if (int64_t(points.shape(0)) != n || int64_t(bary.shape(0)) != n || int64_t(inside.shape(0)) != n ||
+      int64_t(across.shape(0)) != atlas.m)
+    throw std::invalid_argument("walk: points, face, bary, inside of n rows; faces, across of m");
   for (int64_t i = 0; i < n; ++i) {
     int64_t f = face.data()[i];
     if (f < 0) continue;
     for (int64_t step = 0; step <= steps; ++step) {
-      if (f >= faces.m) throw std::invalid_argument("walk: a face outside the atlas");
-      const Bary b = coordinates(uv.data(), i, f, faces.origin, faces.inv);
+      if (f >= atlas.m) throw std::invalid_argument("walk: a face outside the atlas");
+      const Bary b = coordinates(points.data(), i, f, atlas);
       if (b.inside()) {
         face.data()[i] = int32_t(f);
         inside.data()[i] = true;
@@ -134,16 +167,17 @@ void walk(In<double, shape<-1, 2>> uv, Out<int32_t, nb::ndim<1>> face, In<double
   }
 }
 
-void barycentric(In<double, shape<-1, 2>> uv, In<int32_t, nb::ndim<1>> face, In<double, shape<-1, 2>> origin,
-                 In<double, shape<-1, 2, 2>> inv, Out<double, shape<-1, 3>> bary, Out<bool, nb::ndim<1>> inside) {
-  const int64_t n = face.shape(0), m = origin.shape(0);
-  if (int64_t(uv.shape(0)) != n || int64_t(bary.shape(0)) != n || int64_t(inside.shape(0)) != n || int64_t(inv.shape(0)) != m)
-    throw std::invalid_argument("barycentric: uv, face, bary, inside of n rows; origin, inv of m");
+void barycentric(In<double, shape<-1, 2>> points, In<int32_t, nb::ndim<1>> face, In<double, shape<-1, 2>> uv,
+                 In<int64_t, shape<-1, 3>> faces, Out<double, shape<-1, 3>> bary, Out<bool, nb::ndim<1>> inside) {
+  const int64_t n = face.shape(0);
+  const Atlas atlas(uv, faces);
+  if (int64_t(points.shape(0)) != n || int64_t(bary.shape(0)) != n || int64_t(inside.shape(0)) != n)
+    throw std::invalid_argument("barycentric: points, face, bary, inside of n rows");
   for (int64_t i = 0; i < n; ++i) {
     const int64_t f = face.data()[i];
     if (f < 0) continue;
-    if (f >= m) throw std::invalid_argument("barycentric: a face outside the atlas");
-    const Bary b = coordinates(uv.data(), i, f, origin.data(), inv.data());
+    if (f >= atlas.m) throw std::invalid_argument("barycentric: a face outside the atlas");
+    const Bary b = coordinates(points.data(), i, f, atlas);
     inside.data()[i] = b.inside();
     b.clamp_into(bary.data() + 3 * i);
   }
@@ -157,13 +191,15 @@ void bind_lookup(nb::module_& m) {
         "out[t * s + k] = ((col + dx_k) / width, 1 - (row + dy_k) / height) of texel t at (row, col), its tile from row start.");
   m.def("hits", &hits, nb::arg("face"), nb::arg("bary"), nb::arg("index").noconvert(), nb::arg("found").noconvert(),
         nb::arg("coords").noconvert(), Release(), "The rows of face >= 0, in order: their index, face and bary.");
-  m.def("touched", &touched, nb::arg("tri"), nb::arg("near"), nb::arg("width"), nb::arg("height"), nb::arg("start"),
-        nb::arg("rows"), nb::arg("margin"), nb::arg("out").noconvert(), Release(),
-        "Set out (rows * width,) where a texel's square comes within margin texels of a triangle tri[near].");
-  m.def("walk", &walk, nb::arg("uv"), nb::arg("face").noconvert(), nb::arg("origin"), nb::arg("inv"), nb::arg("across"),
+  m.def("touched", &touched, nb::arg("uv"), nb::arg("faces"), nb::arg("near"), nb::arg("width"), nb::arg("height"),
+        nb::arg("start"), nb::arg("rows"), nb::arg("margin"), nb::arg("out").noconvert(), Release(),
+        "Set out (rows * width,) where a texel's square comes within margin texels of a UV triangle faces[near].");
+  m.def("row_range", &row_range, nb::arg("uv"), nb::arg("faces"), nb::arg("height"), nb::arg("margin"), nb::arg("top").noconvert(),
+        nb::arg("bottom").noconvert(), Release(), "Fill top, bottom (m,) with the texel rows each UV triangle touches.");
+  m.def("walk", &walk, nb::arg("points"), nb::arg("face").noconvert(), nb::arg("uv"), nb::arg("faces"), nb::arg("across"),
         nb::arg("steps"), nb::arg("bary").noconvert(), nb::arg("inside").noconvert(), Release(),
         "Each point's barycentrics in its face, walking across UV edges (at most steps faces) to the face holding it.");
-  m.def("barycentric", &barycentric, nb::arg("uv"), nb::arg("face"), nb::arg("origin"), nb::arg("inv"),
+  m.def("barycentric", &barycentric, nb::arg("points"), nb::arg("face"), nb::arg("uv"), nb::arg("faces"),
         nb::arg("bary").noconvert(), nb::arg("inside").noconvert(), Release(),
         "Each point's barycentrics in its face (clamped, renormalised) and whether it lies inside; face -1 rows left.");
 }

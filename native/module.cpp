@@ -14,10 +14,15 @@ namespace texbake {
 void bind_accumulate(nb::module_&);
 void bind_build_info(nb::module_&);
 void bind_components(nb::module_&);
+void bind_embree(nb::module_&);
 void bind_frames(nb::module_&);
+void bind_geometry(nb::module_&);
+void bind_grouping(nb::module_&);
 void bind_images(nb::module_&);
 void bind_lookup(nb::module_&);
 void bind_margin(nb::module_&);
+void bind_normals(nb::module_&);
+void bind_objfile(nb::module_&);
 void bind_surface(nb::module_&);
 void bind_uvcheck(nb::module_&);
 }  // namespace texbake
@@ -29,6 +34,11 @@ NB_MODULE(_native, m) {
   texbake::materials::bind_materials(m);
   texbake::bind_build_info(m);
   texbake::bind_components(m);
+  texbake::bind_embree(m);
+  texbake::bind_geometry(m);
+  texbake::bind_grouping(m);
+  texbake::bind_normals(m);
+  texbake::bind_objfile(m);
   texbake::bind_uvcheck(m);
   texbake::bind_lookup(m);
   texbake::bind_surface(m);

@@ -1,5 +1,6 @@
 // Surface samples (texbake/sampling/surface.py): points, footprints and normals of texel
-// samples, one pass over them. One tile a call: the tile threads give the parallelism.
+// samples, one pass over them, read from the mesh, its atlas and its normals. One tile a call: the tile threads give the parallelism.
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -9,37 +10,58 @@ namespace texbake {
 namespace {
 
 using Rows3 = Out<double, shape<-1, 3>>;
+using Faces = In<int64_t, shape<-1, 3>>;
 
-void interpolate(In<int64_t, nb::ndim<1>> face, In<double, shape<-1, 3>> bary, In<double, shape<-1, 3>> p0,
-                 In<double, shape<-1, 3>> e1, In<double, shape<-1, 3>> e2, In<double, shape<-1, 3>> face_dpdx,
-                 In<double, shape<-1, 3>> face_dpdy, In<double, shape<-1, 3, 3>> corner_normals, Rows3 points, Rows3 dpdx,
-                 Rows3 dpdy, Rows3 normals) {
-  const int64_t n = face.shape(0), m = p0.shape(0);
-  const bool with_normals = corner_normals.shape(0) > 0, with_footprints = dpdx.shape(0) > 0;
-  if (int64_t(bary.shape(0)) != n || int64_t(points.shape(0)) != n || int64_t(e1.shape(0)) != m || int64_t(e2.shape(0)) != m ||
-      (with_footprints && (int64_t(dpdx.shape(0)) != n || int64_t(dpdy.shape(0)) != n || int64_t(face_dpdx.shape(0)) != m ||
-                           int64_t(face_dpdy.shape(0)) != m)) ||
-      (with_normals && (int64_t(normals.shape(0)) != n || int64_t(corner_normals.shape(0)) != m)))
+inline double clip(double x, double bound) { return std::isnan(x) ? x : std::min(std::max(x, -bound), bound); }  // np.clip
+
+// Each sample's face read from the mesh as it is (no per-face arrays: millions of faces would
+// hold hundreds of MB of them), with the arithmetic of texbake/mesh/uvgeometry.py's edges and
+// UV Jacobian and of SurfaceMap's footprints, operation for operation: the same bits.
+void interpolate(In<int64_t, nb::ndim<1>> face, In<double, shape<-1, 3>> bary, In<double, shape<-1, 3>> vertices, Faces faces,
+                 In<double, shape<-1, 2>> uv, Faces uv_faces, double width, double height, double max_footprint,
+                 In<double, shape<-1, 3>> normal_table, Faces normal_faces, Rows3 points, Rows3 dpdx, Rows3 dpdy, Rows3 normals) {
+  const int64_t n = face.shape(0), m = faces.shape(0), nv = vertices.shape(0), nt = uv.shape(0), nn = normal_table.shape(0);
+  const bool with_normals = normal_faces.shape(0) > 0, with_footprints = dpdx.shape(0) > 0;
+  if (int64_t(bary.shape(0)) != n || int64_t(points.shape(0)) != n || int64_t(uv_faces.shape(0)) != m ||
+      (with_footprints && (int64_t(dpdx.shape(0)) != n || int64_t(dpdy.shape(0)) != n)) ||
+      (with_normals && (int64_t(normals.shape(0)) != n || int64_t(normal_faces.shape(0)) != m)))
     throw std::invalid_argument("interpolate: samples of n rows, faces of m");
   for (int64_t i = 0; i < n; ++i) {
-    if (face.data()[i] < 0 || face.data()[i] >= m) throw std::invalid_argument("interpolate: a face outside the mesh");
+    const int64_t f = face.data()[i];
+    if (f < 0 || f >= m) throw std::invalid_argument("interpolate: a face outside the mesh");
+    for (int j = 0; j < 3; ++j) {
+      if (faces.data()[3 * f + j] < 0 || faces.data()[3 * f + j] >= nv || uv_faces.data()[3 * f + j] < 0 ||
+          uv_faces.data()[3 * f + j] >= nt || (with_normals && (normal_faces.data()[3 * f + j] < 0 || normal_faces.data()[3 * f + j] >= nn)))
+        throw std::invalid_argument("interpolate: a face's index outside its table");
+    }
   }
-  const double *b = bary.data(), *o = p0.data(), *u = e1.data(), *v = e2.data();
+  const double *b = bary.data(), *p = vertices.data(), *t = uv.data();
   for (int64_t i = 0; i < n; ++i) {
     const int64_t f = face.data()[i];
     const double b0 = b[3 * i], b1 = b[3 * i + 1], b2 = b[3 * i + 2];
-    for (int k = 0; k < 3; ++k) points.data()[3 * i + k] = o[3 * f + k] + b1 * u[3 * f + k] + b2 * v[3 * f + k];
+    const int64_t* c = faces.data() + 3 * f;
+    const double *o = p + 3 * c[0], *q1 = p + 3 * c[1], *q2 = p + 3 * c[2];
+    for (int k = 0; k < 3; ++k) points.data()[3 * i + k] = o[k] + b1 * (q1[k] - o[k]) + b2 * (q2[k] - o[k]);
     if (with_footprints) {
+      const int64_t* u = uv_faces.data() + 3 * f;
+      const double *a = t + 2 * u[0], *a1 = t + 2 * u[1], *a2 = t + 2 * u[2];
+      const double d1u = a1[0] - a[0], d1v = a1[1] - a[1], d2u = a2[0] - a[0], d2v = a2[1] - a[1];
+      const double det = d1u * d2v - d1v * d2u;
+      const double r = std::fabs(det) > 0 ? 1.0 / det : 0.0;
       for (int k = 0; k < 3; ++k) {
-        dpdx.data()[3 * i + k] = face_dpdx.data()[3 * f + k];
-        dpdy.data()[3 * i + k] = face_dpdy.data()[3 * f + k];
+        const double e1 = q1[k] - o[k], e2 = q2[k] - o[k];
+        const double dpdu = (e1 * d2v - e2 * d1v) * r, dpdv = (e2 * d1u - e1 * d2u) * r;
+        // one texel right is du = 1 / width, one texel down dv = -1 / height
+        dpdx.data()[3 * i + k] = clip(dpdu / width, max_footprint);
+        dpdy.data()[3 * i + k] = clip(-dpdv / height, max_footprint);
       }
     }
     if (with_normals) {
-      const double* cn = corner_normals.data() + 9 * f;
-      const double x = b0 * cn[0] + b1 * cn[3] + b2 * cn[6];
-      const double y = b0 * cn[1] + b1 * cn[4] + b2 * cn[7];
-      const double z = b0 * cn[2] + b1 * cn[5] + b2 * cn[8];
+      const int64_t* g = normal_faces.data() + 3 * f;
+      const double *n0 = normal_table.data() + 3 * g[0], *n1 = normal_table.data() + 3 * g[1], *n2 = normal_table.data() + 3 * g[2];
+      const double x = b0 * n0[0] + b1 * n1[0] + b2 * n2[0];
+      const double y = b0 * n0[1] + b1 * n1[1] + b2 * n2[1];
+      const double z = b0 * n0[2] + b1 * n1[2] + b2 * n2[2];
       const double length = std::sqrt(x * x + y * y + z * z);
       double* out = normals.data() + 3 * i;
       if (length > 0) {
@@ -56,11 +78,13 @@ void interpolate(In<int64_t, nb::ndim<1>> face, In<double, shape<-1, 3>> bary, I
 }  // namespace
 
 void bind_surface(nb::module_& m) {
-  m.def("interpolate", &interpolate, nb::arg("face"), nb::arg("bary"), nb::arg("p0"), nb::arg("e1"), nb::arg("e2"),
-        nb::arg("face_dpdx"), nb::arg("face_dpdy"), nb::arg("corner_normals"), nb::arg("points").noconvert(),
-        nb::arg("dpdx").noconvert(), nb::arg("dpdy").noconvert(), nb::arg("normals").noconvert(), Release(),
-        "Fill points (n, 3), dpdx, dpdy (n, 3, or no rows: none) and, where corner_normals (m, 3, 3) has rows, "
-        "unit normals (n, 3; zero where they cancel) of the samples at face (n,), bary (n, 3).");
+  m.def("interpolate", &interpolate, nb::arg("face"), nb::arg("bary"), nb::arg("vertices"), nb::arg("faces"), nb::arg("uv"),
+        nb::arg("uv_faces"), nb::arg("width"), nb::arg("height"), nb::arg("max_footprint"), nb::arg("normal_table"),
+        nb::arg("normal_faces"), nb::arg("points").noconvert(), nb::arg("dpdx").noconvert(), nb::arg("dpdy").noconvert(),
+        nb::arg("normals").noconvert(), Release(),
+        "Fill points (n, 3), dpdx, dpdy (n, 3, or no rows: none) and, where normal_faces (m, 3) has rows, unit normals "
+        "(n, 3; zero where they cancel) of the samples at face (n,), bary (n, 3) of the mesh (vertices, faces) with its "
+        "atlas (uv, uv_faces) and corner normals normal_table[normal_faces].");
 }
 
 }  // namespace texbake

@@ -71,6 +71,61 @@ def mixed_uv_scene(path: Path, scale: float = 1.0) -> dict:
     return {"positions": box.vertices[box.faces], "uv": uv[box.faces]}
 
 
+def two_material_scene(path: Path) -> None:
+    """Write a glTF scene (``path``: .glb) of two materials, made with trimesh: ``body``, a
+    unit box whose 12 triangles each lie in a cell of a 4 x 3 grid of the UV square (its
+    own UVs usable), and ``wheels``, two icospheres beside it without UVs (as the
+    CesiumMilkTruck's glass has none)."""
+    import numpy as np
+    import trimesh
+    from trimesh.visual import TextureVisuals
+    from trimesh.visual.material import PBRMaterial
+
+    box = trimesh.creation.box(extents=(1, 1, 1))
+    box.unmerge_vertices()
+    uv = np.zeros((len(box.vertices), 2))
+    for i, face in enumerate(box.faces):
+        row, col = divmod(i // 2, 4)
+        x, y, s = col * 0.25, row / 3, 0.22
+        uv[face] = [(x, y), (x + s, y), (x + s, y + s)] if i % 2 == 0 else [(x, y), (x + s, y + s), (x, y + s)]
+    box.visual = TextureVisuals(uv=uv, material=PBRMaterial(name="body"))
+    scene = trimesh.Scene()
+    scene.add_geometry(box, node_name="body", geom_name="body")
+    for k, x in enumerate((-1.5, 1.5)):
+        ball = trimesh.creation.icosphere(subdivisions=2, radius=0.4).apply_translation((x, -0.6, 0))
+        ball.visual = TextureVisuals(material=PBRMaterial(name="wheels"))
+        scene.add_geometry(ball, node_name=f"wheel{k}", geom_name=f"wheel{k}")
+    scene.export(path)
+
+
+def udim_boxes(path: Path, tiles: int = 4) -> dict:
+    """Write an OBJ (``path``) of ``tiles`` unit boxes in a row, box ``k``'s 12 triangles
+    each in a cell of a 4 x 3 grid of UDIM tile ``1001 + k`` (u from k to k + 1): a UDIM
+    asset. Returns ``{"uv": (12 tiles, 3, 2) per face corner, "tile": (12 tiles,)}`` in
+    face order."""
+    import numpy as np
+    import trimesh
+
+    lines, uvs, tile_of, base = [], [], [], 0
+    for k in range(tiles):
+        box = trimesh.creation.box(extents=(1, 1, 1))
+        box.unmerge_vertices()
+        box.apply_translation((1.5 * k, 0, 0))
+        for i, face in enumerate(box.faces):
+            row, col = divmod(i // 2, 4)
+            x, y, s = k + col * 0.25 + 0.02, row / 3 + 0.02, 0.2
+            corners = [(x, y), (x + s, y), (x + s, y + s)] if i % 2 == 0 else [(x, y), (x + s, y + s), (x, y + s)]
+            for j, (a, b) in zip(face, corners, strict=True):
+                lines.append("v {:.9g} {:.9g} {:.9g}".format(*box.vertices[j]))
+                lines.append(f"vt {a:.9g} {b:.9g}")
+            lines.append("f " + " ".join(f"{base + n}/{base + n}" for n in (1, 2, 3)))
+            base += 3
+            uvs.append(corners)
+            tile_of.append(1001 + k)
+    path.write_text("\n".join(lines) + "\n")
+    return {"uv": np.array(uvs, dtype=np.float64), "tile": np.array(tile_of)}
+
+
 def glb_with_image_uri(uri):
     doc = json.dumps({"asset": {"version": "2.0"}, "images": [{"uri": uri}]}).encode()
     doc += b" " * (-len(doc) % 4)

@@ -128,6 +128,31 @@ def read_packing(value):
     return items
 
 
+def read_materials(value):
+    """The ``materials`` setting as the command line takes it: JSON text, or a ``.json`` or
+    ``.yaml`` file of it (a mapping of material names to their settings); each one's
+    ``texture`` and ``bump`` may be spec files too (:func:`read_spec`)."""
+    from .errors import ParameterError
+
+    if isinstance(value, str):
+        text = value
+        if not value.lstrip().startswith("{"):
+            try:
+                text = Path(value).read_text()
+            except OSError as exc:
+                raise ParameterError("materials", f"{value}: cannot read: {exc.strerror} (expected JSON or a .json/.yaml file)") from None
+        try:
+            import yaml  # a superset of JSON
+
+            value = yaml.safe_load(text)
+        except yaml.YAMLError as exc:
+            raise ParameterError("materials", f"not valid JSON or YAML: {str(exc).splitlines()[0]}") from None
+    if not isinstance(value, dict):
+        return value  # the settings' own check names what it is
+    return {name: {k: read_spec(v) if k in ("texture", "bump") else v for k, v in own.items()} if isinstance(own, dict) else own
+            for name, own in value.items()}
+
+
 def _bake_one(mesh: str, out: str, given: dict, source: str | None = None, workers: int = 2, cache: str | None = None,
               progress=None) -> dict:
     """Bake and save one mesh with the settings ``given`` (as the command line or a manifest
@@ -147,6 +172,8 @@ def _bake_one(mesh: str, out: str, given: dict, source: str | None = None, worke
         given["material"] = read_material(given["material"])
     if isinstance(given.get("packing"), str):
         given["packing"] = read_packing(given["packing"])
+    if given.get("materials") is not None:
+        given["materials"] = read_materials(given["materials"])
     result = bake_mesh(mesh, BakeSettings.build(given), source=source, workers=workers, cache=cache, progress=progress)
     result.save(out)
     return result.report
@@ -306,7 +333,7 @@ def bake(
                                "progress is a bar on a terminal, else a line every 10 s ($TEXBAKE_PROGRESS_SECONDS)"),
     **options,
 ):
-    """Bake one mesh: writes DIR/albedo.<format>, DIR/<mesh>.glb and DIR/report.json."""
+    """Bake one mesh: writes its maps (DIR/albedo.<format>; one set per material: DIR/<material>_albedo.<format>...), DIR/<mesh>.glb and DIR/report.json."""
     start = time.perf_counter()
     try:
         with _progress(Path(mesh).name, quiet) as progress:

@@ -56,6 +56,21 @@ def bake_bytes(settings, faces: int, workers: int = 2, tile_samples: int = TILE_
     """Bytes of memory a bake with ``settings`` (``BakeSettings``) of a mesh of ``faces``
     faces needs at its peak, on ``workers`` tile threads, in tiles of about
     ``tile_samples`` samples (bake_mesh's arguments)."""
+    held, working = _image_bytes(settings, workers, tile_samples)
+    return BASE + PER_FACE * int(faces) + held + working
+
+
+def sets_bytes(sets: list[tuple], faces: int, workers: int = 2, tile_samples: int = TILE_SAMPLES) -> int:
+    """:func:`bake_bytes` of a bake of several texture sets or tiles, ``(settings, images)``
+    each, of a mesh of ``faces`` faces: the sets bake one after another, each one's images
+    kept until they are written."""
+    parts = [(_image_bytes(s, workers, tile_samples), images) for s, images in sets]
+    return BASE + PER_FACE * int(faces) + sum(held * n for (held, _), n in parts) + max(working for (_, working), _ in parts)
+
+
+def _image_bytes(settings, workers: int, tile_samples: int) -> tuple[int, int]:
+    """``(bytes held, bytes while baking)`` of one image of a bake: its maps and masks,
+    and its tiles in flight (or the margin's and the writer's bands)."""
     width, height = settings.width_height
     texels = width * height
     samples = settings.samples
@@ -71,7 +86,7 @@ def bake_bytes(settings, faces: int, workers: int = 2, tile_samples: int = TILE_
     masks = 2 * texels  # the coverage and margin masks (the sample counts before them take no more)
     tile = _tile_samples(width, height, samples, tile_samples)
     in_flight = min(max(1, workers), -(-texels * samples // tile)) * tile
-    return BASE + fixed + PER_FACE * int(faces) + channels * channel * texels + masks + max(in_flight * per_sample, AFTER_TILES)
+    return channels * channel * texels + masks + fixed, max(in_flight * per_sample, AFTER_TILES)
 
 
 def _material_maps(settings) -> tuple[int, int]:
@@ -121,20 +136,25 @@ def gigabytes(n: float) -> str:
     return f"{gb:.0f} GB" if gb >= 10 else f"{gb:.2g} GB"
 
 
-def check_fits(settings, faces: int, workers: int = 2, tile_samples: int = TILE_SAMPLES, *, limit: int | None = None) -> int:
+def check_fits(settings, faces: int, workers: int = 2, tile_samples: int = TILE_SAMPLES, *, limit: int | None = None,
+               sets: list[tuple] | None = None) -> int:
     """Raise :class:`ParameterError` naming ``size`` when a bake would need more memory
     than there is (:func:`available_bytes`), or than ``limit`` bytes (a server's limit a
-    bake); else return the estimate (:func:`bake_bytes`).
+    bake); else return the estimate (:func:`bake_bytes`; :func:`sets_bytes` of ``sets``,
+    ``(settings, images)`` each, for a bake of several texture sets or tiles).
 
     ``size: a 65536x65536 bake needs about 40 GB; 20 GB are available``.
     """
-    need = bake_bytes(settings, faces, workers, tile_samples)
+    if sets is not None and len(sets) == 1 and sets[0][1] == 1:  # one image: a bake as there were before sets
+        settings, sets = sets[0][0], None
+    need = bake_bytes(settings, faces, workers, tile_samples) if sets is None else sets_bytes(sets, faces, workers, tile_samples)
     have = available_bytes() if limit is None else int(limit)
     if need > have:
         width, height = settings.width_height
+        what = f"a {width}x{height} bake" if sets is None else f"a bake of {sum(n for _, n in sets)} images (texture sets and tiles)"
         where = f"{gigabytes(have)} are available" if limit is None else f"this server's limit is {gigabytes(have)} a bake"
-        raise ParameterError("size", f"a {width}x{height} bake needs about {gigabytes(need)}; {where}")
+        raise ParameterError("size", f"{what} needs about {gigabytes(need)}; {where}")
     return need
 
 
-__all__ = ["available_bytes", "bake_bytes", "check_fits", "gigabytes"]
+__all__ = ["available_bytes", "bake_bytes", "check_fits", "gigabytes", "sets_bytes"]

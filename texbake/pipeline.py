@@ -1,13 +1,15 @@
-"""The bake, as its list of stages: load, atlas, texel lookup, surface samples, (transfer),
-texture mapping and evaluation, accumulation, error estimate, margin; then, on ``save``,
-images, textured mesh and report.
+"""The bake, as its list of stages: load, texture sets, and for each set its atlas, and for
+each of its tiles the texel lookup, surface samples, (transfer), texture mapping and
+evaluation, accumulation, error estimate, margin; then, on ``save``, images, textured mesh
+and report.
 
 Each stage lives in its own module; this one only chains them. What flows between them:
-``BakeSettings`` (settings) and ``LoadedMesh`` (mesh.load) -> ``Atlas`` (atlas) -> UV
-points of texel samples (sampling.lookup) -> ``Samples`` (sampling.sampler: lookup,
-surface, transfer) -> values per map (maps.accumulate: texture mapping, texture, shading,
-bump) -> images (maps.accumulate, maps.margin) -> ``BakeResult`` with its report
-(output.report).
+``BakeSettings`` (settings) and ``LoadedMesh`` (mesh.load) -> ``TextureSet`` (sets: a
+material's faces and settings) -> ``Atlas`` (atlas) -> ``Tile`` (sets: a UDIM tile's, or
+the set itself) -> UV points of texel samples (sampling.lookup) -> ``Samples``
+(sampling.sampler: lookup, surface, transfer) -> values per map (maps.accumulate: texture
+mapping, texture, shading, bump) -> images (maps.accumulate, maps.margin) -> ``BakedSet``
+per set and tile -> ``BakeResult`` with its report (output.report).
 """
 
 from __future__ import annotations
@@ -34,6 +36,8 @@ from .memory import check_fits
 from .mesh import LoadedMesh, load_mesh, mesh_from_trimesh, split_normals, vertex_tangents
 from .output import BakeTally, bake_report
 from .sampling import Sampler, sample_offsets, sample_uv, tiles
+from .sets import TextureSet, Tile, images_of, texture_sets
+from .sets import tiles as set_tiles
 from .settings import BakeSettings
 from .textures.mapping import TextureMapping
 from .version import __version__
@@ -45,44 +49,107 @@ class BakedMesh:
 
     vertices: np.ndarray  # (k, 3) float64
     faces: np.ndarray  # (m, 3) int64
-    uv: np.ndarray  # (k, 2) float64, v up
+    uv: np.ndarray  # (k, 2) float64, v up: in the unit square (a UDIM tile's: offset taken off)
     name: str
     normals: np.ndarray | None = None  # (k, 3) float64 unit shading normals, split at hard edges
     tangents: np.ndarray | None = None  # (k, 4) float64 tangents (xyz, w = +-1) the normal map was baked in, if one was
+    offset: tuple[int, int] = (0, 0)  # the UDIM tile's corner (u, v): uv + offset is the asset's layout
+    material: np.ndarray | None = None  # (m,) int: each face's material (into material_names), None for one
+    material_names: list[str] = field(default_factory=list)  # the materials of the mesh's faces
 
 
 @dataclass
-class BakeResult:
-    """What a bake made: images as arrays, the mesh with its atlas, and the report.
+class BakedSet:
+    """What one texture set made, or one UDIM tile of it: its images and its mesh.
 
     Attributes
     ----------
-    images : dict of str to (h, w, 3) float32 ndarray
-        Linear values, row 0 at the top: ``albedo`` (or ``albedo_0000``... and
-        ``flipbook`` for the frames of an animated texture), ``lit`` (shading other than
-        "decal"), ``normal`` (a bump texture given; ``0.5 + 0.5 n``, data, not colour).
-        float16 instead for images of over 8192² texels written as 8 bits
-        (``texbake.maps.accumulate``).
-    coverage : (h, w) bool ndarray
-        Texels covered by the atlas (some sample hit them).
-    margin : (h, w) bool ndarray
-        Texels filled by the margin.
+    name : str
+        The set's name (its material's; ``TextureSet.name``).
+    tile : int or None
+        The UDIM tile (1001 + u + 10 v), or None for a set baked in the unit square.
+    images, coverage, margin : dict of str to (h, w, 3) ndarray, (h, w) bool, (h, w) bool
+        As :class:`BakeResult` describes them, at the set's size.
     mesh : BakedMesh
-        The mesh with its atlas, as it is written.
-    report : dict
-        The bake's report (``report.json``; ``texbake.output.report``).
+        The set's faces (the tile's) with their UVs in the tile.
     settings : BakeSettings
-        The settings it was baked with, preset resolved.
+        The set's settings (``BakeSettings.for_material``).
+    materials : list of str
+        The materials of the mesh whose faces it holds.
+    atlas : texbake.atlas.Atlas
+        The set's atlas (the whole set's, every tile).
+    tally : texbake.output.BakeTally
+        What this tile's stages counted (the report's figures).
     warnings : list of str
-        What a user should know of this bake, one line each: ``report["warnings"]``.
+        What a user should know of the set besides its atlas' (``TextureSet.warnings``).
     """
 
+    name: str
+    tile: int | None
     images: dict[str, np.ndarray]
     coverage: np.ndarray
     margin: np.ndarray
     mesh: BakedMesh
+    settings: BakeSettings
+    materials: list[str]
+    atlas: Atlas
+    tally: BakeTally
+    warnings: list[str] = field(default_factory=list)
+
+
+@dataclass
+class BakeResult:
+    """What a bake made: per texture set (and UDIM tile) its images and its mesh, and the report.
+
+    Attributes
+    ----------
+    sets : list of BakedSet
+        One per texture set (``texbake.sets``: per material, or one), and per UDIM tile of
+        a set baked in tiles, in order: the set's images (``images``), masks and mesh.
+    report : dict
+        The bake's report (``report.json``; ``texbake.output.report``): its ``sets`` lists
+        each set and tile.
+    settings : BakeSettings
+        The settings it was baked with, preset resolved.
+    warnings : list of str
+        What a user should know of this bake, one line each: ``report["warnings"]``.
+
+    A bake of one set and no tiles (a mesh of one material) also has, as before there
+    were sets: ``images`` (dict of str to (h, w, 3) float32 ndarray: linear values, row 0
+    at the top: ``albedo`` (or ``albedo_0000``... and ``flipbook`` for the frames of an
+    animated texture), ``lit`` (shading other than "decal"), ``normal`` (a bump texture
+    given; ``0.5 + 0.5 n``, data, not colour); float16 instead for images of over 8192²
+    texels written as 8 bits, ``texbake.maps.accumulate``), ``coverage`` ((h, w) bool:
+    texels some sample hit), ``margin`` ((h, w) bool: texels the margin filled) and
+    ``mesh`` (the mesh with its atlas, as written): its one set's. A bake of several has
+    them per set only (``sets``): asking the result for them raises ``AttributeError``.
+    """
+
+    sets: list[BakedSet]
     report: dict = field(default_factory=dict)
     settings: BakeSettings = field(default_factory=BakeSettings)
+
+    def _one(self) -> BakedSet:
+        if len(self.sets) != 1:
+            named = ", ".join(s.name if s.tile is None else f"{s.name} {s.tile}" for s in self.sets)
+            raise AttributeError(f"this bake made {len(self.sets)} texture sets and tiles ({named}): see result.sets")
+        return self.sets[0]
+
+    @property
+    def images(self) -> dict[str, np.ndarray]:
+        return self._one().images
+
+    @property
+    def coverage(self) -> np.ndarray:
+        return self._one().coverage
+
+    @property
+    def margin(self) -> np.ndarray:
+        return self._one().margin
+
+    @property
+    def mesh(self) -> BakedMesh:
+        return self._one().mesh
 
     @property
     def warnings(self) -> list[str]:
@@ -127,6 +194,43 @@ class Timer:
                 self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - start
 
 
+# glibc's mallopt parameters, and their defaults
+_M_TRIM_THRESHOLD, _M_MMAP_MAX = -1, -4
+_DEFAULT_TRIM_THRESHOLD, _DEFAULT_MMAP_MAX = 128 * 1024, 65536
+_heap_lock = threading.Lock()
+_heap_bakes = [0]  # bakes running in this process under _reusing_heap
+
+
+@contextmanager
+def _reusing_heap():
+    """While bakes run, glibc's malloc serves large blocks from its heap and keeps what is
+    freed there (``mallopt``: no mmap, no trimming), so that an array of millions of rows
+    reuses the memory of one freed before it: above 32 MB malloc would map fresh pages,
+    which the kernel zeroes (at 5M faces, 40 % of the per-face stages' time went to that).
+    After the last bake the defaults are set again and the heap trimmed. Elsewhere than
+    glibc a no-op. Also a decorator (``contextlib``)."""
+    try:
+        libc = ctypes.CDLL(None)
+        mallopt = libc.mallopt
+    except (OSError, AttributeError):
+        yield
+        return
+    with _heap_lock:
+        _heap_bakes[0] += 1
+        if _heap_bakes[0] == 1:
+            mallopt(_M_MMAP_MAX, 0)
+            mallopt(_M_TRIM_THRESHOLD, 2**31 - 1)
+    try:
+        yield
+    finally:
+        with _heap_lock:
+            _heap_bakes[0] -= 1
+            if _heap_bakes[0] == 0:
+                mallopt(_M_MMAP_MAX, _DEFAULT_MMAP_MAX)
+                mallopt(_M_TRIM_THRESHOLD, _DEFAULT_TRIM_THRESHOLD)
+                _trim_heap()
+
+
 def as_mesh(mesh_or_path, max_faces: int, what: str) -> LoadedMesh:
     """A ``LoadedMesh`` from a path, a trimesh mesh or scene, or a ``LoadedMesh``."""
     if isinstance(mesh_or_path, LoadedMesh):
@@ -139,9 +243,10 @@ def as_mesh(mesh_or_path, max_faces: int, what: str) -> LoadedMesh:
         raise ParameterError(what, f"expected a path or a trimesh mesh, got {type(mesh_or_path).__name__}") from None
 
 
+@_reusing_heap()
 def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *, source=None, workers: int = 2,
               progress: Callable[[float], None] | None = None, tile_samples: int = 1 << 20,
-              cache: str | Path | AtlasCache | None = None, **options) -> BakeResult:
+              cache: str | Path | AtlasCache | None = None, memory_limit: int | None = None, **options) -> BakeResult:
     """Bake a solid texture into the UV atlas of a mesh.
 
     Parameters
@@ -167,6 +272,10 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
         (``uv``, size, ``charting``) then skips the unwrap (``report["atlas"]["cached"]``).
         An ``AtlasCache`` also keeps its latest lookups in memory: the next bake of the
         atlas at the same size, samples and seed casts no ray (``report["rays"]["lookup_reused"]``).
+    memory_limit : int, optional
+        Bytes the bake may take at most (a server's limit a bake); None: the memory
+        available. Checked against the estimate of every texture set and tile before the
+        atlas is made (``texbake.memory.check_fits``).
 
     Returns
     -------
@@ -188,19 +297,50 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
     with timer.stage("load"):
         mesh = as_mesh(mesh_or_path, settings.max_faces, "mesh")
         src = None if source is None else as_mesh(source, settings.max_faces, "source")
-    check_fits(settings, len(mesh.faces) + (0 if src is None else len(src.faces)), workers, tile_samples)  # before the unwrap
+    sets = texture_sets(mesh, settings)
+    check_fits(settings, len(mesh.faces) + (0 if src is None else len(src.faces)), workers, tile_samples,  # before the unwrap
+               limit=memory_limit, sets=[(s.settings, images_of(s)) for s in sets])
     say(0.05)
     store = None if cache is None else cache if isinstance(cache, AtlasCache) else AtlasCache(cache)
+    baked: list[BakedSet] = []
+    for i, texture_set in enumerate(sets):  # set i's share of the progress after loading
+        baked += _bake_set(texture_set, _bounds(mesh), src, timer, workers, tile_samples, store, _share(say, i, len(sets)))
+    report = bake_report(settings, mesh, baked, source=src, cage=_reach(mesh, settings), seconds=timer.seconds)
+    say(1.0)
+    return BakeResult(baked, report, settings)
+
+
+def _bake_set(texture_set: TextureSet, bounds: tuple[np.ndarray, np.ndarray], src: LoadedMesh | None, timer: Timer, workers: int,
+              tile_samples: int, store: AtlasCache | None, say: Callable[[float], None]) -> list[BakedSet]:
+    """One texture set's bake: its atlas, its output mesh, and each of its tiles' maps."""
+    mesh, settings = texture_set.mesh, texture_set.settings
     with timer.stage("atlas"):
         atlas, key = _atlas(mesh, settings, workers, store)
-    mapping = TextureMapping.for_mesh(*_bounds(mesh), settings.texture_space, settings.precision)
+    mapping = TextureMapping.for_mesh(*bounds, settings.texture_space, settings.precision)  # the whole mesh's: one field
     with timer.stage("normals"):  # of the output mesh; a normal map is baked in its tangent frame
         baked = _output_mesh(mesh, atlas, tangents=settings.normal_map)
+    out = []
+    parts = set_tiles(mesh, atlas, baked)
+    for i, tile in enumerate(parts):
+        images, covered, filled, tally = _bake_tile(tile, bounds, mapping, src, settings, timer, workers, tile_samples,
+                                                    None if store is None else (store, key), _share(say, i, len(parts)))
+        out.append(BakedSet(texture_set.name, tile.number, images, covered, filled, tile.baked, settings,  # type: ignore[arg-type]
+                            texture_set.materials, atlas, tally, texture_set.warnings))
+    return out
+
+
+def _bake_tile(tile: Tile, bounds: tuple[np.ndarray, np.ndarray], mapping: TextureMapping, src: LoadedMesh | None,
+               settings: BakeSettings, timer: Timer, workers: int, tile_samples: int, store: tuple[AtlasCache, str] | None,
+               say: Callable[[float], None]) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, BakeTally]:
+    """One image's bake (a set's, or one UDIM tile's): ``(images, covered, margin, tally)``."""
+    mesh, atlas, baked = tile.mesh, tile.atlas, tile.baked
+    assert isinstance(baked, BakedMesh)
     with timer.stage("prepare"):
         maps = Maps(settings, mapping)
-        sampler = _sampler(mesh, atlas, baked, src, settings, maps.needs_normals)
+        sampler = _sampler(mesh, atlas, baked, src, settings, maps.needs_normals, _reach(None, settings, bounds))
     say(0.3)
-    lookups = None if store is None else (store, (key, *settings.width_height, settings.samples, settings.seed, tile_samples))
+    lookups = None if store is None else (store[0], (store[1], *settings.width_height, settings.samples, settings.seed, tile_samples,
+                                                     *([] if tile.number is None else [tile.number])))
     (cast, rays, missed), reused = _bake_tiles(sampler, maps, settings, timer, workers, tile_samples,
                                                lambda done: say(0.3 + 0.6 * done), lookups)
     covered, hits = _coverage(maps)
@@ -209,13 +349,22 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
     with timer.stage("margin"):
         filled = margin_stage.extend(list(maps.images.values()), covered, settings.margin, workers=workers)
     say(0.95)
-    images = _images(maps, settings)
     tally = BakeTally(covered, filled, cast=int(cast), rays=int(rays), transfer_missed=int(missed), hits=hits, lookup_reused=reused,
-                      error_estimate=error_estimate, seconds=timer.seconds,
+                      error_estimate=error_estimate, seconds=timer.seconds, faces=len(mesh.faces),
                       material=None if maps.material is None else maps.material.report())
-    report = bake_report(settings, mesh, atlas, tally, source=src, cage=sampler.reach)
-    say(1.0)
-    return BakeResult(images, covered, filled, baked, report, settings)
+    return _images(maps, settings), covered, filled, tally
+
+
+def _share(say: Callable[[float], None], i: int, n: int) -> Callable[[float], None]:
+    """``say`` for the ``i``-th of ``n`` parts (sets, tiles) of what follows the loading:
+    the part's fractions, 0.05 to 1 as a whole bake's, within its share."""
+    return lambda fraction: say(0.05 + (i + (fraction - 0.05) / 0.95) * 0.95 / n)
+
+
+def _reach(mesh: LoadedMesh | None, settings: BakeSettings, bounds: tuple[np.ndarray, np.ndarray] | None = None) -> float:
+    """The transfer rays' reach: ``cage``, else 5% of the whole mesh's bounding-box diagonal."""
+    lo, hi = _bounds(mesh) if bounds is None else bounds  # type: ignore[arg-type]
+    return settings.cage if settings.cage is not None else 0.05 * float(np.linalg.norm(hi - lo))
 
 
 def _settings(settings, options: dict) -> BakeSettings:
@@ -234,25 +383,24 @@ def _bounds(mesh: LoadedMesh) -> tuple[np.ndarray, np.ndarray]:
 def _output_mesh(mesh: LoadedMesh, atlas: Atlas, *, tangents: bool) -> BakedMesh:
     """The mesh as it is written: atlas vertices split again at hard edges, with shading
     normals and, for a normal map, the tangents it is baked in."""
-    source_vertex, faces, normals = split_normals(mesh.vertices[atlas.vmapping], atlas.faces)
-    vertices, uv = mesh.vertices[atlas.vmapping][source_vertex], atlas.uv[source_vertex]
+    atlas_vertices = mesh.vertices[atlas.vmapping]
+    source_vertex, faces, normals = split_normals(atlas_vertices, atlas.faces)
+    vertices, uv = atlas_vertices[source_vertex], atlas.uv[source_vertex]
     frame = vertex_tangents(vertices, faces, uv, normals) if tangents else None
-    return BakedMesh(vertices, faces, uv, mesh.name, normals, frame)
+    return BakedMesh(vertices, faces, uv, mesh.name, normals, frame, material=mesh.material, material_names=list(mesh.material_names))
 
 
 def _sampler(mesh: LoadedMesh, atlas: Atlas, baked: BakedMesh, src: LoadedMesh | None, settings: BakeSettings,
-             needs_normals: bool) -> Sampler:
+             needs_normals: bool, reach: float) -> Sampler:
     """The sampler of the bake's texels on ``mesh`` (and ``src``, to transfer from)."""
     assert baked.normals is not None  # _output_mesh gives normals
     # a double-sided mesh's back faces lie on their front faces' texels: those hold the front side
     front = Sides.of(mesh.faces).front if atlas.stats.get("double_sided_faces") else slice(None)
-    corner_normals = baked.normals[baked.faces][front]  # (m, 3, 3): shading (the lit map) sees the GLB's normals
-    lo, hi = _bounds(mesh)
-    reach = settings.cage if settings.cage is not None else 0.05 * float(np.linalg.norm(hi - lo))
+    corner_normals = (baked.normals, baked.faces[front])  # shading (the lit map) sees the GLB's normals
     return Sampler(mesh.vertices, mesh.faces[front], atlas.uv, atlas.faces[front], *settings.width_height,
                    normals=corner_normals if needs_normals else False,
                    source=None if src is None else (src.vertices, src.faces), reach=reach,
-                   frame=None if baked.tangents is None else (corner_normals, baked.tangents[baked.faces][front]),
+                   frame=None if baked.tangents is None else (baked.normals[baked.faces][front], baked.tangents[baked.faces][front]),
                    footprints=settings.filtering or settings.normal_map)
 
 

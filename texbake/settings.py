@@ -14,14 +14,20 @@ several of them blurs twice, and their error stays that of one filtered sample. 
 resolved, ``model_dump()`` (``mode="json"`` for JSON) is the one serialisation: it
 validates back to equal settings, and it is what the report, the service's job and its
 dedup key hold.
+
+Texture sets (:mod:`texbake.sets`): ``texture_set`` bakes one set per material (the
+default) or one for the whole mesh; ``materials`` gives a material's set settings of its
+own (:data:`SET_FIELDS`: its texture, size, ...), over the rest; ``names`` is the template
+of the maps' file names (:func:`file_name`).
 """
 
 from __future__ import annotations
 
 import functools
 import math
+import re
 from collections.abc import Mapping, Sequence
-from typing import Annotated, Any, Literal, Union
+from typing import Annotated, Any, Literal, Optional, Union
 
 from pydantic import (
     AfterValidator,
@@ -32,6 +38,7 @@ from pydantic import (
     PlainValidator,
     StrictBool,
     ValidationError,
+    create_model,
     field_validator,
     model_validator,
 )
@@ -124,6 +131,13 @@ PRESETS: dict[str, dict[str, Any]] = {
 }
 
 
+# The settings a texture set may have of its own (``materials``); the others are the bake's.
+SET_FIELDS = ("texture", "size", "quality", "samples", "filtering", "precision", "max_octaves", "margin", "uv", "charting",
+              "shading", "light", "bump", "bump_strength", "frames", "seed", "material", "normal_convention", "packing")
+NAME_FIELDS = ("mesh", "set", "map", "tile", "ext")  # the fields of a ``names`` template
+DEFAULT_NAMES = "{set}_{map}.{tile}.{ext}"  # one set, no tiles: "albedo.png", as a bake of one material always wrote
+
+
 class BakeSettings(BaseModel):
     """What to bake and how: every setting of a bake, preset resolved (see the module).
 
@@ -159,6 +173,14 @@ class BakeSettings(BaseModel):
         of CPU time each xatlas worker may use.
     format, bits, obj : {"png", "exr", "tif"}, int or None, bool
         How :meth:`texbake.pipeline.BakeResult.save` writes the maps (and an OBJ).
+    texture_set : {"per-material", "single"}
+        One texture set (its own atlas and maps) per material, or one for the whole mesh.
+    materials : dict of str to MaterialSettings, or None
+        Settings of a material's texture set of its own (any of :data:`SET_FIELDS`), by
+        material name: ``{"body": {"texture": "marble"}, "wheels": {"texture": "checker", "size": 512}}``.
+    names : str
+        The maps' file names: a template of ``{mesh}``, ``{set}``, ``{map}``, ``{tile}`` and
+        ``{ext}`` (:func:`file_name`).
     """
 
     model_config = ConfigDict(extra="forbid", frozen=True)
@@ -199,6 +221,15 @@ class BakeSettings(BaseModel):
         None, description="maps packing a material's scalar channels into one image each: built-in orm (R occlusion, G "
         "roughness, B metallic) and hdrp-mask (R metallic, G occlusion, B detail, A smoothness), or templates like "
         '{"name": "rma", "channels": ["roughness", "metallic", "occlusion"]}; default with a material: orm')
+    texture_set: Literal["per-material", "single"] = Field(
+        "per-material", description="per-material: one texture set (its own atlas and maps) per material; single: one for the whole mesh")
+    materials: dict[str, MaterialSettings] | None = Field(
+        None, description="a material's texture set's own settings, by material name: JSON (or, on the command line, a "
+        '.json/.yaml file) like {"body": {"texture": "marble"}, "wheels": {"texture": "checker", "size": 512}}; '
+        f"each may set {', '.join(SET_FIELDS)}")
+    names: str = Field(DEFAULT_NAMES, description="the maps' file names: a template of {mesh}, {set}, {map}, {tile} and {ext}; "
+                       "a field without a value ({set} in a bake of one texture set, {tile} without UDIM tiles) is left out "
+                       "with one separator beside it")
 
     @model_validator(mode="before")
     @classmethod
@@ -223,6 +254,13 @@ class BakeSettings(BaseModel):
     def _format_name(cls, value):
         return format_name(value) if isinstance(value, str) else value
 
+    @field_validator("names")
+    @classmethod
+    def _names_template(cls, value: str) -> str:
+        if problem := names_problem(value):
+            raise ValueError(problem)
+        return value
+
     @model_validator(mode="after")
     def _consistent(self):
         if self.bits is not None and (problem := bits_problem(self.format, self.bits)):
@@ -235,7 +273,32 @@ class BakeSettings(BaseModel):
             raise ValueError("bump: a material's normal map comes from its height (or normal) channel")
         if self.material is None and self.packing is not None:
             raise ValueError("packing: packs a material's channels; give a material")
+        if self.materials and self.texture_set == "single":
+            raise ValueError("materials: texture_set='single' bakes one texture set for the whole mesh; per-material "
+                             "settings need texture_set='per-material'")
+        for name in self.materials or {}:
+            try:
+                self.for_material(name)  # a set's settings must hold together too
+            except ParameterError as exc:
+                raise ValueError(f"materials: {name!r}: {exc.name.split('.', 2)[-1]}: {exc.problem}") from None
         return self
+
+    def for_material(self, name: str) -> BakeSettings:
+        """The settings of material ``name``'s texture set: these, with ``materials[name]``'s
+        fields on top (a new ``quality`` brings its preset), and no ``materials``.
+        :class:`ParameterError` names ``materials.NAME.FIELD`` where they do not hold together."""
+        own = (self.materials or {}).get(name)
+        if own is None:
+            return self if self.materials is None else self.model_copy(update={"materials": None})
+        given = own.model_dump(exclude_unset=True, exclude_none=True)
+        base = {**self._overrides(), "materials": None}
+        if "quality" in given:  # the set's preset, not the fields the bake's gave
+            base = {k: v for k, v in base.items() if k not in PRESETS["default"]}
+        try:
+            return type(self).model_validate({**base, **given})
+        except ValidationError as exc:
+            error = parameter_error(exc)
+            raise ParameterError(f"materials.{name}.{error.name}", error.problem) from None
 
     @property
     def normal_map(self) -> bool:
@@ -278,6 +341,47 @@ class BakeSettings(BaseModel):
         if self.material is not None and given.get("packing") == [{"name": "orm", "channels": ["occlusion", "roughness", "metallic"]}]:
             del given["packing"]  # a material's default, not given
         return {**given, **samples, "quality": self.quality}
+
+
+def _set_field(name: str):
+    """A :data:`SET_FIELDS` field as ``MaterialSettings`` has it: its type and limits, or None (the bake's)."""
+    info = BakeSettings.model_fields[name]
+    kind = Annotated[(info.annotation, *info.metadata)] if info.metadata else info.annotation
+    return Optional[kind], Field(None, description=info.description)  # noqa: UP045  # a value, not an annotation
+
+
+MaterialSettings = create_model(  # type: ignore[call-overload]
+    "MaterialSettings", __config__=ConfigDict(extra="forbid", frozen=True), __doc__="A texture set's own settings (``BakeSettings.materials``).",
+    **{name: _set_field(name) for name in SET_FIELDS})
+BakeSettings.model_rebuild()
+
+
+def names_problem(template: str) -> str | None:
+    """Why ``template`` is not a ``names`` template, or None: only the fields of
+    :data:`NAME_FIELDS`, ``{map}`` and ``{ext}`` among them, no folder."""
+    fields = re.findall(r"\{([^{}]*)\}", template)
+    unknown = sorted(set(fields) - set(NAME_FIELDS))
+    if unknown:
+        return f"unknown field {{{unknown[0]}}} (a template has {', '.join('{' + f + '}' for f in NAME_FIELDS)})"
+    if "map" not in fields or "ext" not in fields:
+        return f"a template needs {{map}} and {{ext}}, got {template!r}"
+    if re.sub(r"\{[^{}]*\}", "", template).count("{") or re.sub(r"\{[^{}]*\}", "", template).count("}"):
+        return f"unbalanced braces in {template!r}"
+    if any(c in template for c in "/\\\0") or template.startswith("."):
+        return f"a file name, not a path nor a hidden file, got {template!r}"
+    return None
+
+
+def file_name(template: str, *, mesh: str, set: str | None, map: str, tile: int | str | None, ext: str) -> str:
+    """A map's file name from a ``names`` template: ``file_name("{set}_{map}.{tile}.{ext}",
+    mesh="truck", set="wheels", map="albedo", tile=None, ext="png") == "wheels_albedo.png"``.
+    A field without a value (``set`` or ``tile`` None) is left out with the separator
+    (``_``, ``.`` or ``-``) after it, or before it at the end."""
+    values = {"mesh": mesh, "set": set, "map": map, "tile": None if tile is None else str(tile), "ext": ext}
+    for key in ("set", "tile"):
+        if values[key] is None:
+            template = re.sub(rf"\{{{key}\}}[._-]|[._-]?\{{{key}\}}", "", template, count=1)
+    return template.format(**{k: v for k, v in values.items() if v is not None})
 
 
 def _above_one(samples: Any) -> bool:

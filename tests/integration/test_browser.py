@@ -4,7 +4,8 @@ when missing and running as root), served from 127.0.0.1 by the test.
 
 Each render is a screenshot of tools/render-glb.html: the model framed on its bounding box,
 a directional and an ambient light (or an environment light only, for a material's
-roughness and metal), on a magenta background. The screenshots are kept under
+roughness and metal), on a magenta background; or, from the same view, each
+material drawn in a flat colour of its own, which tells which pixels show which material. The screenshots are kept under
 pytest's tmp_path and, if TEXBAKE_ARTEFACTS names a folder, copied there.
 
 Without chromium the test is skipped only when it cannot be installed (not root) and not
@@ -18,6 +19,7 @@ import shutil
 import subprocess
 import threading
 from pathlib import Path
+from urllib.parse import quote
 
 import numpy as np
 import pytest
@@ -25,12 +27,13 @@ import trimesh
 from conftest import ROOT, chromium, keep_artefact
 
 import texbake
-from texbake.output.export import write_glb
+from texbake.output.export import GlbPart, write_glb, write_glb_parts
 from texbake.output.images import encode_png_bytes, read_image
 
 TOOLS = ROOT / "tools"
 SIZE = 320  # screenshot width and height, pixels
 MAGENTA = np.array([1.0, 0.0, 1.0])
+IDS = np.array([[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0], [1.0, 1.0, 0]])  # render-glb.html's first flat colours (sRGB = linear at 0 and 1)
 
 
 @pytest.fixture
@@ -65,16 +68,17 @@ class _QuietHandler(http.server.SimpleHTTPRequestHandler):
         pass
 
 
-def render(server, glb: Path, name: str, tmp_path: Path, *, environment: bool = False) -> np.ndarray:
+def render(server, glb: Path, name: str, tmp_path: Path, ids: list[str] | None = None, *, environment: bool = False) -> np.ndarray:
     """``(SIZE, SIZE, 3)`` float32 linear screenshot of ``glb`` in three.js (lit by a
     directional and an ambient light, or ``environment``: by an environment light only);
-    kept as an artefact.
+    kept as an artefact. ``ids``: material names, each drawn flat in its colour of
+    :data:`IDS` instead (the same view).
 
     Headless screenshots have come out blank (all background) now and then: retried up to
     three times.
     """
     site, base = server
-    shutil.copy(glb, site / f"{name}.glb")
+    shutil.copy(glb, site / glb.name)
     shot = tmp_path / f"{name}.png"
     for _ in range(3):
         shot.unlink(missing_ok=True)
@@ -83,7 +87,8 @@ def render(server, glb: Path, name: str, tmp_path: Path, *, environment: bool = 
              "--disable-gpu-sandbox", "--disable-background-networking", "--hide-scrollbars", "--no-first-run",
              f"--user-data-dir={tmp_path / 'chromium-profile'}", "--virtual-time-budget=20000",
              f"--window-size={SIZE},{SIZE}", f"--screenshot={shot}",
-             f"{base}/render.html?glb=/{name}.glb&size={SIZE}{'&env=1' if environment else ''}"],
+             f"{base}/render.html?glb=/{glb.name}&size={SIZE}" + ("" if ids is None else "&ids=" + quote(",".join(ids)))
+             + ("&env=1" if environment else "")],
             capture_output=True, timeout=120, check=False)
         if shot.is_file():
             image = read_image(shot)[..., :3]
@@ -161,14 +166,15 @@ def test_roughness_and_metal_vary_where_the_material_says_under_an_environment_l
     for name, material in (("varied", varied), ("plain", plain)):
         result = texbake.bake_mesh(sphere, material=material, size=256)
         result.save(tmp_path / name)
-        shots[name] = render(server, tmp_path / name / f"{result.mesh.name}.glb", f"material-{name}", tmp_path, environment=True)
+        glb = shutil.copy(tmp_path / name / f"{result.mesh.name}.glb", tmp_path / f"material-{name}.glb")  # its own URL
+        shots[name] = render(server, Path(glb), f"material-{name}", tmp_path, environment=True)
     checker = texbake.bake_mesh(sphere, {"name": "checker", "box": [0.25, 0.25, 0.25], "color_even": [1, 1, 1], "color_odd": [0, 0, 0]},
                                 size=256)
     m = checker.mesh
     cells = encode_png_bytes(checker.images["albedo"])
-    write_glb(tmp_path / "cells.glb", m.vertices, m.faces, m.uv, {"baseColor": cells, "emissive": cells}, normals=m.normals,
+    write_glb(tmp_path / "material-cells.glb", m.vertices, m.faces, m.uv, {"baseColor": cells, "emissive": cells}, normals=m.normals,
               base_factor=(0.0, 0.0, 0.0, 1.0))
-    where = render(server, tmp_path / "cells.glb", "material-cells", tmp_path, environment=True)
+    where = render(server, tmp_path / "material-cells.glb", "material-cells", tmp_path, environment=True)
     inside = ndimage.binary_erosion(model_mask(where), iterations=3)
     luma = where @ np.array([0.2126, 0.7152, 0.0722])
     even = ndimage.binary_erosion((luma > 0.5) & inside, iterations=3)  # away from the cells' edges
@@ -190,3 +196,74 @@ def test_roughness_and_metal_vary_where_the_material_says_under_an_environment_l
     assert plain_gap < 0.03 and 0.5 < plain_even / plain_odd < 2, shots
     assert varied_gap > 0.15 and varied_even > 4 * varied_odd, shots
     assert varied_even > 4 * plain_even, shots
+
+
+def material_masks(ids: np.ndarray, names: list[str]) -> dict[str, np.ndarray]:
+    """Each material's pixels in a render with ``ids`` (``(h, w)`` bool), two pixels in from
+    its outline (where antialiasing and the other materials blur into it)."""
+    from scipy import ndimage
+
+    return {name: ndimage.binary_erosion(np.abs(ids - IDS[k]).max(axis=2) < 0.05, iterations=2) for k, name in enumerate(names)}
+
+
+def colour_share(image: np.ndarray, mask: np.ndarray, channel: int) -> np.ndarray:
+    """Per pixel of ``mask``: the share of ``channel`` in its colour (1/3 for a grey)."""
+    pixels = image[mask]
+    return pixels[:, channel] / np.maximum(pixels.sum(axis=1), 1e-6)
+
+
+def test_every_material_of_a_multi_material_bake_renders_with_its_own_texture(server, tmp_path):
+    # A GLB of two materials (texbake.output: a primitive each, its own maps), each given a
+    # checker of its own colours: body red, wheels blue. Rendered once as it is and once
+    # with each material drawn in a flat colour, which tells which pixels show which. Each
+    # material's pixels must carry its own colour and squares (a texture that is not bound
+    # shows the material's plain white, lit: grey); the same GLB with the wheels' texture
+    # replaced by a plain grey one fails that check on the wheels alone.
+    from conftest import two_material_scene
+
+    two_material_scene(tmp_path / "pair.glb")
+    red = {"name": "checker", "color_even": [0.8, 0.05, 0.05], "color_odd": [0.15, 0.01, 0.01], "box": [0.1, 0.1, 0.1]}
+    blue = {"name": "checker", "color_even": [0.05, 0.05, 0.8], "color_odd": [0.01, 0.01, 0.15], "box": [0.1, 0.1, 0.1]}
+    result = texbake.bake_mesh(tmp_path / "pair.glb", "checker", size=256, materials={"body": {"texture": red}, "wheels": {"texture": blue}})
+    result.save(tmp_path / "bake")
+    names = [s.name for s in result.sets]
+    assert sorted(names) == ["body", "wheels"]
+    glb = tmp_path / "bake" / "pair.glb"
+    textured = render(server, glb, "pair", tmp_path)
+    masks = material_masks(render(server, glb, "pair-ids", tmp_path, ids=names), names)
+    channel = {"body": 0, "wheels": 2}  # red, blue
+    luma = lambda image, mask: image[mask] @ np.array([0.2126, 0.7152, 0.0722])
+    for name, mask in masks.items():
+        assert mask.sum() > 1000, (name, mask.sum())  # in view: measured body 6609, wheels 4260 pixels
+        share = colour_share(textured, mask, channel[name])
+        assert np.median(share) > 0.7, (name, np.median(share))  # its own colour: measured 0.84, 0.85 (a grey: 1/3)
+        lo, hi = np.quantile(luma(textured, mask), [0.1, 0.9])
+        assert hi > 3 * lo, (name, lo, hi)  # its squares, light and dark: measured 4.4x, 5.1x
+    # the control: the wheels' texture a plain grey, as a material whose maps were lost shows
+    grey = encode_png_bytes(np.full((8, 8, 3), 0.5, np.float32))
+    parts = [GlbPart(s.mesh.vertices, s.mesh.faces, s.mesh.uv, grey if s.name == "wheels" else tmp_path / "bake" / f"{s.name}_albedo.png",
+                     s.mesh.normals, material=s.name) for s in result.sets]
+    write_glb_parts(tmp_path / "grey-wheels.glb", parts, name="pair")
+    control = render(server, tmp_path / "grey-wheels.glb", "grey-wheels", tmp_path)
+    assert np.median(colour_share(control, masks["body"], 0)) > 0.7
+    assert abs(np.median(colour_share(control, masks["wheels"], 2)) - 1 / 3) < 0.05  # grey: the check above fails on it
+
+
+def test_every_udim_tile_of_a_bake_renders_textured(server, tmp_path):
+    # Four boxes in UDIM tiles 1001-1004: the GLB has a primitive per tile, each with its
+    # tile's image (glTF has no UDIM). Each tile's box must show the red checker's squares.
+    from conftest import udim_boxes
+
+    udim_boxes(tmp_path / "boxes.obj")
+    red = {"name": "checker", "color_even": [0.8, 0.05, 0.05], "color_odd": [0.15, 0.01, 0.01], "box": [0.1, 0.1, 0.1]}
+    result = texbake.bake_mesh(tmp_path / "boxes.obj", red, size=128)
+    result.save(tmp_path / "bake")
+    names = [f"boxes_baked.{s.tile}" for s in result.sets]
+    assert [s.tile for s in result.sets] == [1001, 1002, 1003, 1004]
+    glb = tmp_path / "bake" / "boxes.glb"
+    textured = render(server, glb, "boxes", tmp_path)
+    for name, mask in material_masks(render(server, glb, "boxes-ids", tmp_path, ids=names), names).items():
+        assert mask.sum() > 1000, (name, mask.sum())  # measured 3287-3696 pixels a box
+        assert np.median(colour_share(textured, mask, 0)) > 0.7, name
+        lo, hi = np.quantile(textured[mask] @ np.array([0.2126, 0.7152, 0.0722]), [0.1, 0.9])
+        assert hi > 3 * lo, (name, lo, hi)  # measured 4.4-5.1x

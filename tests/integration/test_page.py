@@ -500,3 +500,60 @@ def test_a_mesh_with_its_files_on_the_page(api, page, meshes):
     p.get_by_role("button", name="Bake", exact=True).click()
     expect(p.locator("#mesh-error")).to_have_text(f"model.gltf: refers to {buffers[0]!r}, which was not sent: "
                                                   "send it as a 'files' part beside the mesh", timeout=20000)
+
+
+def sent_settings(request) -> dict:
+    """The ``settings`` form field of a multipart POST the page sent, as JSON."""
+    import json
+
+    found = re.search(rb'name="settings"\r\n\r\n(.*?)\r\n--', request.post_data_buffer, re.S)
+    assert found, request.post_data_buffer[-600:]
+    return json.loads(found.group(1))
+
+
+def test_two_materials_given_two_textures_on_the_page_bake_as_such(api, page, tmp_path):
+    """A GLB of two materials: the page lists them (read by the server's loader), a person
+    gives each its own texture, the bake makes a texture set each with that texture, the
+    result lists the sets and the viewer shows both materials."""
+    from conftest import two_material_scene
+
+    from texbake.mesh import load_mesh
+
+    two_material_scene(tmp_path / "pair.glb")
+    order = load_mesh(tmp_path / "pair.glb").material_names
+    p = page.page
+    p.goto(api + "/")
+    swatch(page, "20-materials")
+    p.set_input_files("#mesh", tmp_path / "pair.glb")
+    expect(p.locator("#materials-list select")).to_have_count(2, timeout=30000)
+    assert p.locator("#materials-list label").all_text_contents() == order  # in the order of their texture sets
+    expect(p.locator("#materials-list")).to_contain_text("12 faces, its own UVs")
+    expect(p.locator("#materials-list")).to_contain_text("640 faces, no UVs")
+    p.get_by_label("body", exact=True).select_option(label="Wood")
+    p.get_by_label("wheels", exact=True).select_option(label="Marble")
+    p.get_by_label("Image size", exact=True).fill("64")
+    page.shot("21-materials-chosen")
+    with p.expect_request(lambda r: r.method == "POST" and r.url.endswith("/v1/jobs")) as request:
+        p.get_by_role("button", name="Bake", exact=True).click()
+    assert sent_settings(request.value)["materials"] == {"body": {"texture": "wood"}, "wheels": {"texture": "marble"}}
+    expect(p.locator("#status")).to_contain_text("Done: pair.glb", timeout=60000)
+    job = httpx.get(f"{api}/v1/jobs", params={"limit": 1}, timeout=10).json()["jobs"][0]
+    assert {s["name"]: s["texture"] for s in job["sets"]} == {"body": "wood", "wheels": "marble"}, job["sets"]
+    assert {f"{m}_albedo.png" for m in order} <= set(job["files"])
+    expect(p.locator("#sets li")).to_have_count(2)
+    expect(p.locator("#sets li[data-set='body']")).to_contain_text("body: Wood, 64 × 64 texels")
+    expect(p.locator("#sets li[data-set='wheels']")).to_contain_text("wheels: Marble, 64 × 64 texels")
+    expect(p.locator("#viewer[data-ready='1']")).to_have_attribute("data-materials", "body,wheels", timeout=20000)
+    expect(p.locator("#images img")).to_have_count(4)  # each set's albedo and coverage
+    page.shot("22-materials-result")
+    # one texture set for the whole mesh: the materials take the bake's texture
+    p.locator("#bake-card summary").click()  # More settings
+    p.get_by_label("Texture sets", exact=True).select_option(label="One for the whole mesh")
+    expect(p.get_by_label("body", exact=True)).to_be_disabled()
+    with p.expect_request(lambda r: r.method == "POST" and r.url.endswith("/v1/jobs")) as request:
+        p.get_by_role("button", name="Bake", exact=True).click()
+    settings = sent_settings(request.value)
+    assert settings["texture_set"] == "single" and "materials" not in settings, settings
+    expect(p.locator("#status")).to_contain_text("Done: pair.glb", timeout=60000)
+    expect(p.locator("#sets li")).to_have_count(1)
+    expect(p.locator("#sets li")).to_contain_text("pair (materials ")

@@ -80,7 +80,7 @@ def test_a_scene_with_uvs_on_some_parts_keeps_them_and_the_job_says_so(server, t
 
     url, *_ = server
     mixed_uv_scene(tmp_path / "scene.glb", 0.5)
-    job = wait(url, upload(url, tmp_path / "scene.glb", {"uv": "keep", "size": 64}).json()["id"])
+    job = wait(url, upload(url, tmp_path / "scene.glb", {"uv": "keep", "size": 64, "texture_set": "single"}).json()["id"])
     assert job["state"] == "done", job["error"]
     assert job["report"]["atlas"]["method"].startswith("kept+") and job["report"]["atlas"]["kept_scale"] == 1.0
     assert job["warnings"] == job["report"]["warnings"]
@@ -208,6 +208,106 @@ def test_a_gltf_and_meshes_with_their_files_bake(server, meshes):
     assert len(set(faces.values())) == 1 and faces["obj+mtl"] > 9000, faces  # the geometry came through whole
     stored = data_dir / "jobs" / jobs["gltf+bin"]["id"]
     assert all((stored / name).read_bytes() == part for name, part in buffers)
+
+
+def two_material_obj(folder):
+    """``pair.obj`` + ``pair.mtl``: two unit boxes side by side, the first under ``usemtl
+    paint``, the second under ``usemtl rubber`` (no UVs): name -> bytes."""
+    import trimesh
+
+    lines, base = ["mtllib pair.mtl"], 0
+    for k, material in enumerate(("paint", "rubber")):
+        box = trimesh.creation.box(extents=(1, 1, 1)).apply_translation((1.5 * k, 0, 0))
+        lines += ["v {:.9g} {:.9g} {:.9g}".format(*v) for v in box.vertices] + [f"usemtl {material}"]
+        lines += ["f " + " ".join(str(base + 1 + i) for i in face) for face in box.faces]
+        base += len(box.vertices)
+    return {"pair.obj": ("\n".join(lines) + "\n").encode(), "pair.mtl": b"newmtl paint\nKd 1 0 0\nnewmtl rubber\nKd 0 0 0\n"}
+
+
+def glb_materials(glb: bytes) -> list[str]:
+    """The material names of a GLB's JSON chunk."""
+    length = int.from_bytes(glb[12:16], "little")
+    return [m["name"] for m in json.loads(glb[20:20 + length])["materials"]]
+
+
+def test_a_multi_material_upload_bakes_a_texture_set_per_material(server, tmp_path):
+    """An OBJ with its MTL, two materials given two textures and sizes: the worker bakes a
+    set each, the job lists the sets with their files, the zip holds every set's files and
+    the GLB both materials by name; a glTF scene of two materials the same."""
+    from conftest import two_material_scene
+
+    url, *_ = server
+    parts = two_material_obj(tmp_path)
+    info = httpx.post(f"{url}/v1/inspect", files=[("mesh", ("pair.obj", parts["pair.obj"])), ("files", ("pair.mtl", parts["pair.mtl"]))],
+                      timeout=60).json()
+    assert [(m["name"], m["faces"], m["uv"]) for m in info["materials"]] == [("paint", 12, "none"), ("rubber", 12, "none")], info
+    settings = {"size": 64, "texture": "checker", "materials": {"paint": {"texture": "marble"}, "rubber": {"texture": "wood", "size": 32}}}
+    r = upload_parts(url, ("pair.obj", parts["pair.obj"]), [("pair.mtl", parts["pair.mtl"])], settings)
+    assert r.status_code == 202, r.text
+    job = wait(url, r.json()["id"])
+    assert job["state"] == "done", job["error"]
+    assert job["sets"] == [
+        {"name": "paint", "materials": ["paint"], "size": [64, 64], "texture": "marble", "tiles": [], "files": ["paint_albedo.png", "paint_coverage.png"]},
+        {"name": "rubber", "materials": ["rubber"], "size": [32, 32], "texture": "wood", "tiles": [], "files": ["rubber_albedo.png", "rubber_coverage.png"]},
+    ], job["sets"]
+    assert set(job["files"]) == {"paint_albedo.png", "paint_coverage.png", "rubber_albedo.png", "rubber_coverage.png", "pair.glb", "report.json"}
+    z = zipfile.ZipFile(io.BytesIO(httpx.get(f"{url}/v1/jobs/{job['id']}/result.zip", timeout=30).content))
+    assert sorted(z.namelist()) == sorted(job["files"])
+    (tmp_path / "rubber.png").write_bytes(z.read("rubber_albedo.png"))
+    assert read_image(tmp_path / "rubber.png").shape == (32, 32, 3)
+    assert sorted(glb_materials(z.read("pair.glb"))) == ["paint", "rubber"]
+    # a GLB scene: its materials' sets, by the names /v1/inspect gave
+    two_material_scene(tmp_path / "scene.glb")
+    with open(tmp_path / "scene.glb", "rb") as f:
+        names = [m["name"] for m in httpx.post(f"{url}/v1/inspect", files={"mesh": ("scene.glb", f)}, timeout=60).json()["materials"]]
+    job = wait(url, upload(url, tmp_path / "scene.glb", {"size": 32, "materials": {"body": {"texture": "marble"}}}).json()["id"])
+    assert job["state"] == "done", job["error"]
+    assert [s["name"] for s in job["sets"]] == names and sorted(names) == ["body", "wheels"]
+    assert {s["name"]: s["texture"] for s in job["sets"]} == {"body": "marble", "wheels": "checker"}
+    assert sorted(glb_materials(httpx.get(f"{url}/v1/jobs/{job['id']}/files/scene.glb", timeout=30).content)) == ["body", "wheels"]
+
+
+def test_a_udim_upload_lists_its_tiles_and_their_files(server, tmp_path):
+    """Four boxes in UDIM tiles 1001-1004: one set of four tiles, an image of each per map,
+    and the USD naming them with <UDIM>, all in the job's files and its zip."""
+    from conftest import udim_boxes
+
+    url, *_ = server
+    udim_boxes(tmp_path / "boxes.obj")
+    job = wait(url, upload(url, tmp_path / "boxes.obj", {"size": 32}).json()["id"])
+    assert job["state"] == "done", job["error"]
+    tiles = [1001, 1002, 1003, 1004]
+    [one] = job["sets"]
+    assert (one["name"], one["tiles"]) == ("default", tiles), one
+    assert one["files"] == sorted(f"{m}.{t}.png" for m in ("albedo", "coverage") for t in tiles)
+    assert set(job["files"]) == {*one["files"], "boxes.glb", "boxes.usda", "report.json"}
+    z = zipfile.ZipFile(io.BytesIO(httpx.get(f"{url}/v1/jobs/{job['id']}/result.zip", timeout=30).content))
+    assert sorted(z.namelist()) == sorted(job["files"])
+    assert b"@./albedo.<UDIM>.png@" in z.read("boxes.usda")
+
+
+def test_a_bake_whose_tiles_pass_the_memory_limit_fails_before_its_atlas(tmp_path_factory, tmp_path):
+    """One 8192² image fits this server's 1500 MB a bake, so the upload is taken; the
+    worker's bake process reads the mesh, counts its four UDIM tiles and fails the job
+    naming the size, before any atlas is made."""
+    from conftest import udim_boxes
+
+    from texbake.memory import gigabytes, sets_bytes
+    from texbake.settings import BakeSettings
+
+    data, port = tmp_path_factory.mktemp("data"), free_port()
+    proc = start(["serve", "--port", str(port), "--workers", "1"], data, {"BAKE_JOB_MEMORY_MB": "1500"}, port=port)
+    try:
+        url = f"http://127.0.0.1:{port}"
+        udim_boxes(tmp_path / "boxes.obj")
+        r = upload(url, tmp_path / "boxes.obj", {"size": 8192})
+        assert r.status_code == 202, r.text
+        job = wait(url, r.json()["id"])
+    finally:
+        stop(proc)
+    need = sets_bytes([(BakeSettings.build(size=8192), 4)], 48, workers=1)
+    assert job["state"] == "failed" and job["error"] == (f"size: a bake of 4 images (texture sets and tiles) needs about {gigabytes(need)}; "
+                                                         f"this server's limit is {gigabytes(1500 << 20)} a bake"), job["error"]
 
 
 def test_a_missing_buffer_and_a_hostile_companion_name_get_422(server, meshes):

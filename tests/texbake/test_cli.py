@@ -279,7 +279,7 @@ def test_uv_keep_on_a_scene_with_uvs_on_some_parts_keeps_them_and_says_which_par
     from conftest import mixed_uv_scene
 
     mixed_uv_scene(tmp_path / "scene.glb", 0.5)
-    r = run_cli("bake", tmp_path / "scene.glb", "--size", 64, "--uv", "keep", "--no-cache", "--out", tmp_path / "o")
+    r = run_cli("bake", tmp_path / "scene.glb", "--size", 64, "--uv", "keep", "--texture-set", "single", "--no-cache", "--out", tmp_path / "o")
     assert r.returncode == 0, r.stderr
     report = json.loads((tmp_path / "o" / "report.json").read_text())
     assert report["atlas"]["method"].startswith("kept+") and report["atlas"]["kept_scale"] == 1.0
@@ -340,3 +340,36 @@ def test_materials_lists_the_built_ins_and_prints_one():
     assert json.loads(run_cli("materials", "--json").stdout)["title"] == "Material"
     bad = run_cli("materials", "lavva")
     assert bad.returncode == 2 and "unknown material 'lavva'" in bad.stderr
+def test_a_manifest_line_gives_two_materials_two_textures(tmp_path):
+    """One manifest line, its ``materials`` mapping: the body checker, the wheels wood
+    (from a spec file) at 32²; each set's map is the one a bake of that texture alone gives,
+    and ``bake --materials`` takes the same mapping from a file."""
+    import numpy as np
+    from conftest import two_material_scene
+
+    import texbake
+    from texbake.output.images import read_image, srgb_encode
+
+    two_material_scene(tmp_path / "cart.glb")
+    (tmp_path / "wood.json").write_text(json.dumps({"name": "wood", "ring_width": 0.05}))
+    materials = {"body": {"texture": "checker"}, "wheels": {"texture": str(tmp_path / "wood.json"), "size": 32}}
+    manifest = tmp_path / "list.jsonl"
+    manifest.write_text(json.dumps({"mesh": "cart.glb", "size": 48, "texture": "marble", "materials": materials}) + "\n")
+    r = run_cli("batch", manifest, "--out", tmp_path / "o", "--jobs", 1, "--no-cache")
+    assert r.returncode == 0, r.stderr
+    out = tmp_path / "o" / "cart"
+    report = json.loads((out / "report.json").read_text())
+    assert {s["name"]: s["settings"]["texture"]["name"] for s in report["sets"]} == {"body": "checker", "wheels": "wood"}
+    body = texbake.bake_mesh(tmp_path / "cart.glb", "checker", size=48)
+    wheels = texbake.bake_mesh(tmp_path / "cart.glb", {"name": "wood", "ring_width": 0.05}, size=32)
+    for name, alone in [("body", body), ("wheels", wheels)]:
+        want = next(s for s in alone.sets if s.name == name).images["albedo"]
+        got = read_image(out / f"{name}_albedo.png")
+        levels = lambda a: np.rint(srgb_encode(a) * 255)
+        assert got.shape == want.shape and np.abs(levels(got) - levels(want)).max() <= 1  # the PNG's rounding
+    (tmp_path / "materials.yaml").write_text(json.dumps(materials))
+    r = run_cli("bake", tmp_path / "cart.glb", "--size", 48, "--materials", tmp_path / "materials.yaml", "--no-cache", "--out", tmp_path / "b")
+    assert r.returncode == 0, r.stderr
+    assert np.array_equal(read_image(tmp_path / "b" / "wheels_albedo.png"), read_image(out / "wheels_albedo.png"))
+    r = run_cli("bake", tmp_path / "cart.glb", "--materials", '{"wheel": {}}', "--no-cache", "--out", tmp_path / "c")
+    assert r.returncode == 2 and re.search(r"^texbake: error: materials: .*cart.glb has no material 'wheel'; its materials: ", r.stderr)

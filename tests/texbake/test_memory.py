@@ -63,6 +63,25 @@ def test_the_library_refuses_before_the_atlas(meshes, tmp_path):
     assert time.perf_counter() - start < 20 and not any((tmp_path / "cache").rglob("*.*"))
 
 
+def test_a_limit_counts_every_texture_set_and_tile(tmp_path):
+    """``memory_limit=`` (a server's): four UDIM tiles, each an image, refused where one fits."""
+    from conftest import udim_boxes
+
+    from texbake.memory import sets_bytes
+    from texbake.pipeline import bake_mesh
+
+    udim_boxes(tmp_path / "boxes.obj")
+    settings = BakeSettings.build(size=1024)
+    need = sets_bytes([(settings, 4)], 48, workers=1)
+    assert bake_bytes(settings, 48, workers=1) < need - 1
+    with pytest.raises(ParameterError) as error:
+        bake_mesh(tmp_path / "boxes.obj", settings, workers=1, memory_limit=need - 1)
+    assert str(error.value) == (f"size: a bake of 4 images (texture sets and tiles) needs about {need / 1e9:.2g} GB; "
+                                f"this server's limit is {(need - 1) / 1e9:.2g} GB a bake")
+    assert [s.tile for s in bake_mesh(tmp_path / "boxes.obj", settings.model_copy(update={"size": 16}), workers=1,
+                                      memory_limit=need - 1).sets] == [1001, 1002, 1003, 1004]
+
+
 def _peak(mesh, settings: dict) -> float:
     """Peak resident bytes of a bake and its save, in a process of its own."""
     # VmHWM, not getrusage's ru_maxrss: Linux carries ru_maxrss across exec, so a child of a

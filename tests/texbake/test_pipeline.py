@@ -88,7 +88,9 @@ def test_uvs_outside_the_unit_square_are_unwrapped(meshes):
     assert result.report["atlas"]["method"] == "planar"  # a box: its sides are flat
     assert "unit square" in result.report["atlas"]["reason"]
     assert result.warnings == result.report["warnings"] == [
-        "the mesh's UVs were replaced by an unwrap: the mesh's UVs leave the unit square (range 0 to 6)"]
+        "the mesh's UVs were replaced by an unwrap: the mesh's UVs leave the unit square (range 0 to 6); they repeat a tiling "
+        "texture: 1 of its 4 UV islands spans more than one tile (up to 2 across), and a bake needs a place of its own for "
+        "every point of the surface"]
 
 
 def test_the_report_collects_every_stages_warnings_in_their_order(meshes):

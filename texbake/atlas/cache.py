@@ -82,7 +82,7 @@ class AtlasCache:
             with np.load(path, allow_pickle=False) as data:
                 meta = json.loads(str(data["meta"]))
                 atlas = Atlas(data["vmapping"], data["faces"], data["uv"], meta["method"], meta["reason"],
-                              meta["stats"], meta["warnings"], cached=True)
+                              meta["stats"], meta["warnings"], cached=True, udim=bool(meta.get("udim", False)))
             os.utime(path)  # recently used
         except (OSError, ValueError, KeyError):
             return None
@@ -94,7 +94,8 @@ class AtlasCache:
         means nothing is kept."""
         if atlas.method == "fallback-grid":
             return
-        meta = json.dumps({"method": atlas.method, "reason": atlas.reason, "stats": atlas.stats, "warnings": atlas.warnings})
+        meta = json.dumps({"method": atlas.method, "reason": atlas.reason, "stats": atlas.stats, "warnings": atlas.warnings,
+                           "udim": atlas.udim})
         tmp = None
         try:
             self.folder.mkdir(parents=True, exist_ok=True)

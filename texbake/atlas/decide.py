@@ -26,12 +26,13 @@ from typing import Any
 import numpy as np
 
 from ..errors import AtlasError, ParameterError
-from ..mesh import uv_areas
+from ..mesh import areas, uv_areas
 from ..workers import Pool
 from .charts import Sides, prefer_planar
 from .fallback import grid_atlas
 from .pack import PATCH_FACES, Unwrapped, UnwrapRequest, XatlasFailed, start_workers, unwrap
 from .parts import combine
+from .repack import repack, repack_problem
 from .uvcheck import (
     OVERLAP_GRID,
     bare_warning,
@@ -40,6 +41,9 @@ from .uvcheck import (
     measure,
     overlap_of,
     packing_estimate,
+    udim_offset,
+    udim_overlap,
+    udim_tiles,
     unwrap_problem,
     uv_problem,
 )
@@ -61,12 +65,13 @@ class Atlas:
 
     vmapping: np.ndarray  # (k,) int64: atlas vertex -> mesh vertex
     faces: np.ndarray  # (m, 3) int64: faces in atlas-vertex indices, same order as the mesh's
-    uv: np.ndarray  # (k, 2) float64 in [0, 1], OpenGL convention (v up)
+    uv: np.ndarray  # (k, 2) float64 in [0, 1], OpenGL convention (v up); in UDIM tiles where ``udim``
     method: str  # "kept" | "planar" | "xatlas" | "xatlas-patches" | "fallback-grid", or "kept+" one of those (UVs kept in part)
     reason: str  # why this method (and what failed before it)
     stats: dict = field(default_factory=dict)  # charts, utilisation, stretch, overlap, seconds
     warnings: list[str] = field(default_factory=list)  # what a user should know of this atlas
     cached: bool = False  # taken from a cache of an earlier bake (texbake.atlas.cache), not made now
+    udim: bool = False  # the UVs lie in UDIM tiles (u in [0, 10), v >= 0, each face in one: uvcheck.udim_tiles), kept as they are
 
 
 def make_atlas(
@@ -159,6 +164,8 @@ def _kept(request: UnwrapRequest, uv, has_uv, part, part_names, *, mode: str, **
         return None, "uv='unwrap'"
     if mixed is None and not (several and mode == "keep"):
         kept, why = _keep(request, uv, mode, by_part["start"])
+        if kept is None and mode == "auto" and uv is not None:
+            kept, why = _repacked(request, np.asarray(uv, dtype=np.float64), why, **by_part)
         if kept is not None or not several:
             return kept, why
     return _keep_parts(request, uv, mixed, part, part_names, mode=mode, **by_part)
@@ -219,7 +226,7 @@ def _both_sides(sides: Sides, atlas: Atlas) -> Atlas:
     vmapping, faces, uv = sides.restored(atlas.vmapping, atlas.faces, atlas.uv)
     reason = f"{atlas.reason}; {len(sides.back)} back faces share their front faces' texels"
     stats = {**atlas.stats, "double_sided_faces": len(sides.back)}
-    return Atlas(vmapping, faces, uv, atlas.method, reason, stats, atlas.warnings)
+    return Atlas(vmapping, faces, uv, atlas.method, reason, stats, atlas.warnings, udim=atlas.udim)
 
 
 def _passed(deadline: float) -> str:
@@ -279,8 +286,12 @@ def _stats(request: UnwrapRequest, faces: np.ndarray, uv: np.ndarray, start: flo
 
 
 def _keep(request: UnwrapRequest, uv, mode: str, start: float) -> tuple[Atlas | None, str]:
-    """``(the atlas of the mesh's own UVs, why)`` when ``mode`` keeps them, else ``(None, why
-    they are not kept)``; :class:`AtlasError` when ``mode`` is "keep" and they are not usable."""
+    """``(the atlas of the mesh's own UVs, why)`` when ``mode`` keeps them (in the unit
+    square, or in UDIM tiles: :func:`_keep_udim`), else ``(None, why they are not kept)``;
+    :class:`AtlasError` when ``mode`` is "keep" and they are not usable."""
+    tiles = None if uv is None else udim_tiles(uv, request.faces)
+    if tiles is not None and (tiles != 1001).any():
+        return _keep_udim(request, np.asarray(uv, dtype=np.float64), tiles, mode, start)
     problem, warnings, raster = _kept_problem(request, uv, mode)
     if problem is not None:
         return None, problem
@@ -290,6 +301,74 @@ def _keep(request: UnwrapRequest, uv, mode: str, start: float) -> tuple[Atlas | 
     stats = _stats(request, request.faces, uv, start, raster)
     warnings += _sparse_warning(request, request.faces, uv, stats)
     return Atlas(vm, request.faces, uv, "kept", reason, stats, warnings + bare_warning(stats, request.size)), reason
+
+
+def _keep_udim(request: UnwrapRequest, uv: np.ndarray, tiles: np.ndarray, mode: str, start: float) -> tuple[Atlas | None, str]:
+    """``(the atlas keeping UVs laid out in UDIM tiles (``tiles``: each face's), why)``, or
+    ``(None, why not)``: no face of zero UV area and, unless ``mode`` is "keep", under
+    ``OVERLAP_LIMIT`` of the covered texels of the tiles, each on its own grid, under two
+    faces. Each tile is baked as its own image (``texbake.sets.tiles``)."""
+    numbers = np.unique(tiles).tolist()
+    named = f"{len(numbers)} UDIM tiles ({', '.join(map(str, numbers[:8]))}{', ...' if len(numbers) > 8 else ''})"
+    zero = int((uv_areas(uv, request.faces) <= 0).sum())
+    if zero:
+        if mode == "keep":
+            raise AtlasError(f"uv='keep' but {zero} faces have zero UV area")
+        return None, f"the mesh's UVs lie in {named} but {zero} faces have zero UV area"
+    share, most = udim_overlap(uv, request.faces, tiles, min(request.size, OVERLAP_GRID))
+    warnings = []
+    if share > OVERLAP_LIMIT:
+        overlapping = f"the mesh's UVs overlap: {share:.1%} of the covered texels of its {named} lie under two or more faces (up to {most})"
+        if mode != "keep":
+            return None, overlapping
+        warnings.append(f"{overlapping}: those texels show one face's texture on all of them")
+    stats = _udim_stats(request, uv, tiles, start)
+    stats["overlap"] = share
+    reason = f"the mesh's UVs lie in {named}: each tile is baked as its own image"
+    vm = np.arange(len(request.vertices), dtype=np.int64)
+    return Atlas(vm, request.faces, uv, "kept", reason, stats, warnings + bare_warning(stats, request.size), udim=True), reason
+
+
+def _udim_stats(request: UnwrapRequest, uv: np.ndarray, tiles: np.ndarray, start: float) -> dict:
+    """:func:`_stats` of a UDIM layout, tile by tile: charts added up, utilisation the
+    tiles' mean, stretch and bare area weighted by the surface; ``tiles``, the tiles used."""
+    per, weights = [], []
+    for tile in np.unique(tiles).tolist():
+        faces = request.faces[tiles == tile]
+        per.append(measure(request.vertices, faces, faces, uv - udim_offset(tile), request.size))
+        weights.append(float(areas(request.vertices, faces).sum()))
+    w = np.asarray(weights) / max(sum(weights), 1e-300)
+    bare = None if any(p["bare_area"] is None for p in per) else float(sum(wi * p["bare_area"] for wi, p in zip(w, per, strict=True)))
+    return {"charts": sum(p["charts"] for p in per), "utilisation": float(np.mean([p["utilisation"] for p in per])),
+            "stretch": float(sum(wi * p["stretch"] for wi, p in zip(w, per, strict=True))), "bare_area": bare,
+            "tiles": np.unique(tiles).tolist(), "seconds": time.perf_counter() - start}
+
+
+def _repacked(request: UnwrapRequest, uv: np.ndarray, why: str, *, deadline: float, workers: int, charting: str,
+              patch_faces: int | None, start: float) -> tuple[Atlas | None, str]:
+    """``(the atlas of the mesh's own UV islands packed anew, why)`` (:mod:`texbake.atlas.repack`)
+    for UVs not kept as they are (``why``), or ``(None, why not)``: where the islands are
+    not sound (:func:`texbake.atlas.repack.repack_problem`; a repeating layout is said in
+    the reason), or their packing fails or overlaps."""
+    grid = min(request.size, OVERLAP_GRID)
+    problem = repack_problem(request.vertices, request.faces, uv, grid, OVERLAP_LIMIT)
+    if problem is not None:
+        return None, f"{why}; {problem}" if "repeat" in problem else why
+    with start_workers(workers, deadline) as pool:
+        try:
+            found, islands, anew = repack(request, uv, pool, pool.left())
+            bad = unwrap_problem(found.vmapping, found.faces, found.uv, request.faces, len(request.vertices))
+        except XatlasFailed as exc:
+            bad = str(exc)
+    if bad is None and overlap_of(coverage_counts(found.uv, found.faces, grid))[0] > OVERLAP_LIMIT:
+        bad = "the islands packed overlap"
+    if bad is not None:
+        return None, f"{why}; packing its UV islands anew failed: {bad}"
+    charted = f"; {anew:,} faces that fold over their island or have no UV area charted anew" if anew else ""
+    reason = f"{why}: its {islands:,} UV islands packed anew into the tile, shape for shape{charted}"
+    stats = {**_stats(request, found.faces, found.uv, start), **found.detail, "charted_anew": anew}
+    warnings = [f"the mesh's UV islands were packed anew into the tile, each kept shape for shape ({why}){charted}"]
+    return Atlas(found.vmapping, found.faces, found.uv, found.method, reason, stats, warnings + bare_warning(stats, request.size)), reason
 
 
 def _kept_problem(request: UnwrapRequest, uv, mode: str) -> tuple[str | None, list[str], tuple | None]:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import _native
-from ..mesh import areas, connected_components, uv_areas, uv_jacobian
+from ..mesh import areas, uv_areas, uv_jacobian
 
 UV_EPS = 1e-6  # tolerance of the unit-square test of UVs
 OVERLAP_GRID = 2048  # overlap is measured on the bake's texel grid, at most this fine
@@ -124,15 +124,90 @@ def unwrap_problem(vmapping: np.ndarray, faces: np.ndarray, uv: np.ndarray, mesh
     return None
 
 
+# -- UDIM tiles ----------------------------------------------------------------------
+
+UDIM_COLUMNS = 10  # tiles a row: u in [0, 10)
+
+
+def udim_tiles(uv: np.ndarray, faces: np.ndarray) -> np.ndarray | None:
+    """``(m,)`` int64 the UDIM tile of each face (``1001 + u + 10 v`` of the integer tile
+    ``(u, v)`` its UV triangle lies in, within ``UV_EPS`` of the tile's edges), or None
+    when some face leaves its tile, lies left of 0, right of 10 or below 0, or an island
+    (a connected piece of the layout) lies in two tiles: a layout that runs on across
+    tiles repeats a tiling texture, it is not in tiles."""
+    corners = np.asarray(uv, dtype=np.float64)[faces]  # (m, 3, 2)
+    if not np.isfinite(corners).all():
+        return None
+    low = np.floor(corners.min(axis=1) + UV_EPS)  # (m, 2): the tile of a face's lowest corner
+    inside = (corners.max(axis=1) <= low + 1 + UV_EPS).all(axis=1)
+    if not inside.all() or low.min() < 0 or low[:, 0].max() >= UDIM_COLUMNS:
+        return None
+    tile = (1001 + low[:, 0] + UDIM_COLUMNS * low[:, 1]).astype(np.int64)
+    label = chart_labels(faces, len(uv))
+    first = np.zeros(int(label.max()) + 1, dtype=np.int64)
+    first[label[::-1]] = tile[::-1]  # each island's tile (of its first face)
+    return tile if np.array_equal(first[label], tile) else None
+
+
+def udim_overlap(uv: np.ndarray, faces: np.ndarray, tiles: np.ndarray, grid: int) -> tuple[float, int]:
+    """:func:`overlap` of a UDIM layout (``tiles``: :func:`udim_tiles`), each tile on its own
+    ``grid``-square raster: the share of covered texel centres under two or more faces."""
+    covered = over = most = 0
+    for tile in np.unique(tiles).tolist():
+        counts = coverage_counts(np.asarray(uv, dtype=np.float64) - udim_offset(tile), faces[tiles == tile], grid)
+        covered, over, most = covered + int((counts > 0).sum()), over + int((counts > 1).sum()), max(most, int(counts.max()))
+    return (over / covered if covered else 0.0), most
+
+
+def udim_offset(tile: int) -> tuple[int, int]:
+    """The corner ``(u, v)`` of UDIM tile ``tile`` (1001 -> (0, 0), 1012 -> (1, 1))."""
+    v, u = divmod(int(tile) - 1001, UDIM_COLUMNS)
+    return u, v
+
+
+# -- islands -------------------------------------------------------------------------
+
+
+def folded_faces(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``(m,)`` bool: the faces of no UV area, and those whose UV triangle turns the other
+    way to the most of their island's (by area): where an island folds over itself."""
+    uv = np.asarray(uv, dtype=np.float64)
+    t = uv[faces]
+    signed = 0.5 * ((t[:, 1, 0] - t[:, 0, 0]) * (t[:, 2, 1] - t[:, 0, 1]) - (t[:, 2, 0] - t[:, 0, 0]) * (t[:, 1, 1] - t[:, 0, 1]))
+    label = chart_labels(faces, len(uv))
+    way = np.sign(np.bincount(label, signed))[label]  # each island's way round
+    return (signed * way <= 0) | (uv_areas(uv, faces) <= 0)
+
+
+def island_overlap(uv: np.ndarray, faces: np.ndarray, grid: int) -> float:
+    """The share of texel centres that two faces of one island cover, each island (a
+    connected piece of the layout) rasterised alone at the texel size of a ``grid``-square
+    tile: how much the islands overlap themselves, wherever they lie."""
+    label = chart_labels(faces, len(uv))
+    order = np.argsort(label, kind="stable")
+    cuts = np.flatnonzero(np.diff(label[order])) + 1
+    texel = 1.0 / grid
+    covered = over = 0
+    for members in np.split(order, cuts):
+        used, local = np.unique(faces[members], return_inverse=True)
+        part = np.asarray(uv, dtype=np.float64)[used]
+        lo = part.min(axis=0)
+        n = int(np.ceil(float((part.max(axis=0) - lo).max()) / texel)) + 2
+        counts = coverage_counts((part - lo + texel) / (n * texel), local.reshape(-1, 3), n)
+        covered, over = covered + int((counts > 0).sum()), over + int((counts > 1).sum())
+    return over / covered if covered else 0.0
+
+
 # -- statistics ----------------------------------------------------------------------
 
 
 def chart_labels(uv_faces: np.ndarray, k: int) -> np.ndarray:
     """``(m,)`` int64 the chart of each face: connected pieces of the UV mesh (faces sharing
     one of the ``k`` UV vertices), numbered in the order of their first face."""
-    m = len(uv_faces)
-    rows = np.repeat(np.arange(m), 3)
-    return connected_components(m + k, rows, np.asarray(uv_faces).ravel() + m)[:m]
+    uv_faces = np.ascontiguousarray(uv_faces, dtype=np.int64)
+    labels = np.empty(len(uv_faces), dtype=np.int64)
+    _native.face_components(uv_faces, k, labels)  # connected_components of the m + k nodes, without their edge arrays
+    return labels
 
 
 def atlas_stats(vertices, faces, uv_faces, uv) -> dict:
@@ -215,10 +290,8 @@ def packing_estimate(vertices: np.ndarray, faces: np.ndarray, uv_faces: np.ndarr
     k = int(label.max()) + 1
     a3 = np.bincount(label, areas(vertices, faces), minlength=k)
     auv = np.bincount(label, uv_areas(uv, uv_faces), minlength=k)
-    corners = uv[uv_faces]  # (m, 3, 2)
     lo, hi = np.full((k, 2), np.inf), np.full((k, 2), -np.inf)
-    np.minimum.at(lo, label, corners.min(axis=1))
-    np.maximum.at(hi, label, corners.max(axis=1))
+    _native.label_boxes(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(uv_faces, dtype=np.int64), label, lo, hi)
     ok = (auv > 0) & (a3 > 0)
     if not ok.any():
         return 0.0

@@ -1,4 +1,4 @@
-"""Equal keys and equal rows grouped in time close to linear (numpy only).
+"""Equal keys and equal rows grouped in time close to linear.
 
 Meshes of millions of faces group corners, edges and vertices by integer keys or by the
 bits of their coordinates. ``np.unique(..., return_inverse=True)`` and ``np.argsort``
@@ -6,12 +6,15 @@ sort indices, several times slower than ``np.sort`` of the values (vectorised), 
 ``np.unique(rows, axis=0)`` compares rows byte by byte. Here every sort is ``np.sort`` of
 int64 values that carry their index in the low bits: sorting them sorts the keys, ties
 in index order (stable), and several keys are sorted least significant first (a radix
-sort by whole keys), each pass one such sort.
+sort by whole keys), each pass one such sort. Rows go through a compiled hash table instead
+(linear).
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from .. import _native
 
 
 def stable_order(*keys: np.ndarray) -> np.ndarray:
@@ -82,31 +85,16 @@ def _mixed_radix(keys: tuple[np.ndarray, ...], room: int) -> np.ndarray | None:
 
 def group_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(first, inverse)`` as :func:`groups` of the ``(n, d)`` rows, equal where their
-    values are (-0.0 equals 0.0), numbered in an order of their own (not the rows').
+    values are (-0.0 equals 0.0; NaN rows by their bits), numbered in the order of their
+    first row (``first`` ascending).
 
-    A 64-bit hash of each row's bits is grouped, then checked: rows of one group must be
-    equal, else (a collision) the rows themselves are sorted."""
+    One pass through a hash table of the rows' bits, compiled (``native/grouping.cpp``):
+    linear time, where sorting the rows is n log n."""
     rows = np.ascontiguousarray(rows)
+    if rows.ndim != 2:
+        raise ValueError(f"group_rows: expected (n, d) rows, got shape {rows.shape}")
     if rows.dtype.kind == "f":
-        rows = rows + 0.0  # -0.0 is 0.0
-    bits = rows.view(np.uint64) if rows.dtype.itemsize == 8 else rows.astype(np.int64).view(np.uint64)
-    weights = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9, 0xD6E8FEB86659FD93,
-                        0xFF51AFD7ED558CCD, 0xC4CEB9FE1A85EC53], dtype=np.uint64)
-    if rows.shape[1] > len(weights):
-        _, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
-        return first, inverse.ravel()
-    key = (bits * weights[: rows.shape[1]]).sum(axis=1, dtype=np.uint64)
-    key ^= key >> np.uint64(29)  # the high bits of the products into the low half too
-    first, inverse = groups(key >> np.uint64(32), key & np.uint64(0xFFFFFFFF))
-    if not np.array_equal(rows[first[inverse]], rows):  # a collision: sort the rows exactly
-        _, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
-        inverse = inverse.ravel()
-    return first, inverse
-
-
-def first_order_ranks(first: np.ndarray, n: int) -> np.ndarray:
-    """``(g,)`` int64 the rank of each of the distinct indices ``first`` (into ``n``
-    items) in ascending order: what ``np.argsort(np.argsort(first))`` gives, in linear time."""
-    marked = np.zeros(n, dtype=np.int64)
-    marked[first] = 1
-    return (np.cumsum(marked) - 1)[first]
+        rows = np.ascontiguousarray(rows, dtype=np.float64) + 0.0  # -0.0 is 0.0
+    elif rows.dtype != np.int64:
+        rows = rows.astype(np.int64)
+    return _native.group_rows(rows.view(np.uint64))

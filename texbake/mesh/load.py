@@ -12,9 +12,14 @@ a :class:`~texbake.errors.MeshError` naming the file; zero-area faces are remove
 Vertices that are equal in position *and* UV are merged (file formats and trimesh split
 every face corner), so UV seams survive and a closed surface stays connected.
 
-UVs are kept per part: in a scene where some parts have UVs and others have none, the
-parts that have them keep them (``LoadedMesh.has_uv`` says which faces), and the atlas
-unwraps only the others.
+UVs are kept per part: in a scene where some parts have UVs and others have none (or an
+OBJ where some groups have ``vt`` and others not), the parts that have them keep them
+(``LoadedMesh.has_uv`` says which faces), and the atlas unwraps only the others.
+
+Parts and materials: each face has its part (a scene's mesh, an OBJ's ``g``/``o`` group)
+and its material (a glTF primitive's material, an OBJ's ``usemtl``; a PLY, STL or OFF is
+one part of one material, ``default``), with their names; the texture sets
+(:mod:`texbake.sets`) are made per material.
 """
 
 from __future__ import annotations
@@ -24,16 +29,23 @@ import hashlib
 import io
 import itertools
 import json
+import mmap
+import os
 import re
 import struct
+import threading
+from collections.abc import Callable
+from contextlib import contextmanager, suppress
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
+from typing import NamedTuple
 
 import numpy as np
 
+from .. import _native
 from ..errors import MeshError, ParameterError
-from .grouping import first_order_ranks, group_rows
-from .objfile import read_obj
+from .grouping import group_rows
+from .objfile import DEFAULT, read_obj
 from .plyfile import read_ply
 from .uvgeometry import areas
 
@@ -90,7 +102,15 @@ class LoadedMesh:
         Each face's part (index into ``part_names``) for a mesh of several parts (a
         scene's meshes); None for one part. The atlas keeps or unwraps UVs part by part.
     part_names : list of str
-        The parts' names (a scene's mesh names, with the node where a mesh is used twice).
+        The parts' names (a scene's mesh names, with the node where a mesh is used twice;
+        an OBJ's group names).
+    material : (m,) int32 or None
+        Each face's material (index into ``material_names``) for a mesh of several; None
+        for one.
+    material_names : list of str
+        The materials' names, one or more, each once (a glTF's material names, an OBJ's
+        ``usemtl`` names; ``default`` for faces without one; ``material_N`` for the N-th
+        unnamed glTF material), in order of first use.
     warnings : list of str
         What a user should know of the loading (one line each; the report collects them).
     """
@@ -107,6 +127,8 @@ class LoadedMesh:
     part: np.ndarray | None = None
     part_names: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    material: np.ndarray | None = None
+    material_names: list[str] = field(default_factory=lambda: [DEFAULT])
 
     @property
     def without_uv(self) -> list[str]:
@@ -146,21 +168,59 @@ def load_mesh(path, *, max_faces: int = 5_000_000) -> LoadedMesh:
     path = Path(path)
     where = str(path)
     kind = check_file(path)
+    warnings: list[str] = []
+    with _file_bytes(path, kind) as data:
+        sha256 = _sha256_beside(data)
+        try:
+            with np.errstate(over="raise"):  # a float32 field overflowing to inf
+                parts = _read(data, kind, path, warnings)
+        except MeshError:
+            raise
+        except FloatingPointError:
+            raise MeshError(where, f"a number overflows when read: coordinates must lie within float32 range (|x| <= {FLOAT32_MAX:.3g})") from None
+        except Exception as exc:  # the parsers raise many kinds on corrupt input
+            raise MeshError(where, f"cannot parse {kind.upper()} file: {_short(exc)}") from None
+        digest = sha256()
+    return _validate(parts, path.stem, where, digest, max_faces, warnings)
+
+
+@contextmanager
+def _file_bytes(path: Path, kind: str):
+    """The file's bytes: an OBJ of megabytes mapped (``mmap``: the compiled reader reads the
+    page cache, where a copy of hundreds of MB would be new pages for the kernel to zero),
+    any other file read; a :class:`MeshError` where it cannot be read."""
     try:
-        data = path.read_bytes()
+        with open(path, "rb") as f:
+            if kind != "obj" or os.fstat(f.fileno()).st_size < 1 << 23:
+                data: bytes | mmap.mmap = f.read()
+            else:
+                data = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
     except OSError as exc:
-        raise MeshError(where, f"cannot read: {exc.strerror}") from None
-    sha256 = hashlib.sha256(data).hexdigest()
+        raise MeshError(str(path), f"cannot read: {exc.strerror}") from None
     try:
-        with np.errstate(over="raise"):  # a float32 field overflowing to inf
-            parts = _read(data, kind, path)
-    except MeshError:
-        raise
-    except FloatingPointError:
-        raise MeshError(where, f"a number overflows when read: coordinates must lie within float32 range (|x| <= {FLOAT32_MAX:.3g})") from None
-    except Exception as exc:  # the parsers raise many kinds on corrupt input
-        raise MeshError(where, f"cannot parse {kind.upper()} file: {_short(exc)}") from None
-    return _validate(parts, path.stem, where, sha256, max_faces)
+        yield data
+    finally:
+        if isinstance(data, mmap.mmap):
+            with suppress(BufferError):  # a view still held (a traceback's): the collector closes it
+                data.close()
+
+
+def _sha256_beside(data: bytes | mmap.mmap) -> Callable[[], str]:
+    """The hex SHA-256 of ``data``, as a call that waits for it: a file of megabytes is
+    hashed on a thread of its own while it is parsed (hashlib and the compiled reader both
+    let go of the GIL; 0.2 s of a 375 MB OBJ)."""
+    if len(data) < 1 << 23:
+        digest = hashlib.sha256(data).hexdigest()
+        return lambda: digest
+    out: list[str] = []
+    thread = threading.Thread(target=lambda: out.append(hashlib.sha256(data).hexdigest()), daemon=True)
+    thread.start()
+
+    def result() -> str:
+        thread.join()
+        return out[0]
+
+    return result
 
 
 def check_file(path) -> str:
@@ -202,18 +262,29 @@ def check_file(path) -> str:
     return kind
 
 
-def _read(data: bytes, kind: str, path: Path) -> list:
-    """Parse checked file bytes into ``(vertices, faces, uv or None)`` parts."""
-    if kind == "obj":  # our own reader: trimesh 5.2 resolves relative indices wrongly
-        def check(name, what):
-            _check_reference(name, path, what)
-            _check_mtl(path.parent / name, path)
+class _Piece(NamedTuple):
+    """A mesh as a reader gives it, before the pieces are joined and checked: ``part`` and
+    ``material`` (m,) index its own ``part_names`` and ``material_names`` (None: all the
+    first); ``has_uv`` (m,) says which faces have UVs when only some do."""
 
-        return [read_obj(data, path, check)]
+    vertices: np.ndarray
+    faces: np.ndarray
+    uv: np.ndarray | None
+    part_names: list[str]
+    material_names: list[str]
+    has_uv: np.ndarray | None = None
+    part: np.ndarray | None = None
+    material: np.ndarray | None = None
+
+
+def _read(data: bytes, kind: str, path: Path, warnings: list[str]) -> list[_Piece]:
+    """Parse checked file bytes into pieces; what a user should know goes to ``warnings``."""
+    if kind == "obj":  # our own reader: trimesh 5.2 resolves relative indices wrongly
+        return [_read_obj(data, path, warnings)]
     if kind == "ply":  # our own reader first: trimesh reads no triangle strips, nor mixed binary polygons
         ply = read_ply(data)
         if ply is not None:
-            return [ply]
+            return [_Piece(*ply, ["mesh"], [DEFAULT])]
 
     import trimesh  # pip install trimesh
 
@@ -224,6 +295,30 @@ def _read(data: bytes, kind: str, path: Path) -> list:
         process=False,
     )
     return _parts(loaded)
+
+
+def _read_obj(data: bytes, path: Path, warnings: list[str]) -> _Piece:
+    """An OBJ as one piece of its groups and materials; a material library that is missing,
+    or a ``usemtl`` name none of them defines, is a warning."""
+    missing: list[str] = []
+    defined: set[str] = set()
+
+    def check(name, what):
+        _check_reference(name, path, what)
+        names = _check_mtl(path.parent / name, path)
+        if names is None:
+            missing.append(name)
+        else:
+            defined.update(names)
+
+    obj = read_obj(data, path, check)
+    for name in missing:
+        warnings.append(f"the material library {name!r} (mtllib) is missing beside the mesh: its materials are known by "
+                        "their usemtl names alone")
+    unknown = [name for name in obj.material_names if name != DEFAULT and name not in defined]
+    if unknown and defined:  # (all of them missing: said above)
+        warnings.append(f"usemtl names materials that no material library defines: {', '.join(map(repr, unknown))}")
+    return _Piece(obj.vertices, obj.faces, obj.uv, obj.part_names, obj.material_names, obj.has_uv, obj.part, obj.material)
 
 
 def mesh_from_trimesh(mesh, *, name: str = "mesh", max_faces: int = 5_000_000) -> LoadedMesh:
@@ -242,7 +337,10 @@ def mesh_from_trimesh(mesh, *, name: str = "mesh", max_faces: int = 5_000_000) -
         if isinstance(g, trimesh.Trimesh):
             h.update(np.ascontiguousarray(g.vertices, dtype=np.float64).tobytes())
             h.update(np.ascontiguousarray(g.faces, dtype=np.int64).tobytes())
-    return _validate(_parts(mesh), name, "<mesh>", h.hexdigest(), max_faces)
+    # copies: the loaded mesh must not share the caller's arrays
+    parts = [p._replace(vertices=np.array(p.vertices, dtype=np.float64), faces=np.array(p.faces),
+                        uv=None if p.uv is None else np.array(p.uv, dtype=np.float64)) for p in _parts(mesh)]
+    return _validate(parts, name, "<mesh>", h.hexdigest(), max_faces)
 
 
 def _check_max_faces(max_faces) -> None:
@@ -278,9 +376,14 @@ def _check_reference(ref: str, path: Path, what: str) -> None:
 _MTL_MAPS = re.compile(r"^\s*(map_\w+|bump|disp|decal|refl|norm)\s+(.*)$", re.M | re.I)
 
 
-def _check_mtl(mtl: Path, path: Path) -> None:
+_NEWMTL = re.compile(r"^\s*newmtl\s+(.*?)\s*$", re.M)
+
+
+def _check_mtl(mtl: Path, path: Path) -> set[str] | None:
+    """The names of the materials ``mtl`` defines, its texture maps checked; None when it
+    is missing (a missing MTL only loses the materials' definitions)."""
     if not mtl.is_file():
-        return  # a missing MTL only loses materials
+        return None
     try:
         text = mtl.read_text(errors="replace")
     except OSError as exc:
@@ -289,6 +392,7 @@ def _check_mtl(mtl: Path, path: Path) -> None:
         words = args.split()
         if words:  # the file name is the last word; options come before it
             _check_reference(words[-1], path, f"texture in {mtl.name}")
+    return {" ".join(name.split()) for name in _NEWMTL.findall(text)}
 
 
 def _gltf_json(path: Path, kind: str, where: str) -> tuple[dict, int | None]:
@@ -441,18 +545,19 @@ def _check_stl_header(head: bytes, size: int, where: str) -> None:
 # -- geometry ----------------------------------------------------------------------
 
 
-def _parts(loaded):
-    """(vertices, faces, uv or None, name) of every triangle mesh, transforms applied;
-    a scene's parts are named by their meshes."""
+def _parts(loaded) -> list[_Piece]:
+    """A piece for every triangle mesh, transforms applied; a scene's parts are named by
+    their meshes, and each has its material (:func:`_material_names`)."""
     import trimesh
 
     if isinstance(loaded, trimesh.Trimesh):
-        return [(loaded.vertices, loaded.faces, _uv(loaded), "mesh")]
+        return [_Piece(loaded.vertices, loaded.faces, _uv(loaded), ["mesh"], [DEFAULT])]
     if not isinstance(loaded, trimesh.Scene):
         return []
     parts = []
     nodes = loaded.graph.nodes_geometry
     uses = collections.Counter(loaded.graph.transforms.node_data[node]["geometry"] for node in nodes)
+    materials = _material_names(loaded)
     for node in nodes:
         transform, name = _world_transform(loaded.graph, node), loaded.graph.transforms.node_data[node]["geometry"]
         g = loaded.geometry[name]
@@ -463,8 +568,25 @@ def _parts(loaded):
             if np.linalg.det(transform[:3, :3]) < 0:  # a mirroring node: keep faces outward
                 f = f[:, ::-1]
             # the mesh's name (trimesh names a glTF file's unnamed nodes at random), and its node's where it is used twice
-            parts.append((v, f, _uv(g), name if uses[name] == 1 else f"{name} at node {node}"))
+            parts.append(_Piece(v, f, _uv(g), [name if uses[name] == 1 else f"{name} at node {node}"], [materials[name]]))
     return parts
+
+
+def _material_names(scene) -> dict[str, str]:
+    """Each geometry's material name: its own, ``material_N`` for the N-th unnamed one
+    (trimesh keeps one object per glTF material), ``default`` without one."""
+    names: dict[str, str] = {}
+    unnamed: dict[int, str] = {}
+    for key, g in scene.geometry.items():
+        material = getattr(getattr(g, "visual", None), "material", None)
+        name = getattr(material, "name", None)
+        if material is None:
+            names[key] = DEFAULT
+        elif isinstance(name, str) and name.strip():
+            names[key] = " ".join(name.split())
+        else:
+            names[key] = unnamed.setdefault(id(material), f"material_{len(unnamed)}")
+    return names
 
 
 _IDENTITY = np.eye(4)
@@ -509,98 +631,120 @@ def _weld(vertices, faces, uv):
     """Merge vertices equal in position and UV (trimesh splits every face corner).
 
     Exact equality only: corners that differ in UV stay separate (UV seams survive), and
-    a welded surface keeps its connectivity for the unwrap and the normals. Rows are
-    grouped by a 64-bit hash of their bits, then checked for exact equality. A vertex
+    a welded surface keeps its connectivity for the unwrap and the normals. Rows of
+    position and UV are grouped by their bits in a compiled hash table
+    (``native/grouping.cpp``), kept in file order. A vertex
     without UVs (NaN, from a part that has none) merges only with others without them.
     """
-    if uv is None:
-        rows = vertices
-    else:
-        missing = np.isnan(uv).all(axis=1)
-        rows = np.hstack([vertices, np.where(missing[:, None], 0.0, uv), missing[:, None].astype(np.float64)])
-    if not np.isfinite(rows).all():
-        return vertices, faces, uv  # rejected (vertices) or judged by the atlas (UVs)
-    rows = np.ascontiguousarray(rows + 0.0)  # -0.0 and 0.0 are the same coordinate
-    bits = rows.view(np.uint64)
-    weights = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9, 0xD6E8FEB86659FD93, 0xFF51AFD7ED558CCD,
-                        0x94D049BB133111EB], dtype=np.uint64)
-    key = (bits * weights[: rows.shape[1]]).sum(axis=1, dtype=np.uint64)
-    _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
-    inverse = inverse.ravel()
-    if not np.array_equal(rows[first[inverse]], rows):  # a hash collision: sort exactly
-        _, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
-        inverse = inverse.ravel()
-    rank = first_order_ranks(first, len(rows))  # keep vertices in file order
-    keep = np.sort(first)
-    return vertices[keep], rank[inverse][faces], None if uv is None else uv[keep]
+    welded = _native.weld(np.ascontiguousarray(vertices, dtype=np.float64), None if uv is None else np.ascontiguousarray(uv, dtype=np.float64))
+    if welded is None:
+        return vertices, faces, uv  # not finite: rejected (vertices) or judged by the atlas (UVs)
+    first, inverse = welded  # numbered in file order: the first of each group kept
+    if len(first) == len(vertices):  # nothing merged: the arrays as they are
+        return vertices, faces, uv
+    return vertices[first], inverse[faces], None if uv is None else uv[first]
 
 
-def _joined_uv(parts, face_parts) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """``(uv, has_uv)`` of the parts ``(vertices, faces, uv or None, ...)`` put together:
-    UVs with NaN rows for the parts that have none (None if none has any), and which
-    faces have UVs (None if all or none do)."""
-    given = [p[2] is not None for p in parts]
-    if not any(given):
+def _joined_uv(parts: list[_Piece]) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """``(uv, has_uv)`` of the pieces put together: UVs with NaN rows for the pieces that
+    have none (None if none has any), and which faces have UVs (None if all or none do)."""
+    if all(p.uv is None for p in parts):
         return None, None
-    uv = np.concatenate([np.asarray(p[2], dtype=np.float64) if p[2] is not None else np.full((len(p[0]), 2), np.nan)
+    if len(parts) == 1:  # a file of one mesh: its arrays as they are
+        return np.asarray(parts[0].uv, dtype=np.float64), parts[0].has_uv
+    uv = np.concatenate([np.asarray(p.uv, dtype=np.float64) if p.uv is not None else np.full((len(p.vertices), 2), np.nan)
                          for p in parts])
-    if all(given):
-        return uv, None
-    return uv, np.concatenate([np.full(len(f), g) for f, g in zip(face_parts, given, strict=True)])
+    has = np.concatenate([p.has_uv if p.has_uv is not None else np.full(len(p.faces), p.uv is not None) for p in parts])
+    return uv, None if has.all() else has
 
 
-def _validate(parts, name: str, where: str, sha256: str, max_faces: int) -> LoadedMesh:
-    """One checked mesh from ``(vertices, faces, uv or None)`` parts."""
-    parts = [p for p in parts if len(p[1])]
+def _joined_labels(parts: list[_Piece], what: str) -> tuple[np.ndarray | None, list[str]]:
+    """``(label (m,) int32 or None, names)`` of the pieces' ``what``: "part", each piece's
+    parts its own; "material", one per name whichever piece has it. None for one name."""
+    known: dict[str, int] = {}  # material name -> its index
+    names: list[str] = []
+    labels = []
+    for p in parts:
+        local, given = (p.part_names, p.part) if what == "part" else (p.material_names, p.material)
+        if what == "part":
+            code = list(range(len(names), len(names) + len(local)))
+            names += local
+        else:
+            code = [known.setdefault(n, len(known)) for n in local]
+            names = list(known)
+        labels.append(np.asarray(code, dtype=np.int32)[np.zeros(len(p.faces), dtype=np.int64) if given is None else given])
+    return (np.concatenate(labels) if len(names) > 1 else None), names
+
+
+def _validate(parts: list[_Piece], name: str, where: str, sha256: str, max_faces: int, warnings: list[str] | None = None) -> LoadedMesh:
+    """One checked mesh from the pieces a reader gave."""
+    parts = [p for p in parts if len(p.faces)]
     if not parts:
         raise MeshError(where, "no faces: the file holds no triangle geometry")
-    n_faces = sum(len(p[1]) for p in parts)
+    n_faces = sum(len(p.faces) for p in parts)
     if n_faces > max_faces:
         raise MeshError(where, f"{n_faces} faces is more than the limit of {max_faces}")
     vertex_parts, face_parts, offset = [], [], 0
-    for v, f, *_ in parts:
-        v = np.asarray(v, dtype=np.float64)
-        f = np.asarray(f)
+    for p in parts:
+        v = np.asarray(p.vertices, dtype=np.float64)
+        f = np.asarray(p.faces)
         if f.ndim != 2 or f.shape[1] != 3:
             raise MeshError(where, f"faces must be triangles, got shape {f.shape}")
         if f.min() < 0 or f.max() >= len(v):
             raise MeshError(where, f"face index {int(f.max()) if f.max() >= len(v) else int(f.min())} out of range ({len(v)} vertices)")
         vertex_parts.append(v)
-        face_parts.append(f.astype(np.int64) + offset)
+        f = np.asarray(f, dtype=np.int64)
+        face_parts.append(f + offset if offset else f)
         offset += len(v)
-    vertices = np.concatenate(vertex_parts)
-    faces = np.concatenate(face_parts)
-    uv, has_uv = _joined_uv(parts, face_parts)
-    part = np.concatenate([np.full(len(f), i, dtype=np.int32) for i, f in enumerate(face_parts)]) if len(parts) > 1 else None
-    names = [p[3] if len(p) > 3 else f"part {i}" for i, p in enumerate(parts)]
+    # one part (a file of one mesh): its arrays as they are; copies of millions of rows cost
+    vertices = vertex_parts[0] if len(parts) == 1 else np.concatenate(vertex_parts)
+    faces = face_parts[0] if len(parts) == 1 else np.concatenate(face_parts)
+    uv, has_uv = _joined_uv(parts)
+    part, names = _joined_labels(parts, "part")
+    material, material_names = _joined_labels(parts, "material")
     vertices, faces, uv = _weld(vertices, faces, uv)
     if not np.isfinite(vertices).all():
         bad = int((~np.isfinite(vertices)).any(axis=1).sum())
         raise MeshError(where, f"{bad} vertices have non-finite (NaN or infinite) coordinates")
-    if np.abs(vertices).max() > FLOAT32_MAX:
-        raise MeshError(where, f"coordinate {np.abs(vertices).max():.3g} is beyond float32 range")
+    largest = max(-float(vertices.min()), float(vertices.max()))  # np.abs(vertices).max() of finite ones
+    if largest > FLOAT32_MAX:
+        raise MeshError(where, f"coordinate {largest:.3g} is beyond float32 range")
 
-    area2 = 2.0 * areas(vertices, faces)  # |e1 x e2|
+    area2 = areas(vertices, faces)
+    area2 *= 2.0  # |e1 x e2|
     diag = float(np.linalg.norm(vertices.max(axis=0) - vertices.min(axis=0)))
     keep = area2 > 1e-30 * diag * diag
     if not keep.any():
         raise MeshError(where, f"all {len(faces)} faces are degenerate (zero area at the scale of the bounding-box diagonal {diag:.3g})")
-    unique = _without_duplicates(faces[keep])
-    faces_kept = faces[keep][unique]
+    faces_kept = faces if keep.all() else faces[keep]
+    unique = _without_duplicates(faces_kept)
+    if len(unique) < len(faces_kept):
+        faces_kept = faces_kept[unique]
     part = None if part is None else part[keep][unique]
+    material, material_names = _used_materials(None if material is None else material[keep][unique], material_names)
     if has_uv is not None:
         has_uv = has_uv[keep][unique]
         if has_uv.all() or not has_uv.any():  # the parts with (or without) UVs were all degenerate
             uv, has_uv = (uv, None) if has_uv.all() else (None, None)
     return LoadedMesh(vertices, faces_kept, uv, name, where, int((~keep).sum()), sha256, int(keep.sum()) - len(unique),
-                      has_uv, part, names)
+                      has_uv, part, names, list(warnings or []), material, material_names)
+
+
+def _used_materials(material: np.ndarray | None, names: list[str]) -> tuple[np.ndarray | None, list[str]]:
+    """The materials some face kept (the faces removed may take a material's all), numbered
+    in order; None for one."""
+    if material is None:
+        return None, names
+    used, label = np.unique(material, return_inverse=True)
+    if len(used) == 1:
+        return None, [names[used[0]]]
+    return label.astype(np.int32).ravel(), [names[i] for i in used]
 
 
 def _without_duplicates(faces: np.ndarray) -> np.ndarray:
     """The indices, in order, of ``faces`` (of welded vertices) less those that repeat an
     earlier face's corners in the same winding: a doubled face takes atlas space twice and
     splits charts."""
-    start = np.argmin(faces, axis=1)  # each face rotated to start at its smallest corner
-    corners = np.take_along_axis(faces, (start[:, None] + np.arange(3)) % 3, axis=1)
-    first = group_rows(corners)[0]
-    return np.sort(first)
+    corners = np.empty_like(faces)
+    _native.rotated_faces(np.ascontiguousarray(faces, dtype=np.int64), corners)  # each face from its smallest corner
+    return group_rows(corners)[0]  # ascending

@@ -1,12 +1,15 @@
-"""A small, strict Wavefront OBJ reader: positions, texture coordinates and faces.
+"""A small, strict Wavefront OBJ reader: positions, texture coordinates, faces, and each
+face's group and material.
 
 Written for the bake rather than taken from trimesh because relative (negative)
 indices must count back from the elements defined *so far* (trimesh 5.2 counts from the
 end of the file, which is wrong when ``v`` and ``f`` lines interleave), every index must
 be range-checked, and it is several times faster on large files. Polygons are split
-into triangle fans. Materials, normals, groups and smoothing are not needed by a bake
-and are skipped; ``mtllib`` names and the texture maps of the MTL files are checked by
-the caller through ``check_reference``.
+into triangle fans. Each face has the part its last ``g`` or ``o`` line names and the
+material its last ``usemtl`` names (``default`` before any); faces with texture
+coordinates keep them where others have none. Normals and smoothing are not needed by a
+bake and are skipped; ``mtllib`` names and the texture maps of the MTL files are checked
+by the caller through ``check_reference``.
 
 Two readers, one result. ``_read_fast`` reads the bytes in bulk with numpy: a table of
 line starts sorts the lines by kind, each kind's lines are cut out in runs of consecutive
@@ -21,11 +24,14 @@ written alike, and every error, so that the messages are that reader's.
 
 from __future__ import annotations
 
+import mmap
 import re
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
+from .. import _native
 from ..errors import MeshError
 
 # Whitespace other than space, tab, CR and LF (the rest of what str.isspace() accepts):
@@ -36,20 +42,54 @@ _ODD_SPACE_UTF8 = {c.encode() for c in _ODD_SPACE if not c.isascii()}  # 2 bytes
 _FLOAT_CHARS = b"0123456789+-.eE \n"  # all a line of plain decimal numbers has
 _INDEX_CHARS = b"0123456789+-/ \n"
 _SLASH_TO_SPACE = bytes.maketrans(b"/", b" ")
-_OTHER, _V, _VT, _F, _MT, _INDENTED = range(6)  # line kinds
+_OTHER, _V, _VT, _F, _MT, _INDENTED, _US, _GROUP = range(8)  # line kinds
+DEFAULT = "default"  # the part and the material of faces before any g/o or usemtl line
 
 
-def read_obj(data: bytes, path: Path, check_reference) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """Parse OBJ bytes into ``(vertices (n, 3) float64, faces (m, 3) int64, uv)``.
+class ObjMesh(NamedTuple):
+    """What :func:`read_obj` reads.
+
+    ``vertices`` (n, 3) float64, ``faces`` (m, 3) int64; ``uv`` (n, 2) float64 (NaN on the
+    vertices of faces without texture coordinates) or None when no face has any;
+    ``has_uv`` (m,) bool when only some faces have them, else None; ``part`` and
+    ``material`` (m,) int64, each face's index into ``part_names`` (its ``g``/``o`` line's
+    name) and ``material_names`` (its ``usemtl`` line's), both in order of first use.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    uv: np.ndarray | None
+    has_uv: np.ndarray | None
+    part: np.ndarray
+    part_names: list[str]
+    material: np.ndarray
+    material_names: list[str]
+
+
+def read_obj(data: bytes | mmap.mmap, path: Path, check_reference) -> ObjMesh:
+    """Parse OBJ bytes (or a mapped file) into an :class:`ObjMesh`.
 
     Vertices are one per distinct (position, texture coordinate) pair used by a face
-    corner, so UV seams survive; ``uv`` is ``(n, 2)`` float64, or None when some face
-    corner has no texture coordinate. ``check_reference(name, what)`` is called for each
-    ``mtllib`` file name.
+    corner, so UV seams survive; a face whose corners do not all have a texture coordinate
+    has none (its vertices' ``uv`` rows are NaN). ``check_reference(name, what)`` is called
+    for each ``mtllib`` file name.
 
-    Read in bulk (``_read_fast``) when that reader takes the file, else a line at a time
+    Read in one compiled pass (``native/objfile.cpp``) where it takes the file (plain
+    ASCII, plain decimals, corners all written alike: what both readers here read alike),
+    else in bulk (``_read_fast``) when that reader takes it, else a line at a time
     (``_read_lines``), which also raises every ``MeshError``.
     """
+    view = np.frombuffer(data, dtype=np.uint8)
+    try:
+        compiled = _native.read_obj(view)
+    finally:
+        del view  # a mapped file can be closed only once no view holds it
+    if compiled is not None:
+        names, vertices, faces, uv, marks = compiled
+        for name in names:
+            check_reference(name, "mtllib")
+        return ObjMesh(vertices, faces, uv, None, *_marked(marks, len(faces)))
+    data = bytes(data)  # the readers here take bytes (a mapped file is copied only for them)
     fast = _read_fast(data)
     if fast is None:
         return _read_lines(data, str(path), check_reference)
@@ -59,8 +99,8 @@ def read_obj(data: bytes, path: Path, check_reference) -> tuple[np.ndarray, np.n
     return mesh
 
 
-def _read_fast(data: bytes) -> tuple[list[str], tuple[np.ndarray, np.ndarray, np.ndarray | None]] | None:
-    """``(mtllib names, (vertices, faces, uv))`` as ``_read_lines`` gives them, or None."""
+def _read_fast(data: bytes) -> tuple[list[str], ObjMesh] | None:
+    """``(mtllib names, mesh)`` as ``_read_lines`` gives them, or None."""
     if _odd_space(data):
         return None
     if b"\r" in data:  # CRLF or CR alone ends a line, as in str.splitlines()
@@ -73,18 +113,16 @@ def _read_fast(data: bytes) -> tuple[list[str], tuple[np.ndarray, np.ndarray, np
         text = re.sub(rb"\n +", b"\n", text)
         starts, ends, kind = _line_kinds(text)
 
-    mtllibs = []
-    for i in np.flatnonzero(kind == _MT):
-        parts = text[starts[i] : ends[i]].decode("utf-8", errors="replace").split()
-        if parts[0] == "mtllib":
-            mtllibs += parts[1:]
+    words = {int(i): text[starts[i] : ends[i]].decode("utf-8", errors="replace").split()
+             for i in np.flatnonzero((kind == _MT) | (kind == _US) | (kind == _GROUP))}
+    mtllibs = [name for i in np.flatnonzero(kind == _MT).tolist() if words[i][0] == "mtllib" for name in words[i][1:]]
     v_lines, vt_lines, f_lines = (np.flatnonzero(kind == k) for k in (_V, _VT, _F))
     v = _floats(_cut(text, starts, ends, v_lines), len(v_lines), b"v", 3, pad=False)
     vt = _floats(_cut(text, starts, ends, vt_lines), len(vt_lines), b"vt", 2, pad=True)
     if v is None or vt is None:
         return None
     if not len(f_lines):
-        return mtllibs, (v, np.zeros((0, 3), dtype=np.int64), None)
+        return mtllibs, _no_faces(v)
     corners = _corners(_cut(text, starts, ends, f_lines), len(f_lines))
     if corners is None:
         return None
@@ -99,7 +137,61 @@ def _read_fast(data: bytes) -> tuple[list[str], tuple[np.ndarray, np.ndarray, np
     texcoord = _resolve(ti, defined_vt, len(vt)) if has_uv else None
     if position is None or (has_uv and texcoord is None):
         return None
-    return mtllibs, _mesh(v, vt, position, texcoord, sizes)
+    vertices, faces, uv = _mesh(v, vt, position, texcoord, sizes)
+    return mtllibs, ObjMesh(vertices, faces, uv, None, *_groups(f_lines, sizes, words))
+
+
+def _no_faces(v: np.ndarray) -> ObjMesh:
+    """The mesh of a file without faces (the caller rejects it, naming the file)."""
+    none = np.zeros(0, dtype=np.int64)
+    return ObjMesh(v, np.zeros((0, 3), dtype=np.int64), None, None, none, [DEFAULT], none, [DEFAULT])
+
+
+def _groups(f_lines: np.ndarray, sizes: np.ndarray, words: dict[int, list[str]]) -> tuple[np.ndarray, list[str], np.ndarray, list[str]]:
+    """``(part, part_names, material, material_names)`` of the triangles of the face lines
+    ``f_lines`` (``sizes`` corners each): the ``g``/``o`` and ``usemtl`` lines (``words``:
+    line number -> its words) that last precede each."""
+    marks = sorted(words)
+    groups = [i for i in marks if words[i][0] in ("g", "o")]
+    materials = [i for i in marks if words[i][0] == "usemtl"]
+    part, part_names = _labels(f_lines, groups, [" ".join(words[i][1:]) for i in groups], sizes)
+    material, material_names = _labels(f_lines, materials, [" ".join(words[i][1:]) for i in materials], sizes)
+    return part, part_names, material, material_names
+
+
+def _marked(marks: list[tuple[int, str, int]], m: int) -> tuple[np.ndarray, list[str], np.ndarray, list[str]]:
+    """``(part, part_names, material, material_names)`` of ``m`` triangles from the compiled
+    reader's marks (``(0: g/o or 1: usemtl, name, triangles before it)``), as
+    :func:`_groups` labels face lines: triangle ``t`` as the line ``2 t + 1`` of size 3, a
+    mark before it as the line ``2 * before``."""
+    if not m:  # as _no_faces
+        none = np.zeros(0, dtype=np.int64)
+        return none, [DEFAULT], none, [DEFAULT]
+    out: list = []
+    for kind in (0, 1):
+        at = [before for k, _, before in marks if k == kind]
+        names = [name for k, name, _ in marks if k == kind]
+        if not at or at[-1] == 0:  # none, or all before the first face (a file of one object): one name, no sort
+            out += [np.zeros(m, dtype=np.int64), [names[-1] or DEFAULT if names else DEFAULT]]
+        else:
+            lines, sizes = 2 * np.arange(m, dtype=np.int64) + 1, np.full(m, 3, dtype=np.int64)
+            out += _labels(lines, [2 * a for a in at], names, sizes)
+    return out[0], out[1], out[2], out[3]
+
+
+def _labels(f_lines: np.ndarray, marks: list[int], names: list[str], sizes: np.ndarray) -> tuple[np.ndarray, list[str]]:
+    """Each triangle's index into the names of the lines ``marks`` (line numbers, sorted;
+    ``names``: theirs, ``DEFAULT`` where empty) that last precede its face line (``DEFAULT``
+    before the first), numbered in order of first use; and those names."""
+    ids: dict[str, int] = {}
+    code = np.array([ids.setdefault(name or DEFAULT, len(ids)) for name in [DEFAULT, *names]], dtype=np.int64)
+    label = code[np.searchsorted(np.asarray(marks, dtype=np.int64), f_lines)]  # marks before each line: 0 is DEFAULT
+    used, first, inverse = np.unique(label, return_index=True, return_inverse=True)
+    order = np.argsort(first, kind="stable")
+    rank = np.empty(len(used), dtype=np.int64)
+    rank[order] = np.arange(len(used))
+    known = list(ids)
+    return np.repeat(rank[inverse.ravel()], sizes - 2), [known[used[k]] for k in order]
 
 
 def _odd_space(data: bytes) -> bool:
@@ -121,8 +213,8 @@ def _odd_space(data: bytes) -> bool:
 def _line_kinds(text: bytes) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Each line's first byte and the newline after it (offsets into ``text``, which starts
     and ends with a newline), and its kind by its first bytes, as ``_read_lines`` sorts them:
-    ``_V`` "v ", ``_VT`` "vt" alone or before a space, ``_F`` "f ", ``_MT`` "mt",
-    ``_INDENTED`` a space, ``_OTHER``."""
+    ``_V`` "v ", ``_VT`` "vt" alone or before a space, ``_F`` "f ", ``_MT`` "mt", ``_US``
+    "us", ``_GROUP`` "g" or "o" alone or before a space, ``_INDENTED`` a space, ``_OTHER``."""
     a = np.frombuffer(text, dtype=np.uint8)
     breaks = np.flatnonzero(a == 10)
     starts, ends = breaks[:-1] + 1, breaks[1:]
@@ -132,6 +224,8 @@ def _line_kinds(text: bytes) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     kind[(c0 == ord("v")) & (c1 == ord("t")) & ((c2 == ord(" ")) | (c2 == 10))] = _VT
     kind[(c0 == ord("f")) & (c1 == ord(" "))] = _F
     kind[(c0 == ord("m")) & (c1 == ord("t"))] = _MT
+    kind[(c0 == ord("u")) & (c1 == ord("s"))] = _US
+    kind[((c0 == ord("g")) | (c0 == ord("o"))) & ((c1 == ord(" ")) | (c1 == 10))] = _GROUP
     kind[c0 == ord(" ")] = _INDENTED
     return starts, ends, kind
 
@@ -296,7 +390,7 @@ def _mesh(v, vt, vi, uv_index, sizes) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return v[vi[used]], faces, None if uv_index is None else vt[uv_index[used]]
 
 
-def _read_lines(data: bytes, where: str, check_reference) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+def _read_lines(data: bytes, where: str, check_reference) -> ObjMesh:
     """``read_obj`` a line at a time: every file, every error.
 
     The lines are sorted by kind at once and each kind's numbers converted in one call
@@ -317,7 +411,7 @@ def _read_lines(data: bytes, where: str, check_reference) -> tuple[np.ndarray, n
     v = _numbers(lines, v_at, 3, where, "every 'v' line needs x, y and z")
     vt = _numbers(lines, vt_at, 2, where, None) if len(vt_at) else np.zeros((0, 2))
     if not len(f_at):
-        return v, np.zeros((0, 3), dtype=np.int64), None
+        return _no_faces(v)
     corners = " ".join([lines[i][2:] for i in f_at]).split()
     sizes = np.array([len(lines[i].split()) - 1 for i in f_at])
     if (sizes < 3).any():
@@ -328,9 +422,19 @@ def _read_lines(data: bytes, where: str, check_reference) -> tuple[np.ndarray, n
     vi, ti = _corner_indices(corners, where)
     seen = np.repeat(counts, sizes, axis=0)  # per corner
     vi = _absolute(vi, seen[:, 0], len(v), seen[:, 2], "vertex", where)
-    has_uv = bool((ti != 0).all())
-    uv_index = _absolute(ti, seen[:, 1], len(vt), seen[:, 2], "texture coordinate", where) if has_uv else None
-    return _mesh(v, vt, vi, uv_index, sizes)
+    textured = np.logical_and.reduceat(ti != 0, np.cumsum(sizes) - sizes)  # per polygon: every corner has a texcoord
+    uv_index = None
+    if textured.all():
+        uv_index = _absolute(ti, seen[:, 1], len(vt), seen[:, 2], "texture coordinate", where)
+    elif textured.any():  # the corners of faces without: a NaN row after the file's texcoords
+        given = np.repeat(textured, sizes)
+        uv_index = np.full(len(ti), len(vt), dtype=np.int64)
+        uv_index[given] = _absolute(ti[given], seen[given, 1], len(vt), seen[given, 2], "texture coordinate", where)
+        vt = np.vstack([vt, np.full((1, 2), np.nan)])
+    vertices, faces, uv = _mesh(v, vt, vi, uv_index, sizes)
+    has_uv = np.repeat(textured, sizes - 2) if textured.any() and not textured.all() else None
+    words = {int(i): lines[i].split() for i in np.flatnonzero(np.isin(head, ("us", "g ", "o ", "g", "o")))}
+    return ObjMesh(vertices, faces, uv, has_uv, *_groups(f_at, sizes, {i: w for i, w in words.items() if w}))
 
 
 def _numbers(lines: list[str], at: np.ndarray, columns: int, where: str, short: str | None) -> np.ndarray:

@@ -9,20 +9,36 @@ the signed UV area (positive for a counter-clockwise UV triangle). A face is UV-
 where ``det`` is zero (or NaN): its inverse and its Jacobian are zero there, never
 infinite.
 
-numpy only: the unwrap worker process (``texbake.atlas.packworker``) imports it too.
+The per-face passes are compiled (``native/geometry.cpp``: one pass on the cores, no
+``(m, 3, d)`` temporaries), with numpy's operations in numpy's order, so the arrays are
+the bits the numpy expressions in the docstrings give. The unwrap worker process
+(``texbake.atlas.packworker``) imports this module too: it loads the compiled kernels and
+numpy, nothing heavier.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from .. import _native
+
+
+def _faces(faces: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(faces, dtype=np.int64)
+
+
+def _points(points: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(points, dtype=np.float64)
+
 
 def edges(points: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(p0, e1, e2)``, each ``(m, d)`` float64: a face's first corner and its two edges
-    from it, for ``(n, d)`` points (3D positions or 2D UVs) and ``(m, 3)`` int faces."""
-    tri = np.asarray(points, dtype=np.float64)[np.asarray(faces, dtype=np.int64)]  # (m, 3, d)
-    p0 = tri[:, 0]
-    return p0, tri[:, 1] - p0, tri[:, 2] - p0
+    from it, for ``(n, d)`` points (3D positions or 2D UVs) and ``(m, 3)`` int faces:
+    ``points[faces[:, 0]]``, ``points[faces[:, 1]] - p0``, ``points[faces[:, 2]] - p0``."""
+    points, faces = _points(points), _faces(faces)
+    p0, e1, e2 = (np.empty((len(faces), points.shape[1])) for _ in range(3))
+    _native.face_edges(points, faces, p0, e1, e2)
+    return p0, e1, e2
 
 
 def uv_edges(uv: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -36,6 +52,14 @@ def _cross2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
 
 
+def uv_dets(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``(m,)`` float64 ``det`` of :func:`uv_edges` alone (twice the signed UV area)."""
+    faces = _faces(faces)
+    det = np.empty(len(faces))
+    _native.uv_dets(_points(uv), faces, det)
+    return det
+
+
 def inverse_det(det: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(1 / det, ok)``, ``(m,)`` float64 and bool: ``ok`` where ``|det| > 0``, and 0
     instead of the reciprocal elsewhere."""
@@ -45,13 +69,16 @@ def inverse_det(det: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def uv_areas(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """``(m,)`` float64 unsigned UV area of each face (``|det| / 2``)."""
-    return 0.5 * np.abs(uv_edges(uv, faces)[2])
+    return 0.5 * np.abs(uv_dets(uv, faces))
 
 
 def areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """``(m,)`` float64 area of each triangle of ``(n, 3)`` vertices (``|e1 x e2| / 2``)."""
-    _, e1, e2 = edges(vertices, faces)
-    return 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1)
+    """``(m,)`` float64 area of each triangle of ``(n, 3)`` vertices (``|e1 x e2| / 2``:
+    ``0.5 * np.linalg.norm(np.cross(e1, e2), axis=1)``)."""
+    faces = _faces(faces)
+    out = np.empty(len(faces))
+    _native.face_areas(_points(vertices), faces, out)
+    return out
 
 
 def uv_inverse(uv: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -59,15 +86,10 @@ def uv_inverse(uv: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarra
     inverse of its UV edge matrix ``[d1 d2]``, so that a UV point ``t`` of the face has
     barycentric coordinates ``(1 - b1 - b2, b1, b2)`` with ``(b1, b2) = inv @ (t - t0)``.
     ``inv`` is zero where ``ok`` is False (a UV-degenerate face)."""
-    t0, d1, d2 = edges(uv, faces)
-    inv_det, ok = inverse_det(_cross2(d1, d2))
-    inv = np.stack(
-        [
-            np.stack([d2[:, 1], -d2[:, 0]], axis=1) * inv_det[:, None],
-            np.stack([-d1[:, 1], d1[:, 0]], axis=1) * inv_det[:, None],
-        ],
-        axis=1,
-    )
+    faces = _faces(faces)
+    m = len(faces)
+    t0, inv, ok = np.empty((m, 2)), np.empty((m, 2, 2)), np.empty(m, dtype=bool)
+    _native.uv_inverse(_points(uv), faces, t0, inv, ok)
     return t0, inv, ok
 
 
@@ -80,9 +102,10 @@ def uv_jacobian(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray,
     ``uv_faces`` ``(m, 3)``: the same faces, row for row. Zero where the face is
     UV-degenerate.
     """
-    _, e1, e2 = edges(vertices, faces)
-    d1, d2, det = uv_edges(uv, uv_faces)
-    inv_det = inverse_det(det)[0][:, None]
-    dpdu = (e1 * d2[:, 1:2] - e2 * d1[:, 1:2]) * inv_det
-    dpdv = (e2 * d1[:, 0:1] - e1 * d2[:, 0:1]) * inv_det
+    faces, uv_faces = _faces(faces), _faces(uv_faces)
+    m = len(faces)
+    if len(uv_faces) != m:
+        raise ValueError(f"uv_jacobian: {m} faces but {len(uv_faces)} UV faces")
+    dpdu, dpdv, det = np.empty((m, 3)), np.empty((m, 3)), np.empty(m)
+    _native.uv_jacobian(_points(vertices), faces, _points(uv), uv_faces, dpdu, dpdv, det)
     return dpdu, dpdv, det

@@ -20,6 +20,7 @@ from __future__ import annotations
 import json
 import os
 import struct
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -84,6 +85,22 @@ def _png(path: Path, slot: str, texture) -> bytes:
     return png
 
 
+@dataclass
+class GlbPart:
+    """One primitive of a GLB (:func:`write_glb_parts`): a mesh with its UVs, and its own
+    material's name and textures (as :func:`write_glb` takes them)."""
+
+    vertices: np.ndarray  # (k, 3) float
+    faces: np.ndarray  # (m, 3) int into vertices
+    uv: np.ndarray  # (k, 2) float, v up
+    textures: object  # a PNG (path or bytes) or a dict of PNGs by slot
+    normals: np.ndarray | None = None  # (k, 3)
+    tangents: np.ndarray | None = None  # (k, 4)
+    material: str = "baked"
+    base_factor: tuple[float, float, float, float] = (1.0, 1.0, 1.0, 1.0)
+    fields: dict | None = None  # more of its glTF material's fields (write_glb's material)
+
+
 def write_glb(path, vertices, faces, uv, textures, *, normals=None, tangents=None, name: str = "baked",
               base_factor: tuple[float, float, float, float] = (1.0, 1.0, 1.0, 1.0), material: dict | None = None) -> dict:
     """Write a GLB: one mesh, its UVs, and its material's textures, atomically.
@@ -114,7 +131,7 @@ def write_glb(path, vertices, faces, uv, textures, *, normals=None, tangents=Non
         glTF tangents: unit xyz orthogonal to the normals and w = +1 or -1
         (:mod:`texbake.mesh.tangents`); needs ``normals``.
     name : str, optional
-        The node's name.
+        The node's name (its material is ``<name>_baked``).
     base_factor : (4,) tuple of float, optional
         The base colour's factor: black for a texture that is light, not paint (the
         flame, bound as emissive).
@@ -137,27 +154,40 @@ def write_glb(path, vertices, faces, uv, textures, *, normals=None, tangents=Non
         A texture file cannot be read, or the GLB cannot be written (a missing folder, a
         name taken by a folder); nothing is left under ``path``'s name.
     """
-    path = Path(path)
-    v, f, t, n = _mesh_arrays(vertices, faces, uv, normals)
-    pngs = _slot_pngs(path, textures)
-    tangents = _checked_tangents(tangents, n, len(v))
+    part = GlbPart(vertices, faces, uv, textures, normals, tangents, f"{name}_baked", base_factor, material)
+    return write_glb_parts(path, [part], name=name)
 
+
+def write_glb_parts(path, parts: list[GlbPart], *, name: str = "baked") -> dict:
+    """Write a GLB of one mesh (node ``name``) of one primitive per part, each with its
+    own material (:class:`GlbPart`), atomically; :func:`write_glb` says what each array
+    and texture may be, what is returned and raised. The same PNG in two parts (or two
+    slots) is one image."""
+    path = Path(path)
+    checked = []
+    for part in parts:
+        v, f, t, n = _mesh_arrays(part.vertices, part.faces, part.uv, part.normals)
+        checked.append((v, f, t, n, _checked_tangents(part.tangents, n, len(v)), _slot_pngs(path, part.textures)))
     buffer = _Buffer()
-    attributes = _attributes(buffer, v, t, n, tangents)
-    small = len(v) < 65535  # 65535 itself is the primitive-restart value
-    indices = np.ascontiguousarray(f, dtype=np.uint16 if small else np.uint32).ravel()
-    index_accessor = buffer.accessor(indices, "SCALAR", _UINT16 if small else _UINT32, _ELEMENT_ARRAY_BUFFER)
-    images: list[bytes] = list(dict.fromkeys(pngs.values()))  # one image (and texture) per distinct PNG
+    primitives = []
+    for k, (v, f, t, n, tangents, _) in enumerate(checked):
+        attributes = _attributes(buffer, v, t, n, tangents)
+        small = len(v) < 65535  # 65535 itself is the primitive-restart value
+        indices = np.ascontiguousarray(f, dtype=np.uint16 if small else np.uint32).ravel()
+        index_accessor = buffer.accessor(indices, "SCALAR", _UINT16 if small else _UINT32, _ELEMENT_ARRAY_BUFFER)
+        primitives.append({"attributes": attributes, "indices": index_accessor, "material": k, "mode": _TRIANGLES})
+    images: list[bytes] = list(dict.fromkeys(png for *_, pngs in checked for png in pngs.values()))  # one image (and texture) per distinct PNG
     image_views = [buffer.view(png) for png in images]
-    texture = {slot: {"index": images.index(png)} for slot, png in pngs.items()}
+    materials = [_material(part.material, {slot: {"index": images.index(png)} for slot, png in pngs.items()}, part.base_factor,
+                           part.fields) for part, (*_, pngs) in zip(parts, checked, strict=True)]
     binary = b"".join(buffer.blobs)
     doc = {
         "asset": {"version": "2.0", "generator": "texbake"},
         "scene": 0,
         "scenes": [{"nodes": [0]}],
         "nodes": [{"mesh": 0, "name": name}],
-        "meshes": [{"name": name, "primitives": [{"attributes": attributes, "indices": index_accessor, "material": 0, "mode": _TRIANGLES}]}],
-        "materials": [_material(name, texture, base_factor, material)],
+        "meshes": [{"name": name, "primitives": primitives}],
+        "materials": materials,
         "textures": [{"sampler": 0, "source": i} for i in range(len(images))],
         "samplers": [{"magFilter": _LINEAR, "minFilter": _LINEAR_MIPMAP_LINEAR, "wrapS": _CLAMP, "wrapT": _CLAMP}],
         "images": [{"bufferView": view, "mimeType": "image/png"} for view in image_views],
@@ -167,7 +197,7 @@ def write_glb(path, vertices, faces, uv, textures, *, normals=None, tangents=Non
     }
     glb = _glb(doc, binary)
     write_bytes(path, glb)
-    return {"path": str(path), "bytes": len(glb), "vertices": len(v), "faces": len(indices) // 3}
+    return {"path": str(path), "bytes": len(glb), "vertices": sum(len(c[0]) for c in checked), "faces": sum(len(c[1]) for c in checked)}
 
 
 def _slot_pngs(path: Path, textures) -> dict[str, bytes]:
@@ -239,10 +269,10 @@ def _attributes(buffer: _Buffer, v: np.ndarray, t: np.ndarray, n: np.ndarray | N
 
 
 def _material(name: str, texture: dict[str, dict], base_factor, extra: dict | None = None) -> dict:
-    """The one material: base colour, and metallic-roughness, occlusion, normal and emissive
-    where ``texture`` has them; ``extra`` written over it."""
+    """A material named ``name``: base colour, and metallic-roughness, occlusion, normal and
+    emissive where ``texture`` has them; ``extra`` written over it."""
     pbr: dict = {"baseColorTexture": texture["baseColor"], "metallicFactor": 0.0, "roughnessFactor": 1.0}
-    material: dict = {"name": f"{name}_baked", "pbrMetallicRoughness": pbr}
+    material: dict = {"name": name, "pbrMetallicRoughness": pbr}
     if tuple(base_factor) != (1.0, 1.0, 1.0, 1.0):
         pbr["baseColorFactor"] = [float(x) for x in base_factor]
     if "metallicRoughness" in texture:  # the texture's values as they are
@@ -299,3 +329,47 @@ def write_obj(path, vertices, faces, uv, image_filename, *, normals=None) -> dic
     data = ("\n".join(lines) + "\n").encode()
     write_bytes(path, data)
     return {"path": str(path), "bytes": len(data), "mtl": mtl.name, "vertices": len(v), "faces": len(f)}
+
+
+@dataclass
+class ObjPart:
+    """One material's faces in an OBJ (:func:`write_obj_parts`): its mesh, and the image
+    its material's ``map_Kd`` names (``albedo.<UDIM>.png`` for UDIM tiles)."""
+
+    vertices: np.ndarray  # (k, 3) float
+    faces: np.ndarray  # (m, 3) int into vertices
+    uv: np.ndarray  # (k, 2) float, v up, as written (UDIM tiles: beyond the unit square)
+    image: str  # relative to the OBJ's folder
+    material: str
+    normals: np.ndarray | None = None
+
+
+def write_obj_parts(path, parts: list[ObjPart]) -> dict:
+    """Write ``path`` (OBJ) of several materials, ``usemtl`` each part's, and the MTL beside
+    it with each material's ``map_Kd`` (:func:`write_obj` for one). Material names are
+    written with spaces as ``_``. Returns path, bytes, mtl, vertices, faces."""
+    path = Path(path)
+    mtl = path.with_suffix(".mtl")
+    lines, mtl_lines, offset = ["# texbake", f"mtllib {mtl.name}"], [], 0
+    vertices = faces = 0
+    for part in parts:
+        v, f, t, n = _mesh_arrays(part.vertices, part.faces, part.uv, part.normals)
+        if any(ch in part.image + part.material for ch in "\n\r"):
+            raise ParameterError("image_filename", "must not contain line breaks")
+        material = part.material.replace(" ", "_")
+        mtl_lines += [f"newmtl {material}", "Ka 0 0 0", "Kd 1 1 1", "Ks 0 0 0", "illum 1", f"map_Kd {part.image}", ""]
+        lines.append(f"usemtl {material}")
+        lines += [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in v]
+        lines += [f"vt {a:.9g} {b:.9g}" for a, b in t]
+        f1 = f + 1 + offset
+        if n is not None:
+            lines += [f"vn {x:.7g} {y:.7g} {z:.7g}" for x, y, z in n]
+            lines += [f"f {a}/{a}/{a} {b}/{b}/{b} {c}/{c}/{c}" for a, b, c in f1]
+        else:
+            lines += [f"f {a}/{a} {b}/{b} {c}/{c}" for a, b, c in f1]
+        offset += len(v)
+        vertices, faces = vertices + len(v), faces + len(f)
+    write_bytes(mtl, "\n".join(mtl_lines).encode())
+    data = ("\n".join(lines) + "\n").encode()
+    write_bytes(path, data)
+    return {"path": str(path), "bytes": len(data), "mtl": mtl.name, "vertices": vertices, "faces": faces}

@@ -73,6 +73,8 @@ class BakeTally:
         Seconds per stage, summed over the tiles that ran it.
     material : dict or None
         A material's bake: its maps and each node's evaluations (``texbake.maps.material``).
+    faces : int
+        The faces of the image's mesh (its texture set's, or UDIM tile's).
     """
 
     covered: np.ndarray
@@ -85,10 +87,11 @@ class BakeTally:
     error_estimate: dict = field(default_factory=dict)
     seconds: dict = field(default_factory=dict)
     material: dict | None = None
+    faces: int = 0
 
 
-def bake_report(settings: BakeSettings, mesh: LoadedMesh, atlas: Atlas, tally: BakeTally, *,
-                source: LoadedMesh | None = None, cage: float | None = None) -> dict:
+def bake_report(settings: BakeSettings, mesh: LoadedMesh, units: list, *, source: LoadedMesh | None = None,
+                cage: float | None = None, seconds: dict | None = None) -> dict:
     """The report of one bake (``report.json``).
 
     Parameters
@@ -97,27 +100,84 @@ def bake_report(settings: BakeSettings, mesh: LoadedMesh, atlas: Atlas, tally: B
         What was baked; ``report["settings"]`` is ``settings.model_dump(mode="json")``.
     mesh : LoadedMesh
         The mesh baked.
-    atlas : Atlas
-        Its atlas, and how it was made.
-    tally : BakeTally
-        What the stages counted and measured.
+    units : list of texbake.pipeline.BakedSet
+        Each image baked: its texture set's ``name``, its UDIM ``tile`` (None: the set's one
+        image), the set's ``materials``, ``settings``, ``atlas`` and ``warnings``, and its
+        ``tally``, what its stages counted.
     source, cage : LoadedMesh and float, optional
         The mesh transferred from and the transfer rays' reach, or None.
+    seconds : dict of str to float, optional
+        Seconds per stage, summed over the sets and tiles.
 
     Returns
     -------
     dict
         JSON-ready: ``mesh``, ``source``, ``settings``, ``atlas``, ``texels``, ``rays``,
-        ``error_estimate``, ``warnings``, ``skipped``, ``seconds``, ``versions``.
+        ``error_estimate``, ``warnings``, ``skipped``, ``seconds``, ``versions``, and
+        ``sets``: per texture set its ``name``, ``materials``, ``faces``, ``size``, its own
+        ``settings`` where they differ from the bake's, ``atlas``, ``texels``, ``rays``,
+        ``error_estimate``, a material's ``material`` (its maps and nodes' evaluations) and ``tiles`` (per UDIM tile the same figures; none without
+        tiles). For one set the top-level figures are its own; for several, the atlas
+        names each set's method, and the texels, rays and error are over every image.
     """
-    width, height = settings.width_height
-    covered, filled = int(tally.covered.sum()), int(tally.filled.sum())
+    sets = _sets(settings, units)
+    one = len(sets) == 1
+    atlases = {u.name: u.atlas for u in units}
+    warnings = [*mesh.warnings]
+    for u in {u.name: u for u in units}.values():  # each stage's, in their order
+        warnings += [w if one else f"texture set {u.name!r}: {w}" for w in [*u.warnings, *u.atlas.warnings]]
+    tallies = [u.tally for u in units]
     return {
         "mesh": _mesh(mesh),
         "source": None if source is None else {"path": source.path, "sha256": source.sha256, "faces": int(len(source.faces)),
                                                "cage": cage},
         "settings": settings.model_dump(mode="json"),
-        "atlas": {"method": atlas.method, "reason": atlas.reason, "cached": atlas.cached, **atlas.stats},
+        "atlas": sets[0]["atlas"] if one else {"method": "; ".join(f"{n}: {a.method}" for n, a in atlases.items()),
+                                                "reason": "; ".join(f"{n}: {a.reason}" for n, a in atlases.items()),
+                                                "cached": all(a.cached for a in atlases.values())},
+        "texels": sets[0]["texels"] if one else _sum([s["texels"] for s in sets]),
+        "rays": sets[0]["rays"] if one else _sum([s["rays"] for s in sets]),
+        "error_estimate": sets[0]["error_estimate"] if one else _combined([s["error_estimate"] for s in sets]),
+        **({"material": sets[0]["material"]} if one and "material" in sets[0] else {}),  # several sets: each set's own
+        "warnings": warnings + _transfer_warning(sum(t.cast for t in tallies), sum(t.transfer_missed for t in tallies)),
+        "skipped": _skipped(source, list(atlases.values()), tallies),
+        "seconds": {k: round(v, 4) for k, v in (seconds or {}).items()},
+        "versions": library_versions(),
+        "sets": sets,
+    }
+
+
+def _sets(settings: BakeSettings, units: list) -> list[dict]:
+    """The report's ``sets``: each texture set's figures, with its tiles'."""
+    out: dict[str, dict] = {}
+    for u in units:
+        name, tile, materials, own, atlas, tally = u.name, u.tile, u.materials, u.settings, u.atlas, u.tally
+        figures = _figures(own, tally)
+        if name not in out:
+            out[name] = {"name": name, "materials": materials, "size": list(own.width_height),
+                         **({} if own == settings.model_copy(update={"materials": None}) else {"settings": own.model_dump(mode="json")}),
+                         "atlas": {"method": atlas.method, "reason": atlas.reason, "cached": atlas.cached, "udim": atlas.udim,
+                                   **atlas.stats},
+                         "faces": 0, "tiles": []}
+        entry = out[name]
+        entry["faces"] += int(tally.faces)
+        if tile is not None:
+            entry["tiles"].append({"tile": tile, "faces": int(tally.faces), **figures})
+    for entry in out.values():
+        tiles = entry["tiles"]
+        if tiles:
+            entry.update(texels=_sum([t["texels"] for t in tiles]), rays=_sum([t["rays"] for t in tiles]),
+                         error_estimate=_combined([t["error_estimate"] for t in tiles]))
+        else:
+            entry.update(next(_figures(u.settings, u.tally) for u in units if u.name == entry["name"]))
+    return list(out.values())
+
+
+def _figures(settings: BakeSettings, tally: BakeTally) -> dict:
+    """One image's ``texels``, ``rays`` and ``error_estimate``."""
+    width, height = settings.width_height
+    covered, filled = int(tally.covered.sum()), int(tally.filled.sum())
+    return {
         "texels": {"total": width * height, "covered": covered, "margin": filled, "empty": width * height - covered - filled},
         "rays": {
             "texel_samples": width * height * settings.samples,
@@ -130,11 +190,25 @@ def bake_report(settings: BakeSettings, mesh: LoadedMesh, atlas: Atlas, tally: B
         },
         "error_estimate": tally.error_estimate,
         **({} if tally.material is None else {"material": tally.material}),
-        "warnings": [*mesh.warnings, *atlas.warnings, *_transfer_warning(tally)],  # each stage's, in their order
-        "skipped": _skipped(source, atlas, tally),
-        "seconds": {k: round(v, 4) for k, v in tally.seconds.items()},
-        "versions": library_versions(),
     }
+
+
+def _sum(dicts: list[dict]) -> dict:
+    """The figures of several images added up (a flag: whether all are set)."""
+    return {k: all(d[k] for d in dicts) if isinstance(v, bool) else sum(d[k] for d in dicts) for k, v in dicts[0].items()}
+
+
+def _combined(estimates: list[dict]) -> dict:
+    """Several images' error estimates as one over all their probed texels: the RMSE of
+    their squared errors pooled, weighted by the texels each probed."""
+    weights = [max(int(e.get("texels", 0)), 0) for e in estimates]
+    total = sum(weights)
+    if not total:
+        return dict(estimates[0])
+    pool = lambda key, i=None: float(np.sqrt(sum(w * (e[key] if i is None else e[key][i]) ** 2
+                                                 for w, e in zip(weights, estimates, strict=True)) / total))
+    return {**estimates[0], "rmse": pool("rmse"), "rmse_interval": [pool("rmse_interval", 0), pool("rmse_interval", 1)],
+            "texels": total, "probe_rmse": pool("probe_rmse"), "probe_noise": pool("probe_noise")}
 
 
 def _mesh(mesh: LoadedMesh) -> dict:
@@ -151,23 +225,23 @@ def _mesh(mesh: LoadedMesh) -> dict:
     }
 
 
-def _skipped(source: LoadedMesh | None, atlas: Atlas, tally: BakeTally) -> list[dict]:
-    """The stages a bake left out, and why."""
+def _skipped(source: LoadedMesh | None, atlases: list[Atlas], tallies: list[BakeTally]) -> list[dict]:
+    """The stages a bake left out (for every texture set), and why."""
     skipped = []
     if source is None:
         skipped.append({"stage": "transfer", "why": "no source mesh given"})
-    if atlas.cached:
-        skipped.append({"stage": "unwrap", "why": f"the atlas of an earlier bake of this mesh, from the cache ({atlas.reason})"})
-    elif atlas.method == "kept":
-        skipped.append({"stage": "unwrap", "why": atlas.reason})
-    if tally.lookup_reused:
+    if all(a.cached for a in atlases):
+        reason = "; ".join(dict.fromkeys(a.reason for a in atlases))
+        skipped.append({"stage": "unwrap", "why": f"the atlas of an earlier bake of this mesh, from the cache ({reason})"})
+    elif all(a.method == "kept" for a in atlases):
+        skipped.append({"stage": "unwrap", "why": "; ".join(dict.fromkeys(a.reason for a in atlases))})
+    if all(t.lookup_reused for t in tallies):
         skipped.append({"stage": "lookup", "why": "the texel lookup of an earlier bake of this atlas at this size, kept in memory"})
     return skipped
 
 
-def _transfer_warning(tally: BakeTally) -> list[str]:
+def _transfer_warning(cast: int, missed: int) -> list[str]:
     """A warning when more than 1 % of the transfer rays found no source."""
-    cast, missed = tally.cast, tally.transfer_missed
     if cast and missed > 0.01 * cast:
         return [f"transfer: {missed} of {cast} texel samples found no source within the cage; they keep the margin's colour"]
     return []

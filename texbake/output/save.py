@@ -3,6 +3,13 @@
 Every file is written to a temporary name, checked and renamed into place, so nothing
 half-written is left under a final name; the temporary files a killed bake left in the
 folder are removed by the next bake into it.
+
+The maps' names come from the settings' ``names`` template (``texbake.settings.file_name``:
+``{set}`` is the texture set's name where there are several, ``{tile}`` the UDIM tile),
+so a bake of one material writes ``albedo.png`` and one of the truck's four
+``truck_albedo.png``, ``wheels_albedo.png``...; ``report["outputs"]`` has each file under
+its name less the extension (``albedo``, ``wheels_albedo``, ``albedo.1001``), and
+``glb``, ``obj``, ``usd``.
 """
 
 from __future__ import annotations
@@ -15,8 +22,9 @@ import numpy as np
 
 from ..errors import OutputError, ParameterError
 from ..formats import bits_problem, image_format
+from ..settings import file_name
 from .atomic import remove_stale
-from .export import write_glb, write_obj
+from .export import GlbPart, ObjPart, write_glb_parts, write_obj, write_obj_parts
 from .images import write_image
 from .report import write_json
 
@@ -24,16 +32,20 @@ from .report import write_json
 def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = None, obj: bool = False) -> dict:
     """Write ``result`` (a ``BakeResult``) into ``folder``; return the files written.
 
-    Maps: ``albedo.<fmt>`` (or one per frame and ``flipbook``), ``lit``, ``normal`` when
-    baked, and ``coverage.png`` (1 where the atlas covers a texel); mesh: ``<name>.glb``
-    with the albedo (of the first frame) bound as base colour, the normal map (if baked)
-    as normal texture with the tangents it was baked in, and, for a texture that emits
-    light (the flame), the albedo as emissive, its base colour factor black (PNG copies ``<map>_gltf.png`` when the
-    format is not PNG); ``<name>.obj`` + MTL if ``obj``; ``report.json`` last, so its
-    presence means the rest is complete. Colour maps are sRGB; the normal map and the
-    coverage are data (a linear PNG: ``texbake.output.images``). A material's bake writes
-    a map per channel (``base_color``, ``emissive`` colour; the rest data) and its packed
-    maps (``orm``...), and its GLB's material is whole (:func:`_glb_textures`).
+    Maps, per texture set and UDIM tile, named by ``result.settings.names``: ``albedo``
+    (or one per frame and ``flipbook``), ``lit``, ``normal`` when baked, and ``coverage``
+    (PNG, 1 where the atlas covers a texel); mesh: ``<name>.glb``, one primitive per
+    material (and per UDIM tile), each material (by its name; ``<name>_baked`` for a mesh
+    of one) with its set's albedo (of the first frame) as base colour, the normal map (if
+    baked) as normal texture with the tangents it was baked in, and, for a texture that
+    emits light (the flame), the albedo as emissive, its base colour factor black (PNG
+    copies ``<map>_gltf`` when the format is not PNG); ``<name>.obj`` + MTL if ``obj``;
+    for UDIM tiles also ``<name>.usda`` and, with ``obj``, an OBJ whose materials name
+    their maps with the ``<UDIM>`` token (:mod:`texbake.output.udim`); ``report.json``
+    last, so its presence means the rest is complete. Colour maps are sRGB; the normal map
+    and the coverage are data (a linear PNG: ``texbake.output.images``). A material's bake
+    writes a map per channel (``base_color``, ``emissive`` colour; the rest data) and its
+    packed maps (``orm``...), and each set's GLB material is whole (:func:`_slots`).
     """
     fmt = image_format(fmt)
     if bits is not None and (problem := bits_problem(fmt, bits)):
@@ -46,27 +58,78 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
     remove_stale(folder)  # what a killed earlier bake into this folder left half-written
 
     start = time.perf_counter()
-    jobs = {name: (folder / f"{name}.{fmt}", pixels, bits, "linear" if is_colour(name) else "data")  # a normal map is no colour
-            for name, pixels in result.images.items()}
-    jobs["coverage"] = (folder / "coverage.png", result.coverage[:, :, None], None, "data")
+    name_of = _namer(result)
+    jobs, owner = {}, {}  # file -> what to write, and its texture set
+    for b in result.sets:
+        for name, pixels in b.images.items():  # a normal map is no colour
+            jobs[name_of(b, name, fmt)] = (pixels, bits, "linear" if is_colour(name) else "data")
+        jobs[name_of(b, "coverage", "png")] = (b.coverage[:, :, None], None, "data")
+        owner.update({file: b.name for file in jobs if file not in owner})
     with ThreadPoolExecutor(2, thread_name_prefix="texbake-write") as pool:  # two at once: OpenImageIO's compression releases the GIL
-        futures = {name: pool.submit(write_image, path, pixels, bits=b, colorspace=kind) for name, (path, pixels, b, kind) in jobs.items()}
-        written = {name: future.result() for name, future in futures.items()}
+        futures = {file: pool.submit(write_image, folder / file, pixels, bits=b, colorspace=kind) for file, (pixels, b, kind) in jobs.items()}
+        written = {_key(file): future.result() for file, future in futures.items()}
 
-    slots, factor, material = _glb_textures(result, folder, fmt, written)
-    texture = slots["baseColor"]
-    m = result.mesh
-    written["glb"] = write_glb(folder / f"{m.name}.glb", m.vertices, m.faces, m.uv, slots, normals=m.normals, tangents=m.tangents,
-                               name=m.name, base_factor=factor, material=material)
-    if obj:
-        written["obj"] = write_obj(folder / f"{m.name}.obj", m.vertices, m.faces, m.uv, texture.name, normals=m.normals)
+    glb_parts, obj_parts = [], []
+    for b in result.sets:
+        slots, factor, fields = _slots(b, folder, fmt, name_of, written)
+        owner.update({path.name: b.name for path in slots.values() if path.name not in jobs})
+        glb_parts += _glb_parts(b, slots, _material_name(result, b), factor, fields)
+        obj_parts.append((b, slots["baseColor"]))
+    m = result.sets[0].mesh
+    written["glb"] = write_glb_parts(folder / f"{m.name}.glb", glb_parts, name=m.name)
+    if any(b.tile is not None for b in result.sets):
+        from .udim import USD_MISSING, write_udim
 
-    report = dict(result.report)
-    report["seconds"] = {**report.get("seconds", {}), "write": round(time.perf_counter() - start, 4)}
-    report["outputs"] = {k: {"path": Path(v["path"]).name, **{x: y for x, y in v.items() if x != "path"}} for k, v in written.items()}
-    write_json(folder / "report.json", report)
-    result.report = report
+        written.update(write_udim(result, folder, name_of, fmt=fmt, obj=obj))
+        if "usd" not in written:
+            result.report = {**result.report, "warnings": [*result.report.get("warnings", []), USD_MISSING]}
+    elif obj and len(obj_parts) == 1:
+        written["obj"] = write_obj(folder / f"{m.name}.obj", m.vertices, m.faces, m.uv, obj_parts[0][1].name, normals=m.normals)
+    elif obj:
+        written["obj"] = write_obj_parts(folder / f"{m.name}.obj", [ObjPart(b.mesh.vertices, b.mesh.faces, b.mesh.uv, texture.name, b.name,
+                                                                             b.mesh.normals) for b, texture in obj_parts])
+
+    result.report = _report(result.report, written, owner, time.perf_counter() - start)
+    write_json(folder / "report.json", result.report)
     return written
+
+
+def _report(report: dict, written: dict, owner: dict[str, str], seconds: float) -> dict:
+    """The bake's report with its ``outputs``, each set's, and the seconds of the writing."""
+    report = dict(report)
+    report["seconds"] = {**report.get("seconds", {}), "write": round(seconds, 4)}
+    report["outputs"] = {k: {"path": Path(v["path"]).name, **{x: y for x, y in v.items() if x != "path"}} for k, v in written.items()}
+    for entry in report.get("sets", []):
+        entry["outputs"] = sorted(file for file, name in owner.items() if name == entry["name"])
+    return report
+
+
+def _namer(result):
+    """``name_of(baked set, map, ext, tile=its tile)``: a map's file name (``texbake.settings.file_name``;
+    ``tile="<UDIM>"`` names the maps of all its tiles);
+    :class:`ParameterError` naming ``names`` when the template gives two maps one name."""
+    from ..sets import file_stems
+
+    names = list(dict.fromkeys(b.name for b in result.sets))
+    stems = file_stems(names)
+    template, mesh = result.settings.names, result.sets[0].mesh.name
+
+    def name_of(b, map_name: str, ext: str, tile: int | str | None = -1) -> str:
+        return file_name(template, mesh=mesh, set=stems[b.name] if len(names) > 1 else None, map=map_name,
+                         tile=b.tile if tile == -1 else tile, ext=ext)
+
+    files = [name_of(b, m, "png") for b in result.sets for m in [*b.images, "coverage"]]
+    if len(set(files)) < len(files):
+        twice = next(f for f in files if files.count(f) > 1)
+        need = "{set}" if len(names) > 1 and "{set}" not in template else "{tile}"
+        raise ParameterError("names", f"{template!r} names two maps {twice!r}: a bake of {len(names)} texture sets and "
+                             f"{len(result.sets)} images needs {need} in it")
+    return name_of
+
+
+def _key(file: str) -> str:
+    """A file's key in ``report["outputs"]``: its name less the extension."""
+    return file.rsplit(".", 1)[0]
 
 
 COLOUR_MAPS = ("lit", "flipbook", "base_color", "emissive")  # and albedo, albedo_0000...: sRGB; every other map is data
@@ -77,48 +140,73 @@ def is_colour(name: str) -> bool:
     return name in COLOUR_MAPS or name.startswith("albedo")
 
 
-def _glb_textures(result, folder: Path, fmt: str, written: dict) -> tuple[dict[str, Path], tuple, dict]:
-    """``(slots, base colour factor, material fields)`` of the GLB's material: the PNG of each
-    texture slot (glTF embeds PNG or JPEG only: PNG copies ``<map>_gltf.png`` of other
-    formats, and of what glTF reads otherwise: a base colour with the opacity as its alpha,
-    a normal map with green up, an ORM map where the packing has none)."""
-    images = result.images
-    if result.settings.material is None:
+def _slots(b, folder: Path, fmt: str, name_of, written: dict) -> tuple[dict[str, Path], tuple, dict]:
+    """``(slots, base colour factor, material fields)`` of a set's GLB material: the PNG of
+    each texture slot (glTF embeds PNG or JPEG only: PNG copies ``<map>_gltf`` of other
+    formats, and of what glTF reads otherwise: a material's base colour with the opacity
+    as its alpha, a normal map with green up, an ORM map where the packing has none)."""
+    images = b.images
+    if b.settings.material is None:
         colour = "albedo" if "albedo" in images else min(n for n in images if n.startswith("albedo_"))
-        emits = result.settings.texture.emits  # the flame: its colour is light, not paint
+        emits = b.settings.texture.emits  # the flame: its colour is light, not paint
         slots = {"baseColor": colour, **({"normal": "normal"} if "normal" in images else {}), **({"emissive": colour} if emits else {})}
-        return _pngs(result, folder, fmt, written, slots, {}), (0.0, 0.0, 0.0, 1.0) if emits else (1.0, 1.0, 1.0, 1.0), {}
+        return _pngs(b, folder, fmt, name_of, written, slots, {}), (0.0, 0.0, 0.0, 1.0) if emits else (1.0, 1.0, 1.0, 1.0), {}
     from ..materials import DEFAULTS, PACKINGS, pack
 
-    copies: dict[str, object] = {}
+    material, copies = b.settings.material, {}
     slots = {"baseColor": "base_color"}
     fields: dict = {}  # without a metallic-roughness map the GLB's factors are the defaults': metallic 0, roughness 1
     if "opacity" in images:  # glTF reads the opacity from the base colour's alpha
         copies["base_color"] = np.concatenate([images["base_color"], images["opacity"]], axis=2)
-        mode = result.settings.material.alpha_mode
-        fields.update(alphaMode=mode.upper(), **({"alphaCutoff": result.settings.material.alpha_cutoff} if mode == "mask" else {}))
+        fields.update(alphaMode=material.alpha_mode.upper(), **({"alphaCutoff": material.alpha_cutoff} if material.alpha_mode == "mask" else {}))
     if {"roughness", "metallic", "occlusion"} & set(images):
         if "orm" not in images:
             copies["orm"] = pack(PACKINGS["orm"], images, DEFAULTS)
         slots.update(metallicRoughness="orm", **({"occlusion": "orm"} if "occlusion" in images else {}))
     if "normal" in images:
         slots["normal"] = "normal"
-        if result.settings.normal_convention == "directx":  # glTF's is +Y
-            copies["normal"] = np.concatenate([images["normal"][..., :1], 1.0 - images["normal"][..., 1:2], images["normal"][..., 2:]], axis=2)
+        if b.settings.normal_convention == "directx":  # glTF's is +Y
+            normal = images["normal"]
+            copies["normal"] = np.concatenate([normal[..., :1], 1.0 - normal[..., 1:2], normal[..., 2:]], axis=2)
     if "emissive" in images:
         slots["emissive"] = "emissive"
-    return _pngs(result, folder, fmt, written, slots, copies), (1.0, 1.0, 1.0, 1.0), fields
+    return _pngs(b, folder, fmt, name_of, written, slots, copies), (1.0, 1.0, 1.0, 1.0), fields
 
 
-def _pngs(result, folder: Path, fmt: str, written: dict, slots: dict[str, str], copies: dict) -> dict[str, Path]:
-    """The PNG of each slot's map: the map's own file, or a ``<map>_gltf.png`` written of
+def _pngs(b, folder: Path, fmt: str, name_of, written: dict, slots: dict[str, str], copies: dict) -> dict[str, Path]:
+    """The PNG of each slot's map: the map's own file, or a ``<map>_gltf`` PNG written of
     ``copies[map]`` (or of the map, in a format that is not PNG)."""
     out = {}
     for slot, name in slots.items():
-        out[slot] = folder / f"{name}.png"
+        out[slot] = folder / name_of(b, name, "png")
         if fmt != "png" or name in copies:
-            out[slot] = folder / f"{name}_gltf.png"
-            if f"{name}_gltf" not in written:
-                pixels = copies.get(name, result.images.get(name))
-                written[f"{name}_gltf"] = write_image(out[slot], pixels, colorspace="linear" if is_colour(name) else "data")
+            out[slot] = folder / name_of(b, f"{name}_gltf", "png")
+            if _key(out[slot].name) not in written:
+                pixels = copies.get(name, b.images.get(name))
+                written[_key(out[slot].name)] = write_image(out[slot], pixels, colorspace="linear" if is_colour(name) else "data")
     return out
+
+
+def _material_name(result, b) -> str:
+    """The GLB material of a set (a tile's: ``.TILE`` after it): ``<mesh>_baked`` for a
+    mesh of one material, as before there were sets, else the material's name."""
+    materials = {m for s in result.sets for m in s.materials}
+    base = f"{b.mesh.name}_baked" if len(materials) == 1 else b.name
+    return base if b.tile is None else f"{base}.{b.tile}"
+
+
+def _glb_parts(b, slots: dict[str, Path], material: str, factor: tuple, fields: dict) -> list[GlbPart]:
+    """A set's primitives: one, or one per material where the set holds several (texture_set="single")."""
+    m = b.mesh
+    if m.material is None:
+        return [GlbPart(m.vertices, m.faces, m.uv, slots, m.normals, m.tangents, material, factor, fields)]
+    parts = []
+    for k, name in enumerate(m.material_names):
+        faces = m.faces[m.material == k]
+        if not len(faces):
+            continue
+        used, local = np.unique(faces, return_inverse=True)
+        normals, tangents = (None if a is None else a[used] for a in (m.normals, m.tangents))
+        suffix = "" if b.tile is None else f".{b.tile}"
+        parts.append(GlbPart(m.vertices[used], local.reshape(-1, 3), m.uv[used], slots, normals, tangents, name + suffix, factor, fields))
+    return parts

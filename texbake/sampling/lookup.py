@@ -15,13 +15,14 @@ centre at ``u = (col + 0.5) / width``, ``v = 1 - (row + 0.5) / height`` (row 0 a
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import numpy as np
 
 from .. import _native
 from ..errors import ParameterError
-from ..mesh import group_rows, uv_inverse
+from ..mesh import uv_dets
 from .rays import Scene
 
 _DOWN = np.array([0.0, 0.0, -1.0], dtype=np.float32)  # the direction of every lookup ray
@@ -89,21 +90,21 @@ class UVLookup:
     """
 
     def __init__(self, uv: np.ndarray, faces: np.ndarray):
-        uv = np.asarray(uv, dtype=np.float64)
-        faces = np.asarray(faces, dtype=np.int64)
-        flat = np.zeros((len(uv), 3), dtype=np.float32)
-        flat[:, :2] = uv
-        self._scene = Scene(flat, faces, recentre=False)  # UVs in [0, 1]: cast as they are
+        self._uv = np.ascontiguousarray(uv, dtype=np.float64)
+        self._faces = np.ascontiguousarray(faces, dtype=np.int64)
+        flat = np.zeros((len(self._uv), 3), dtype=np.float32)
+        flat[:, :2] = self._uv
+        self._scene = Scene(flat, self._faces, recentre=False)  # UVs in [0, 1]: cast as they are
 
-        # Per-face inverse of the UV edge matrix, for float64 barycentrics.
-        origin, inv, ok = uv_inverse(uv, faces)  # (m, 2), (m, 2, 2), (m,)
-        self._origin, self._inv = np.ascontiguousarray(origin), np.ascontiguousarray(inv)
+        # The barycentrics are solved in float64 from each face's UV corners (the inverse of
+        # its UV edge matrix, as uv_inverse has it), read where a sample needs them.
+        ok = np.abs(uv_dets(self._uv, self._faces)) > 0  # (m,): not UV-degenerate
         self.degenerate = ~ok
         self._any_degenerate = bool(self.degenerate.any())
-        self._across = uv_neighbours(uv, faces, ok)  # (m, 3): the face across each edge
-        self._tri = uv[faces][ok]  # (k, 3, 2): the UV triangles a point can lie in
-        v = self._tri[:, :, 1]
-        self._rows = np.stack([1.0 - v.max(axis=1), 1.0 - v.min(axis=1)], axis=1)  # (k, 2): top and bottom, in image heights
+        self._usable = ok if self._any_degenerate else None  # faces a texel may be touched by
+        self._across = uv_neighbours(self._uv, self._faces, ok)  # (m, 3): the face across each edge
+        self._row_ranges: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._lock = threading.Lock()
 
     def candidates(self, tile: Tile, width: int, height: int) -> np.ndarray:
         """Indices of the texels of ``tile`` whose square some face's UV triangle touches
@@ -115,12 +116,24 @@ class UVLookup:
         int64 texel indices within the tile (row-major).
         """
         rows = tile.stop - tile.start
-        top = np.floor(self._rows[:, 0] * height - TOUCH_MARGIN)
-        bottom = np.floor(self._rows[:, 1] * height + TOUCH_MARGIN)
-        near = np.flatnonzero((bottom >= tile.start) & (top < tile.stop))
+        top, bottom = self._row_range(height)
+        near = (bottom >= tile.start) & (top < tile.stop)
+        if self._usable is not None:
+            near &= self._usable
         touched = np.zeros(rows * width, dtype=np.bool_)
-        _native.touched(self._tri, near, width, height, tile.start, rows, TOUCH_MARGIN, touched)
+        _native.touched(self._uv, self._faces, np.flatnonzero(near), width, height, tile.start, rows, TOUCH_MARGIN, touched)
         return np.flatnonzero(touched)
+
+    def _row_range(self, height: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(top, bottom)``, ``(k,)`` float64: the first and last texel row each UV triangle
+        touches in an image ``height`` rows high; made once a height (every tile reads them)."""
+        with self._lock:
+            found = self._row_ranges.get(height)
+            if found is None:
+                found = (np.empty(len(self._faces)), np.empty(len(self._faces)))
+                _native.row_range(self._uv, self._faces, height, TOUCH_MARGIN, *found)
+                self._row_ranges[height] = found
+            return found
 
     def faces_at(self, uv: np.ndarray) -> np.ndarray:
         """``(n,)`` int32 face under each ``(n, 2)`` UV point, -1 where no face is."""
@@ -150,13 +163,13 @@ class UVLookup:
         inside = np.zeros(len(uv), dtype=np.bool_)
         if samples == 1:
             face = self.faces_at(uv)
-            _native.barycentric(uv, face, self._origin, self._inv, bary, inside)
+            _native.barycentric(uv, face, self._uv, self._faces, bary, inside)
             return face, bary, len(uv)
         if len(uv) % samples:
             raise ValueError(f"locate: {len(uv)} points are not whole texels of {samples} samples")
         first = self.faces_at(uv[::samples])
         face = np.repeat(first, samples).astype(np.int32, copy=False)
-        _native.walk(uv, face, self._origin, self._inv, self._across, WALK_STEPS, bary, inside)
+        _native.walk(uv, face, self._uv, self._faces, self._across, WALK_STEPS, bary, inside)
         inside[::samples] = True  # cast already
         redo = np.flatnonzero(~inside)
         if len(redo):
@@ -173,7 +186,7 @@ class UVLookup:
         """
         bary = np.zeros((len(uv), 3))
         _native.barycentric(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(face, dtype=np.int32),
-                            self._origin, self._inv, bary, np.zeros(len(uv), dtype=np.bool_))
+                            self._uv, self._faces, bary, np.zeros(len(uv), dtype=np.bool_))
         return bary
 
 
@@ -203,20 +216,10 @@ def uv_neighbours(uv: np.ndarray, faces: np.ndarray, usable: np.ndarray) -> np.n
     ``uv``: ``(k, 2)`` float; ``faces``: ``(m, 3)`` int into it; ``usable``: ``(m,)`` bool,
     faces that may be crossed into (not UV-degenerate). Corners are matched by their UV
     position, not their index (an atlas may repeat a vertex along a seam it does not cut);
-    an edge of more than two faces (overlapping UVs) links one pair of them.
+    an edge of more than two faces (overlapping UVs) links each with the next in their
+    order. Compiled (``native/grouping.cpp``: linear).
     """
-    m = len(faces)
-    across = np.full((m, 3), -1, dtype=np.int64)
-    if m == 0:
-        return across
-    weld = group_rows(np.asarray(uv, dtype=np.float64))[1]  # one id per UV position
-    corner = weld.ravel()[np.asarray(faces, dtype=np.int64)]  # (m, 3) welded corners
-    a, b = corner[:, [1, 2, 0]].ravel(), corner[:, [2, 0, 1]].ravel()  # edge opposite corner c
-    key = np.minimum(a, b) * (int(weld.max()) + 1) + np.maximum(a, b)
-    half = np.arange(3 * m)[np.repeat(usable, 3) & (a != b)]
-    half = half[np.argsort(key[half], kind="stable")]
-    pair = np.flatnonzero(key[half[1:]] == key[half[:-1]])
-    lo, hi = half[pair], half[pair + 1]
-    across.ravel()[lo] = hi // 3
-    across.ravel()[hi] = lo // 3
+    faces = np.ascontiguousarray(faces, dtype=np.int64)
+    across = np.empty((len(faces), 3), dtype=np.int64)
+    _native.uv_neighbours(np.ascontiguousarray(uv, dtype=np.float64), faces, np.ascontiguousarray(usable, dtype=bool), across)
     return across

@@ -7,12 +7,22 @@ the same map, and distances come back in the caller's units, as float64. A scene
 coordinates are already of order one (the UV triangles laid flat) can skip the map
 (``recentre=False``): its vertices and origins are then only cast.
 
-embreex releases the GIL for the cast (from 4.4.0): the bake's tile threads cast at once.
+The scene is built and the rays are cast by the compiled kernels (``native/embree.cpp``)
+through the Embree 4 library that embreex ships: embreex's own binding copies a scene into
+Embree one element at a time through Python (about 1.3 s a million faces). They set the
+scene and the rays up as embreex does (the same faces for the same rays), release the GIL
+(the bake's tile threads cast at once) and commit the scene when it is made. Where that
+library is not found beside embreex (another layout of its wheel), embreex's binding is used.
 """
 
 from __future__ import annotations
 
+import functools
+from pathlib import Path
+
 import numpy as np
+
+from .. import _native
 
 
 def _embree():
@@ -23,16 +33,30 @@ def _embree():
     return mesh_construction, rtcore_scene
 
 
+@functools.cache
+def compiled() -> bool:
+    """Whether the compiled kernels cast (they found and opened embreex's Embree 4 library)."""
+    _, rtcore_scene = _embree()  # loads the library (and its threading library) into the process
+    folder = Path(rtcore_scene.__file__).resolve().parent.parent / "embreex.libs"
+    found = sorted(folder.glob("libembree4*.so*"))
+    if not found:
+        return False
+    try:
+        _native.embree_open(str(found[0]))
+    except RuntimeError:
+        return False
+    return True
+
+
 class Scene:
     """A triangle mesh in Embree, for first-hit ray queries.
 
     ``vertices``: ``(n, 3)`` float (object space); ``faces``: ``(m, 3)`` int indices into
-    them (cast to int32). ``recentre``: map the vertices (and every query's origins) to
-    the unit box before the float32 cast; False: cast them as they are.
+    them. ``recentre``: map the vertices (and every query's origins) to the unit box
+    before the float32 cast; False: cast them as they are.
     """
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, *, recentre: bool = True):
-        mesh_construction, rtcore_scene = _embree()
         self._centre: np.ndarray | None = None
         self._scale = 1.0
         if recentre:
@@ -41,9 +65,26 @@ class Scene:
             self._centre = 0.5 * (lo + hi)
             self._scale = float(np.max(hi - lo)) or 1.0
             vertices = (vertices - self._centre) / self._scale
+        vertices = np.ascontiguousarray(vertices, dtype=np.float32)
+        if compiled():
+            self._compiled = _native.EmbreeScene(vertices, np.ascontiguousarray(faces, dtype=np.int64))
+            return
+        mesh_construction, rtcore_scene = _embree()
+        self._compiled = None
         self._scene = rtcore_scene.EmbreeScene()
-        mesh_construction.TriangleMesh(self._scene, np.asarray(vertices, dtype=np.float32),
-                                       np.asarray(faces, dtype=np.int32))
+        mesh_construction.TriangleMesh(self._scene, vertices, np.asarray(faces, dtype=np.int32))
+
+    def _cast(self, origins: np.ndarray, directions: np.ndarray, tfar: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """``(face (n,) int32, tfar (n,) float32)`` of the rays (embreex's ``run``: -1 and the
+        bound where nothing is hit; the bound 1e37 where ``tfar`` is None)."""
+        o, d = self._origins(origins), self._directions(directions)
+        tfar = np.full(len(o), 1e37, dtype=np.float32) if tfar is None else tfar
+        if self._compiled is not None:
+            face = np.empty(len(o), dtype=np.int32)
+            self._compiled.cast(np.ascontiguousarray(o), np.ascontiguousarray(d), face, tfar)
+            return face, tfar
+        res = self._scene.run(o, d, dists=tfar, output=1)
+        return res["primID"], res["tfar"]
 
     def _origins(self, origins: np.ndarray) -> np.ndarray:
         if self._centre is None:
@@ -58,10 +99,9 @@ class Scene:
         """``(n,)`` int32 face of the first hit of each ray, -1 where it hits nothing.
 
         ``origins``: ``(n, 3)`` float; ``directions``: ``(n, 3)``, or ``(3,)`` for one
-        direction shared by all rays. No distances: cheaper than :meth:`first_hit`
-        (Embree returns no hit record).
+        direction shared by all rays.
         """
-        return self._scene.run(self._origins(origins), self._directions(directions))
+        return self._cast(origins, directions, None)[0]
 
     def first_hit(self, origins: np.ndarray, directions: np.ndarray,
                   max_distance: float | np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -73,12 +113,11 @@ class Scene:
         ``origin + distance * direction``; a length for unit directions); where a ray
         hits nothing ``face`` is -1 and ``distance`` is infinite.
         """
-        o = self._origins(origins)
-        kwargs = {}
+        n = len(origins)
+        bound = None
         if max_distance is not None:
             reach = np.asarray(max_distance, dtype=np.float64) / self._scale
-            kwargs["dists"] = np.ascontiguousarray(np.broadcast_to(reach, len(o)), dtype=np.float32)  # Embree writes into it
-        res = self._scene.run(o, self._directions(directions), output=1, **kwargs)
-        face = res["primID"]
-        distance = np.where(face >= 0, res["tfar"].astype(np.float64) * self._scale, np.inf)
+            bound = np.ascontiguousarray(np.broadcast_to(reach, n), dtype=np.float32)  # Embree writes into it
+        face, tfar = self._cast(origins, directions, bound)
+        distance = np.where(face >= 0, tfar.astype(np.float64) * self._scale, np.inf)
         return face, distance

@@ -66,8 +66,9 @@ class Sampler:
 
     ``vertices`` ``(n, 3)`` and ``faces`` ``(m, 3)`` of the mesh; ``uv`` ``(k, 2)`` and
     ``uv_faces`` ``(m, 3)`` of its atlas; ``width``, ``height``: the image size;
-    ``normals``: also interpolate normals, True (smooth) or ``(m, 3, 3)`` corner normals
-    (``surface.SurfaceMap``; a transfer always interpolates smooth ones: its rays must
+    ``normals``: also interpolate normals, True (smooth) or corner normals, ``(m, 3, 3)`` or
+    ``(normals (q, 3), faces (m, 3) into them)`` (``surface.SurfaceMap``; a transfer always
+    interpolates smooth ones: its rays must
     not part at hard edges); ``source``: a
     ``(vertices, faces)`` pair to transfer from, with rays of at most ``reach``; ``frame``:
     corner normals and tangents of the output mesh (``surface.SurfaceMap``);
@@ -75,7 +76,8 @@ class Sampler:
     point-samples and needs no bump).
     """
 
-    def __init__(self, vertices, faces, uv, uv_faces, width: int, height: int, *, normals: bool | np.ndarray = False,
+    def __init__(self, vertices, faces, uv, uv_faces, width: int, height: int, *,
+                 normals: bool | np.ndarray | tuple[np.ndarray, np.ndarray] = False,
                  source: tuple[np.ndarray, np.ndarray] | None = None, reach: float = 0.0,
                  frame: tuple[np.ndarray, np.ndarray] | None = None, footprints: bool = True):
         self.width, self.height, self.footprints = width, height, footprints

@@ -7,7 +7,10 @@ texel down. They are the columns of the per-face UV-to-surface Jacobian divided 
 image size. A face whose UV triangle is degenerate gets a zero (finite) footprint.
 Where a normal map is baked, each sample also gets the output mesh's tangent frame
 (``texbake.mesh.tangents``), interpolated as a glTF viewer does. The per-sample pass is
-compiled (``native/surface.cpp``; no GIL: the tile threads overlap it).
+compiled (``native/surface.cpp``; no GIL: the tile threads overlap it); it reads each
+sample's face from the mesh and its atlas and computes its edges and UV Jacobian there, as
+:mod:`texbake.mesh.uvgeometry` does (the same bits), where per-face arrays of a mesh of
+millions of faces would take hundreds of MB.
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import _native
-from ..mesh import edges, uv_jacobian
+from ..mesh import group_rows
 
 # Footprints are clamped to this many object-space units per texel (finite, never NaN).
 _MAX_FOOTPRINT = 1e30
@@ -40,8 +43,7 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     Vertices split at UV seams still get one normal per position, so normals (and the
     transfer rays cast along them) do not break at seams.
     """
-    _, key = np.unique(vertices, axis=0, return_inverse=True)
-    key = key.ravel()
+    key = group_rows(vertices)[1]
     tri = vertices[faces]
     area_normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     acc = np.zeros((key.max() + 1, 3))
@@ -58,27 +60,35 @@ class SurfaceMap:
     ``vertices``: ``(n, 3)`` float64 object-space positions; ``faces``: ``(m, 3)`` int
     indices into ``vertices``; ``uv_faces``: ``(m, 3)`` indices into ``uv`` (``(k, 2)``)
     for the same faces; ``width``, ``height``: image size in texels; ``normals``: also
-    interpolate normals: True for smooth ones (:func:`vertex_normals`), or ``(m, 3, 3)``
-    corner normals to interpolate (the output mesh's, split at hard edges); ``frame``: ``(corner normals (m, 3, 3), corner tangents
+    interpolate normals: True for smooth ones (:func:`vertex_normals`), or corner normals
+    to interpolate (the output mesh's, split at hard edges): ``(m, 3, 3)``, or ``(normals
+    (q, 3), faces (m, 3) into them)``; ``frame``: ``(corner normals (m, 3, 3), corner tangents
     (m, 3, 4))`` of the output mesh's faces (the same faces, row for row), to interpolate
     its tangent frame.
     """
 
-    def __init__(self, vertices, faces, uv, uv_faces, width: int, height: int, normals: bool | np.ndarray = False,
+    def __init__(self, vertices, faces, uv, uv_faces, width: int, height: int,
+                 normals: bool | np.ndarray | tuple[np.ndarray, np.ndarray] = False,
                  frame: tuple[np.ndarray, np.ndarray] | None = None):
-        vertices = np.asarray(vertices, dtype=np.float64)
-        faces = np.asarray(faces, dtype=np.int64)
-        self._p0, self._e1, self._e2 = (np.ascontiguousarray(a) for a in edges(vertices, faces))
-        dpdu, dpdv, _ = uv_jacobian(vertices, faces, uv, uv_faces)
-        # One texel right is du = 1/width; one texel down is dv = -1/height.
-        self._dpdx = np.clip(dpdu / width, -_MAX_FOOTPRINT, _MAX_FOOTPRINT)
-        self._dpdy = np.clip(-dpdv / height, -_MAX_FOOTPRINT, _MAX_FOOTPRINT)
-        # (m, 3, 3) corner normals, only when asked for (shading and transfer rays need them)
-        self._vn: np.ndarray | None = None
-        if isinstance(normals, np.ndarray):
-            self._vn = np.ascontiguousarray(normals, dtype=np.float64).reshape(len(faces), 3, 3)
+        # the mesh and its atlas as they are: each sample reads its face (per-face arrays of
+        # millions of faces would cost hundreds of MB, and the time to fill them)
+        self._vertices = np.ascontiguousarray(vertices, dtype=np.float64)
+        self._faces = np.ascontiguousarray(faces, dtype=np.int64)
+        self._uv = np.ascontiguousarray(uv, dtype=np.float64)
+        self._uv_faces = np.ascontiguousarray(uv_faces, dtype=np.int64)
+        if self._faces.shape != self._uv_faces.shape:
+            raise ValueError(f"SurfaceMap: {len(self._faces)} faces but {len(self._uv_faces)} UV faces")
+        self._width, self._height = float(width), float(height)
+        # corner normals as (table (q, 3), faces (m, 3) into it), only when asked for
+        # (shading and transfer rays need them)
+        self._normals: tuple[np.ndarray, np.ndarray] | None = None
+        if isinstance(normals, tuple):
+            self._normals = (np.ascontiguousarray(normals[0], dtype=np.float64), np.ascontiguousarray(normals[1], dtype=np.int64))
+        elif isinstance(normals, np.ndarray):
+            table = np.ascontiguousarray(normals, dtype=np.float64).reshape(-1, 3)
+            self._normals = (table, np.arange(len(table), dtype=np.int64).reshape(len(self._faces), 3))
         elif normals:
-            self._vn = vertex_normals(vertices, faces)[faces]
+            self._normals = (vertex_normals(self._vertices, self._faces), self._faces)
         self._frame = None if frame is None else (np.ascontiguousarray(frame[0], dtype=np.float64),
                                                   np.ascontiguousarray(frame[1], dtype=np.float64))
 
@@ -91,11 +101,12 @@ class SurfaceMap:
         n = len(face)
         points = np.empty((n, 3))
         dpdx, dpdy = (np.empty((n, 3)), np.empty((n, 3))) if footprints else (None, None)
-        normals = None if self._vn is None else np.empty((n, 3))
-        _native.interpolate(np.ascontiguousarray(face, dtype=np.int64), np.ascontiguousarray(bary, dtype=np.float64), self._p0,
-                            self._e1, self._e2, self._dpdx, self._dpdy, self._vn if self._vn is not None else _NO_NORMALS,
-                            points, _NO_SAMPLES if dpdx is None else dpdx, _NO_SAMPLES if dpdy is None else dpdy,
-                            normals if normals is not None else _NO_SAMPLES)
+        normals = None if self._normals is None else np.empty((n, 3))
+        table, corners = self._normals if self._normals is not None else (_NO_SAMPLES, _NO_FACES)
+        _native.interpolate(np.ascontiguousarray(face, dtype=np.int64), np.ascontiguousarray(bary, dtype=np.float64),
+                            self._vertices, self._faces, self._uv, self._uv_faces, self._width, self._height, _MAX_FOOTPRINT,
+                            table, corners, points, _NO_SAMPLES if dpdx is None else dpdx,
+                            _NO_SAMPLES if dpdy is None else dpdy, normals if normals is not None else _NO_SAMPLES)
         frame = None
         if self._frame is not None:  # mesh.tangents.sample_frames, compiled: no copies of each sample's corners
             frame = np.empty((n, 3, 3))
@@ -104,5 +115,5 @@ class SurfaceMap:
         return SurfaceSamples(points, normals, dpdx, dpdy, frame)
 
 
-_NO_NORMALS = np.zeros((0, 3, 3))  # stand-ins for the arrays of a map without normals
+_NO_FACES = np.zeros((0, 3), dtype=np.int64)  # stand-ins for the arrays of a map without normals
 _NO_SAMPLES = np.zeros((0, 3))

@@ -21,7 +21,7 @@ from texbake.version import __version__
 
 from .api import jsondepth
 from .api.problems import request_problems
-from .api.routes import jobs, meta, swatch
+from .api.routes import inspect, jobs, meta, swatch
 from .api.routes.page import add_page
 from .api.schemas import Problem
 from .core.config import get_settings
@@ -172,7 +172,8 @@ class AccessLog:
 @asynccontextmanager
 async def lifespan(app: FastAPI):
     """The reaper, every half BAKE_STALE_SECONDS while the API runs: jobs whose worker died
-    go back to the queue, and queued jobs the queue lost are enqueued again."""
+    go back to the queue, and queued jobs the queue lost are enqueued again. Stopping, it
+    ends the mesh reader's child too (``/v1/inspect``)."""
     stop = threading.Event()
     reaper = threading.Thread(target=reap_forever, args=(stop,), name="reaper", daemon=True)
     reaper.start()
@@ -180,6 +181,7 @@ async def lifespan(app: FastAPI):
         yield
     finally:
         stop.set()
+        inspect.stop_inspectors()
         reaper.join(10)
 
 
@@ -193,6 +195,7 @@ def create_app() -> FastAPI:
     app.add_middleware(SecurityHeaders)
     app.add_middleware(AccessLog)  # outermost: sees the 413s too
     app.include_router(jobs.router)
+    app.include_router(inspect.router)
     app.include_router(meta.router)
     app.include_router(swatch.router)
     add_page(app)  # the web page at /

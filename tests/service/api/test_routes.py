@@ -396,3 +396,85 @@ def test_a_material_naming_a_server_path_is_an_unknown_name(client, meshes, tmp_
     (tmp_path / "secret.json").write_text('{"base_color": 0.5}')
     r = post(client, meshes / "suzanne.ply", {"material": str(tmp_path / "secret.json")})
     assert r.status_code == 422 and r.json()["detail"].startswith("settings.material: unknown material '/"), r.text
+def test_inspect_names_a_meshs_materials_as_a_bake_takes_them(client, meshes, tmp_path):
+    """``POST /v1/inspect`` reads the mesh with the bake's own loader (in its child
+    process): the materials in the order of their texture sets, their faces, UVs and
+    UDIM tiles; a file it cannot read is a 422 naming it; nothing is kept."""
+    from conftest import two_material_scene, udim_boxes
+
+    from texbake.service.core.config import get_settings
+
+    two_material_scene(tmp_path / "pair.glb")
+    udim_boxes(tmp_path / "boxes.obj")
+    answers = {}
+    for path in (tmp_path / "pair.glb", tmp_path / "boxes.obj", meshes / "bunny.ply"):
+        with open(path, "rb") as f:
+            r = client.post("/v1/inspect", files={"mesh": (path.name, f)})
+        assert r.status_code == 200, r.text
+        answers[path.name] = r.json()
+    pair = answers["pair.glb"]
+    assert (pair["mesh"], pair["faces"]) == ("pair.glb", 12 + 2 * 320), pair
+    from texbake.mesh import load_mesh
+
+    order = load_mesh(tmp_path / "pair.glb").material_names  # the sets' order is the loader's
+    materials = {"body": {"name": "body", "faces": 12, "uv": "all", "tiles": []},
+                 "wheels": {"name": "wheels", "faces": 640, "uv": "none", "tiles": []}}
+    assert sorted(order) == ["body", "wheels"] and pair["materials"] == [materials[name] for name in order], pair
+    assert answers["boxes.obj"]["materials"] == [{"name": "default", "faces": 48, "uv": "all", "tiles": [1001, 1002, 1003, 1004]}]
+    assert answers["bunny.ply"]["materials"] == [{"name": "default", "faces": 16295, "uv": "none", "tiles": []}]
+    bad = tmp_path / "nan.obj"
+    bad.write_text("v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")  # only parsing tells
+    with open(bad, "rb") as f:
+        r = client.post("/v1/inspect", files={"mesh": ("nan.obj", f)})
+    assert r.status_code == 422 and r.json()["detail"].startswith("mesh 'nan.obj': ") and "non-finite" in r.json()["detail"], r.text
+    assert "/" not in r.json()["detail"].partition(": ")[2]  # no server folder in the reason
+    assert not list((get_settings().data_dir / "uploads").iterdir())
+    assert client.get("/v1/jobs").json()["total"] == 0
+
+
+@pytest.mark.parametrize("settings, detail", [
+    ({"materials": {"body": {"texture": "plaid"}}}, "settings.materials.body.texture: unknown texture 'plaid'"),
+    ({"materials": {"body": {"size": 0}}}, "settings.materials.body.size"),
+    ({"materials": {"body": {"colour": "red"}}}, "settings.materials.body.colour"),
+    ({"materials": {"body": {"texture": "wood"}}, "texture_set": "single"}, "settings.materials: texture_set='single' bakes one"),
+    ({"texture_set": "each"}, "settings.texture_set"),
+    ({"names": "{set}_{mapp}.{ext}"}, "settings.names: unknown field {mapp}"),
+    ({"names": "{set}.{ext}"}, "settings.names: a template needs {map} and {ext}"),
+    ({"materials": {"bodee": {"texture": "wood"}}}, "settings.materials: 'pair.glb' has no material 'bodee'; its materials: "),
+])
+def test_texture_sets_settings_name_the_field(client, tmp_path, settings, detail):
+    """texture_set, materials and names are BakeSettings: a bad one is a 422 naming it
+    before anything is queued; a material the mesh has not, once the mesh is read."""
+    from conftest import two_material_scene
+
+    two_material_scene(tmp_path / "pair.glb")
+    r = post(client, tmp_path / "pair.glb", settings)
+    assert r.status_code == 422 and detail in r.json()["detail"], r.text
+    assert client.get("/v1/jobs").json()["total"] == 0
+
+
+def test_the_memory_check_counts_every_texture_set_and_tile(client, tmp_path, monkeypatch):
+    """Each material's set at its own size, each UDIM tile an image: counted before
+    anything is queued, with the mesh's faces once it is read (``materials`` given)."""
+    from conftest import two_material_scene, udim_boxes
+
+    from texbake.memory import bake_bytes, sets_bytes
+    from texbake.service.core import config
+
+    two_material_scene(tmp_path / "pair.glb")
+    udim_boxes(tmp_path / "boxes.obj")
+    one = BakeSettings.build(size=1024)
+    monkeypatch.setenv("BAKE_JOB_MEMORY_MB", str(bake_bytes(one, 652, workers=1) // 2**20 + 1))  # one 1024² image fits, two do not
+    config.get_settings.cache_clear()
+    assert post(client, tmp_path / "pair.glb", {"size": 1024, "texture_set": "single"}).status_code == 202
+    two = {"size": 1024, "materials": {"body": {"texture": "wood"}}}  # the wheels' set at the bake's size too
+    need = sets_bytes([(one, 1), (one, 1)], 652, workers=1)
+    r = post(client, tmp_path / "pair.glb", two)
+    assert r.status_code == 422 and r.json()["detail"].startswith(
+        f"settings.size: a bake of 2 images (texture sets and tiles) needs about {need / 1e9:.2g} GB"), r.text
+    small = {"size": 1024, "materials": {"body": {"size": 256}, "wheels": {"size": 256}}}
+    assert post(client, tmp_path / "pair.glb", small).status_code == 202
+    # before the mesh is read: the sets materials names, each at its own size
+    r = post(client, tmp_path / "boxes.obj", {"materials": {"a": {"size": 1024}, "b": {"size": 1024}}})
+    assert r.status_code == 422 and r.json()["detail"].startswith("settings.size: a bake of 2 images"), r.text
+    assert client.get("/v1/jobs").json()["total"] == 2

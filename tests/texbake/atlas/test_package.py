@@ -13,7 +13,8 @@ def test_the_package_names_resolve_to_their_modules():
     from texbake.atlas import cache, charts, decide, pack, uvcheck
 
     homes = {"Atlas": decide, "make_atlas": decide, "AtlasCache": cache, "atlas_key": cache, "uv_problem": uvcheck,
-             "atlas_stats": uvcheck, "overlap": uvcheck, "run_xatlas_in_child": pack, "Sides": charts}
+             "atlas_stats": uvcheck, "overlap": uvcheck, "run_xatlas_in_child": pack, "Sides": charts, "udim_tiles": uvcheck,
+             "udim_offset": uvcheck}
     assert sorted(texbake.atlas.__all__) == sorted(homes)
     for name, module in homes.items():
         assert getattr(texbake.atlas, name) is getattr(module, name)

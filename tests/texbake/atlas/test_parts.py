@@ -97,9 +97,11 @@ def test_a_mask_of_the_wrong_shape_is_refused(scenes):
         make_atlas(m.vertices, m.faces, m.uv, has_uv=m.has_uv[:-1])
 
 
-def test_of_two_parts_sharing_one_layout_the_first_keeps_it(tmp_path):
-    """Two crates with the same UVs (a layout two parts share, as wheels do): "auto" keeps
-    the first's and unwraps the second; "keep" keeps both, warning of the overlap."""
+def test_of_two_parts_sharing_one_layout_each_keeps_its_islands(tmp_path):
+    """Two crates with the same UVs (a layout two parts share, as wheels do): "auto" packs
+    both crates' islands anew, shape for shape (they overlap only by where they lie); where
+    that cannot be, the first keeps the layout and the second is unwrapped; "keep" keeps
+    both, warning of the overlap."""
     import trimesh
 
     mixed_uv_scene(tmp_path / "one.glb", 0.5)
@@ -111,6 +113,12 @@ def test_of_two_parts_sharing_one_layout_the_first_keeps_it(tmp_path):
     m = load_mesh(tmp_path / "two.glb")
     assert m.has_uv is None and sorted(m.part_names) == ["left", "right"]
     a = atlas_of(m)
+    assert a.method == "repacked" and a.stats["islands"] == 24 and "shape for shape" in a.warnings[0], a.reason
+    check(a, m)
+    from texbake.atlas import decide
+
+    a = decide._keep_parts(decide.UnwrapRequest(m.vertices, m.faces, 512, 2), m.uv, None, m.part, m.part_names, mode="auto",
+                           deadline=60.0, workers=2, charting="auto", patch_faces=None, start=0.0)[0]
     first = m.part == 0  # of parts of one size, the first in the file keeps the layout
     assert a.method.startswith("kept+") and np.array_equal(a.uv[a.faces[first]], m.uv[m.faces[first]])
     assert a.warnings[0].startswith(f"unwrapped: part {m.part_names[1]!r} (12 faces): 100.0% of its UVs' texels lie under two "

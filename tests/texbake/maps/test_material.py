@@ -125,3 +125,4 @@ def test_the_report_counts_a_shared_node_once_a_sample_and_estimates_each_map(me
     assert set(channels) == {"base_color", "roughness", "metallic", "height", "normal"}
     assert all(0 < e["rmse"] < 0.1 for e in channels.values()), channels
     assert report["error_estimate"]["map"] == "base_color" and report["settings"]["material"]["nodes"]["t"] == turb
+

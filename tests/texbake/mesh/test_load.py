@@ -374,3 +374,30 @@ def test_duplicate_faces_removed_and_counted(tmp_path):
     assert np.array_equal(mesh.faces[: len(s.faces)], s.faces) and np.array_equal(mesh.faces[len(s.faces):], s.faces[:8, ::-1])
     trimesh.Trimesh(s.vertices, s.faces, process=False).export(tmp_path / "single.ply")
     assert load_mesh(tmp_path / "single.ply").removed_duplicate == 0
+
+
+def test_obj_groups_materials_and_a_missing_material_library(tmp_path):
+    obj = tmp_path / "two.obj"
+    body = ("mtllib two.mtl\nmtllib gone.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+            "g top\nusemtl paint\nf 1/1 2/2 3/3 4/4\ng leg\nusemtl metal\nf 1 2 5\nusemtl ghost\nf 2 3 5\n")
+    obj.write_text(body)
+    (tmp_path / "two.mtl").write_text("newmtl paint\nKd 1 0 0\nnewmtl metal\nKd 0.5 0.5 0.5\n")
+    m = load_mesh(obj)
+    assert m.part_names == ["top", "leg"] and m.part.tolist() == [0, 0, 1, 1]
+    assert m.material_names == ["paint", "metal", "ghost"] and m.material.tolist() == [0, 0, 1, 2]
+    assert m.has_uv.tolist() == [True, True, False, False] and m.without_uv == ["leg"]
+    assert len(m.warnings) == 2 and "'gone.mtl' (mtllib) is missing" in m.warnings[0] and "'ghost'" in m.warnings[1]
+
+
+def test_gltf_materials_and_a_mesh_of_one_material():
+    # a scene of three parts: two share the material "red", one has "blue"; a PLY is one material
+    parts = [trimesh.creation.box(), trimesh.creation.box().apply_translation((3, 0, 0)), trimesh.creation.icosphere(1)]
+    for p, name in zip(parts, ["red", "red", "blue"], strict=True):
+        p.visual = trimesh.visual.TextureVisuals(uv=np.zeros((len(p.vertices), 2)), material=trimesh.visual.material.PBRMaterial(name=name))
+    scene = trimesh.Scene(parts)
+    m = mesh_from_trimesh(trimesh.load(trimesh.util.wrap_as_stream(scene.export(file_type="glb")), file_type="glb"))
+    assert sorted(m.material_names) == ["blue", "red"]
+    assert dict(zip(m.material_names, np.bincount(m.material).tolist(), strict=True)) == {"red": 24, "blue": 80}
+    assert len(m.part_names) == 3 and m.part is not None
+    ply = load_mesh(MESHES / "suzanne.ply")
+    assert ply.material is None and ply.material_names == ["default"] and ply.part is None

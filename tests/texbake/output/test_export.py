@@ -425,3 +425,53 @@ def test_an_opacity_channel_is_the_base_colours_alpha_and_the_alpha_mode(meshes,
     assert (glb_material["pbrMetallicRoughness"]["metallicFactor"], glb_material["pbrMetallicRoughness"]["roughnessFactor"]) == (0.0, 1.0)
     report = assert_valid(tmp_path / "suzanne.glb")
     assert report["issues"]["numWarnings"] == 0, report["issues"]["messages"]
+def test_a_glb_keeps_every_material_by_name_one_primitive_each(tmp_path):
+    """Per material (the default) and with one texture set for the mesh: one primitive per
+    material, each material by its name; validator-clean."""
+    from conftest import two_material_scene
+
+    import texbake
+
+    scene = tmp_path / "cart.glb"
+    two_material_scene(scene)
+    per = texbake.bake_mesh(scene, "checker", size=32)
+    per.save(tmp_path / "per")
+    doc = _gltf(tmp_path / "per" / "cart.glb")
+    assert sorted(m["name"] for m in doc["materials"]) == ["body", "wheels"] and len(doc["images"]) == 2
+    assert assert_valid(tmp_path / "per" / "cart.glb")["issues"]["numWarnings"] == 0
+    result = texbake.bake_mesh(scene, "checker", size=32, texture_set="single")
+    assert len(result.sets) == 1 and result.images["albedo"].shape == (32, 32, 3)
+    result.save(tmp_path / "one")
+    assert sorted(p.name for p in (tmp_path / "one").iterdir()) == ["albedo.png", "cart.glb", "coverage.png", "report.json"]
+    report = assert_valid(tmp_path / "one" / "cart.glb")
+    doc = _gltf(tmp_path / "one" / "cart.glb")
+    assert sorted(m["name"] for m in doc["materials"]) == ["body", "wheels"] and len(doc["images"]) == 1
+    assert len(doc["meshes"][0]["primitives"]) == 2 and report["issues"]["numWarnings"] == 0
+
+
+def _gltf(path):
+    data = path.read_bytes()
+    (length,) = struct.unpack_from("<I", data, 12)
+    return json.loads(data[20 : 20 + length])
+
+
+def test_each_texture_set_may_have_its_own_material(tmp_path):
+    # a mesh of two materials: the body baked as rusted iron, the wheels as the texture; the
+    # GLB a primitive each, the body's material whole, the wheels' the albedo alone
+    from conftest import two_material_scene
+
+    scene = tmp_path / "cart.glb"
+    two_material_scene(scene)
+    result = texbake.bake_mesh(scene, texture="marble", size=64, materials={"body": {"material": "rusted_iron"}})
+    body, wheels = sorted(result.sets, key=lambda s: s.name)
+    assert body.settings.material.nodes == BUILTINS["rusted_iron"]["nodes"] and wheels.settings.material is None
+    assert {"base_color", "metallic", "orm", "normal"} <= set(body.images) and "albedo" in wheels.images
+    (entry,) = [s for s in result.report["sets"] if s["name"] == "body"]
+    assert entry["material"]["name"] == "rusted_iron" and "material" not in result.report  # several sets: each its own
+    result.save(tmp_path / "out")
+    doc, _ = glb_parts(tmp_path / "out" / "cart.glb")
+    by_name = {m["name"]: m for m in doc["materials"]}
+    assert "metallicRoughnessTexture" in by_name["body"]["pbrMetallicRoughness"] and "normalTexture" in by_name["body"]
+    assert "metallicRoughnessTexture" not in by_name["wheels"]["pbrMetallicRoughness"]
+    assert assert_valid(tmp_path / "out" / "cart.glb")["issues"]["numWarnings"] == 0
+    assert json.loads((tmp_path / "out" / "report.json").read_text())["sets"][0]["outputs"]

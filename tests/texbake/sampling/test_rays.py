@@ -85,3 +85,41 @@ def test_casts_release_the_gil():
 
     share = spin_rate(cast) / spin_rate(lambda: time.sleep(0.2))
     assert took[0] > 0.05 and share > 0.15, (took, share)
+
+
+def test_the_compiled_scene_finds_what_embreexs_own_binding_finds():
+    # the same Embree library either way; rays along grid lines, through vertices and
+    # diagonals (ties between faces, where the traversal order picks one) and at random
+    from embreex import mesh_construction, rtcore_scene
+
+    from texbake.sampling import rays
+
+    assert rays.compiled()  # embreex's wheel ships the library beside it
+    side = 32
+    t = np.linspace(0.0, 1.0, side + 1)
+    x, y = np.meshgrid(t, t)
+    vertices = np.stack([x.ravel(), y.ravel(), np.zeros(x.size)], axis=1).astype(np.float32)
+    corner = (np.arange(side)[:, None] * (side + 1) + np.arange(side)).ravel()
+    quads = np.stack([corner, corner + 1, corner + side + 2, corner + side + 1], axis=1)
+    faces = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+    g = np.linspace(0.0, 1.0, 4 * side + 1)
+    gx, gy = np.meshgrid(g, g)
+    rng = np.random.default_rng(3)
+    origins = np.concatenate([np.stack([gx.ravel(), gy.ravel(), np.ones(gx.size)], axis=1),
+                              np.c_[rng.random((20000, 2)) * 1.2 - 0.1, np.ones(20000)]]).astype(np.float32)
+    theirs = rtcore_scene.EmbreeScene()
+    mesh_construction.TriangleMesh(theirs, vertices, faces.astype(np.int32))
+    down = DOWN.astype(np.float32)[None]
+    ours = Scene(vertices, faces, recentre=False)
+    assert np.array_equal(ours.first_face(origins, DOWN), theirs.run(origins, down))
+    sphere_vertices, sphere_faces = far_sphere(3)
+    ours = Scene(sphere_vertices, sphere_faces)
+    theirs = rtcore_scene.EmbreeScene()
+    mapped = ((sphere_vertices - ours._centre) / ours._scale).astype(np.float32)
+    mesh_construction.TriangleMesh(theirs, mapped, sphere_faces.astype(np.int32))
+    origins = sphere_vertices.mean(axis=0) + (rng.random((20000, 3)) - 0.5) * 4
+    directions = rng.normal(size=(20000, 3))
+    face, distance = ours.first_hit(origins, directions)
+    res = theirs.run(ours._origins(origins), directions.astype(np.float32), output=1)
+    assert (face >= 0).sum() > 2000 and np.array_equal(face, res["primID"])  # measured 2912 hits
+    assert np.array_equal(distance[face >= 0], res["tfar"][face >= 0].astype(np.float64) * ours._scale)

@@ -6,7 +6,7 @@ from pydantic import BaseModel
 
 from texbake.settings import BakeSettings
 
-__all__ = ["BakeSettings", "JobOut", "JobPage", "Problem", "ServerConfig", "ServerLimits"]
+__all__ = ["BakeSettings", "JobOut", "JobPage", "MaterialInfo", "MeshInfo", "Problem", "ServerConfig", "ServerLimits", "SetOut"]
 
 
 class Problem(BaseModel):
@@ -15,6 +15,32 @@ class Problem(BaseModel):
 
     detail: str
     errors: list[dict] | None = None
+
+
+class SetOut(BaseModel):
+    """A texture set of a done job (its report's ``sets``): its name (its material's), the
+    materials whose faces it holds, its size, its texture's name, its UDIM tiles (none: one
+    image) and the files it wrote (the mesh's GLB, OBJ or USD and ``report.json`` belong to
+    every set: see ``files`` of the job)."""
+
+    name: str
+    materials: list[str]
+    size: list[int]
+    texture: str
+    tiles: list[int] = []
+    files: list[str] = []
+
+    @classmethod
+    def from_report(cls, report: dict) -> list[SetOut]:
+        bake = (report.get("settings") or {}).get("texture") or {}
+        out = []
+        for entry in report.get("sets") or []:
+            texture = ((entry.get("settings") or {}).get("texture") or bake).get("name", "")
+            size = entry.get("size") or []
+            out.append(cls(name=entry["name"], materials=entry.get("materials") or [entry["name"]], texture=texture,
+                           size=[size, size] if isinstance(size, int) else list(size),
+                           tiles=[t["tile"] for t in entry.get("tiles") or []], files=entry.get("outputs") or []))
+        return out
 
 
 class JobOut(BaseModel):
@@ -31,6 +57,7 @@ class JobOut(BaseModel):
     report: dict | None = None
     warnings: list[str] = []  # the bake report's: fallback atlas, overlapping UVs kept, transfer misses
     files: list[str] = []
+    sets: list[SetOut] = []  # once done: the texture sets, each with its tiles and files
 
 
 class JobPage(BaseModel):
@@ -63,3 +90,26 @@ class ServerConfig(BaseModel):
     companions: list[str]
     max_companions: int
     settings_schema: dict
+
+
+class MaterialInfo(BaseModel):
+    """A material of an uploaded mesh, as a bake takes it: its name (a key of ``materials``),
+    its faces, whether they have UVs (``all``, ``some`` or ``none``) and the UDIM tiles
+    those lie in (none: the unit square, or no UVs)."""
+
+    name: str
+    faces: int
+    uv: str
+    tiles: list[int] = []
+
+
+class MeshInfo(BaseModel):
+    """What ``POST /v1/inspect`` read of a mesh: its name, counts, materials (in the order
+    a bake makes their texture sets) and what the loader warned of."""
+
+    mesh: str
+    faces: int
+    vertices: int
+    parts: list[str]
+    materials: list[MaterialInfo]
+    warnings: list[str] = []

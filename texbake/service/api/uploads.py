@@ -48,6 +48,11 @@ _NOT_PLAIN = re.compile(r'[\x00-\x1f\x7f\ud800-\udfff/\\:*?"<>|]|^[.\s]|[.\s]$')
 _MTLLIB = re.compile(rb"mtllib[ \t]+([^\r\n]*)")
 _MTL_MAPS = re.compile(rb"^[ \t]*(?:map_\w+|bump|disp|decal|refl|norm)[ \t]+([^\r\n]*)", re.M | re.I)
 
+MESH_DOC = f"The mesh: {', '.join(UPLOAD_FORMATS)} (a .gltf with its buffers as data: URIs, or with them in 'files')"
+FILES_DOC = (f"The files the mesh refers to, each under the name it uses ({', '.join(COMPANION_FORMATS)}): an OBJ's MTL and its "
+             "images, a glTF's .bin buffers and images. A glTF's buffers must be sent; an OBJ's MTL and the images may be left "
+             "out (the bake draws its own texture). Every file must be one the mesh or a sent MTL refers to, by a plain file name.")
+
 
 @dataclass
 class Upload:
@@ -79,6 +84,15 @@ class Upload:
 
     def discard(self) -> None:
         shutil.rmtree(self.folder, ignore_errors=True)
+
+
+def safe_stem(filename: str | None) -> str:
+    """The upload's name without folders or odd characters (it names the outputs), at most
+    64 characters and 200 bytes as UTF-8 (a file name on disk takes 255 bytes, and a letter
+    may take 4)."""
+    stem = Path((filename or "mesh").replace("\\", "/")).stem
+    safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in stem)[:64]
+    return safe.encode()[:200].decode(errors="ignore") or "mesh"
 
 
 def check_names(mesh: UploadFile, files: list[UploadFile]) -> tuple[str, list[str]]:

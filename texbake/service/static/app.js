@@ -16,10 +16,15 @@ const sleep = (ms) => new Promise((resolve) => setTimeout(resolve, ms));
 const KEY = "texbake.key"; // the API key: this tab's session storage only
 const FINISHED = ["done", "failed", "cancelled"];
 const MAIN_SETTINGS = ["size", "quality", "shading", "bump", "bump_strength", "frames", "format"];
-const NOT_SETTINGS = ["texture", "cage", "packing"]; // the texture has its own section; the service takes no source mesh; packing: its default (ORM)
+// the texture has its own section, the materials their list under the mesh; the service takes no source mesh;
+// packing stays at its default (ORM)
+const NOT_SETTINGS = ["texture", "cage", "materials", "packing"];
+const MATERIAL_FORMATS = [".obj", ".gltf", ".glb"]; // the formats whose meshes may have several materials (the others have one)
 
 let config, catalogue, textureSchema; // GET /v1/config, GET /v1/textures
 let meshFile = null, companionFiles = []; // the mesh, and the files it refers to (sent as `files` beside it)
+let materialChoices = {}; // material name -> its texture select (POST /v1/inspect named them)
+let inspecting = 0; // the mesh whose materials are being read (a newer choice drops an older answer)
 let textureControls = {}, settingsControls = {};
 let following = 0, currentJob = null; // the job whose progress is shown (a new follow() stops the old one)
 
@@ -158,7 +163,7 @@ function control(ctx, prop, key, path, value, limit) {
   const build = branches.some(isNumber) && branches.some((b) => b.type === "array" && b.prefixItems) ? numberOrList
     : node.enum ? choice : node.type === "boolean" ? checkbox : isNumber(node) ? numberBox
     : node.type === "array" && node.prefixItems?.length === 3 && node.description === "linear RGB" ? colour
-    : node.type === "array" && node.prefixItems ? triple : node.type === "array" ? list : jsonBox;
+    : node.type === "array" && node.prefixItems ? triple : node.type === "array" ? list : node.type === "string" ? textBox : jsonBox;
   return field(spec, build(spec));
 }
 
@@ -258,6 +263,11 @@ function triple({ node, value, title }) { // x, y, z
 function list({ nullable, value, words, about }) { // a list of numbers
   const input = el("input", { type: "text", value: (value || []).join(", "), placeholder: words.placeholder ?? (nullable ? "none" : "") });
   return { input, read: () => (input.value.trim() === "" && nullable ? null : numbers(input.value)), note: about ? "" : "Numbers, separated by commas." };
+}
+
+function textBox({ value }) { // a string that is not one of a list
+  const input = el("input", { type: "text", value: value ?? "", spellcheck: false, autocomplete: "off" });
+  return { input, read: () => input.value };
 }
 
 function jsonBox({ value }) { // anything else: JSON
@@ -413,6 +423,7 @@ function filesProblem(mesh, others, all) {
 
 function chooseMesh(files) {
   clearErrors("mesh");
+  clearMaterials();
   meshFile = null;
   companionFiles = [];
   $("mesh-info").textContent = "";
@@ -424,6 +435,81 @@ function chooseMesh(files) {
   [meshFile, companionFiles] = [mesh, others];
   const total = all.reduce((n, f) => n + f.size, 0);
   $("mesh-info").textContent = others.length ? `${mesh.name} with ${others.map((f) => f.name).join(", ")}, ${megabytes(total)}` : `${mesh.name}, ${megabytes(total)}`;
+  readMaterials(mesh, others);
+}
+
+// ---- the mesh's materials: a texture each ----------------------------------------------
+// The server reads the mesh with the bake's own loader (POST /v1/inspect), so the names
+// listed are those the bake's `materials` takes (an unnamed glTF material is material_0,
+// ...), which the page could not promise reading the file itself with three.js's loaders.
+function clearMaterials() {
+  inspecting++;
+  materialChoices = {};
+  for (const path of [...fields.keys()]) if (path.startsWith("materials.")) fields.delete(path);
+  $("materials-list").replaceChildren();
+  $("materials-hint").textContent = "";
+  clearErrors("materials");
+  $("materials").hidden = true;
+}
+
+async function readMaterials(mesh, others) {
+  clearMaterials();
+  if (!MATERIAL_FORMATS.includes(suffixOf(mesh.name))) return; // one material: the bake's texture
+  const token = inspecting, form = new FormData();
+  form.append("mesh", mesh);
+  for (const file of others) form.append("files", file);
+  $("materials").hidden = false;
+  $("materials-hint").textContent = `Reading the materials of ${mesh.name}…`;
+  let info;
+  try {
+    info = await json("/v1/inspect", { method: "POST", body: form });
+  } catch (error) {
+    if (token !== inspecting) return;
+    $("materials").hidden = true;
+    return showError(error, "mesh");
+  }
+  if (token !== inspecting) return;
+  showMaterials(info);
+}
+
+function showMaterials(info) {
+  if (info.materials.length < 2) { // one texture set: the bake's texture is its texture
+    $("materials-hint").textContent = `One material (${info.materials[0]?.name ?? "none"}): it takes the bake's texture (2. Texture).`;
+    return;
+  }
+  const uvWords = { all: "its own UVs", some: "UVs on some parts", none: "no UVs" };
+  const rows = info.materials.map((m) => {
+    const id = `material-${++ids}`;
+    const select = el("select", { id }, el("option", { value: "", textContent: "The bake's texture (2. Texture)" }),
+      catalogue.map((t) => el("option", { value: t.name, textContent: TEXTURE_NAMES[t.name] ?? t.name })));
+    select.setAttribute("aria-describedby", `${id}-hint ${id}-error`);
+    select.addEventListener("change", () => clearErrors("materials"));
+    materialChoices[m.name] = select;
+    const tiles = m.tiles.length ? `, UDIM tiles ${m.tiles[0]}–${m.tiles[m.tiles.length - 1]}` : "";
+    const error = el("p", { className: "error", id: `${id}-error`, role: "alert" });
+    fields.set(`materials.${m.name}`, { input: select, error });
+    return el("div", { className: "field" }, el("label", { htmlFor: id, textContent: m.name }),
+      select, el("p", { className: "hint", id: `${id}-hint`, textContent: `${m.faces.toLocaleString()} faces, ${uvWords[m.uv] ?? m.uv}${tiles}` }), error);
+  });
+  $("materials-list").replaceChildren(...rows);
+  materialsEnabled();
+}
+
+// One texture set for the whole mesh has no material of its own to give a texture
+function materialsEnabled() {
+  const single = settingsControls.texture_set?.get() === "single";
+  for (const select of Object.values(materialChoices)) select.disabled = single;
+  if (Object.keys(materialChoices).length) {
+    $("materials-hint").textContent = single ? "One texture set for the whole mesh (More settings): every material takes the bake's texture (2. Texture)."
+      : "Each material is a texture set of its own: give it a texture of its own, or it takes the bake's (2. Texture).";
+  }
+}
+
+// {name: {texture}} of the materials given a texture of their own (null: none)
+function materialSettings() {
+  if (settingsControls.texture_set?.get() === "single") return null;
+  const given = Object.entries(materialChoices).filter(([, select]) => select.value).map(([name, select]) => [name, { texture: select.value }]);
+  return given.length ? Object.fromEntries(given) : null;
 }
 
 // ---- the bake and its progress -------------------------------------------------------
@@ -487,12 +573,13 @@ function focusInvalid() {
 }
 
 function bakeSettings() {
-  return { texture: textureSpec(), ...changedValues(settingsControls) };
+  const materials = materialSettings();
+  return { texture: textureSpec(), ...changedValues(settingsControls), ...(materials ? { materials } : {}) };
 }
 
 async function bake(event) {
   event.preventDefault();
-  clearErrors("mesh", "settings", ...Object.keys(settingsControls), "texture");
+  clearErrors("mesh", "settings", "materials", ...Object.keys(settingsControls), "texture");
   const wrong = [typedWrong(settingsControls), typedWrong(textureControls)].filter(Boolean).join("; ");
   if (!meshFile || wrong) {
     if (!meshFile) showError({ body: { detail: $("mesh").files.length ? "mesh: choose a mesh file this server takes" : "mesh: choose a mesh file first" } }, "mesh");
@@ -593,6 +680,9 @@ async function showModel(url) {
   viewer.scene.add(viewer.model);
   frame();
   applyLit();
+  const materials = new Set(); // every material of the GLB, each with its own maps (a primitive each)
+  viewer.model.traverse((o) => o.isMesh && materials.add(o.userData.lit.name));
+  $("viewer").dataset.materials = [...materials].sort().join(",");
   $("viewer").dataset.ready = "1";
 }
 
@@ -622,12 +712,27 @@ function figures(report) {
   const rows = [
     ["Mesh", `${report.mesh.name}: ${report.mesh.faces.toLocaleString()} faces, ${report.mesh.vertices.toLocaleString()} vertices`],
     ["Maps", `${(size.length === 1 ? [size[0], size[0]] : size).join(" × ")} texels, texture ${report.settings?.texture?.name}`],
-    ["UV atlas", `${report.atlas.method}, ${report.atlas.charts} charts, ${Math.round(100 * report.atlas.utilisation)} % of the texture used — ${report.atlas.reason}`],
+    report.atlas.charts == null ? ["UV atlas", "one per texture set (below)"] // several sets: each its own
+      : ["UV atlas", `${report.atlas.method}, ${report.atlas.charts} charts, ${Math.round(100 * report.atlas.utilisation)} % of the texture used — ${report.atlas.reason}`],
     ["Texels covered", `${report.texels.covered.toLocaleString()} of ${report.texels.total.toLocaleString()}`],
     report.error_estimate && ["Error estimate", `RMSE ${report.error_estimate.rmse.toExponential(2)} (${report.error_estimate.method})`],
     ["Seconds", seconds.map(([k, v]) => `${k} ${v.toFixed(2)}`).join(", ")],
   ].filter(Boolean);
   return el("dl", {}, rows.map(([k, v]) => [el("dt", { textContent: k }), el("dd", { textContent: v })]));
+}
+
+// A line per texture set of a done job: its materials, size, texture, atlas and UDIM tiles
+function textureSets(job) {
+  const atlases = Object.fromEntries((job.report?.sets || []).map((s) => [s.name, s.atlas || {}]));
+  return (job.sets || []).map((s) => {
+    const atlas = atlases[s.name] || {};
+    const materials = s.materials.length === 1 && s.materials[0] === s.name ? "" : ` (materials ${s.materials.join(", ")})`;
+    const used = atlas.utilisation == null ? "" : `, ${Math.round(100 * atlas.utilisation)} % used`;
+    const tiles = s.tiles.length ? `; UDIM tiles ${s.tiles.join(", ")}` : "";
+    const item = el("li", { textContent: `${s.name}${materials}: ${TEXTURE_NAMES[s.texture] ?? s.texture}, ${s.size.join(" × ")} texels, atlas ${atlas.method ?? "?"}${used}${tiles}; ${s.files.length} files` });
+    item.dataset.set = s.name;
+    return item;
+  });
 }
 
 // The name a Content-Disposition header gives the file (filename*, else filename)
@@ -657,7 +762,7 @@ let resultOf = null;
 function clearResult() {
   resultOf = null;
   blobs.splice(0).forEach((url) => URL.revokeObjectURL(url));
-  for (const id of ["figures", "warnings", "downloads", "images"]) $(id).replaceChildren();
+  for (const id of ["figures", "warnings", "sets", "downloads", "images"]) $(id).replaceChildren();
   $("result-error").textContent = "";
   $("result").hidden = true;
   dropModel();
@@ -681,6 +786,7 @@ async function showResult(job) {
   $("result-title").textContent = `4. Result: ${job.mesh}`;
   $("figures").replaceChildren(job.report ? figures(job.report) : "");
   $("warnings").replaceChildren(...job.warnings.map((w) => el("li", { textContent: w })));
+  $("sets").replaceChildren(...textureSets(job));
   $("downloads").replaceChildren(el("li", {}, link(`${base}/result.zip`, undefined, "All files (result.zip)")),
     ...job.files.map((name) => el("li", {}, link(`${base}/files/${encodeURIComponent(name)}`, name, name))));
   const images = job.files.filter((name) => name.endsWith(".png"));
@@ -729,6 +835,7 @@ async function start() {
   fields.set("mesh", { input: $("mesh"), error: $("mesh-error") });
   fields.set("files", { input: $("mesh"), error: $("mesh-error") }); // the files beside the mesh: one field on the page
   fields.set("texture", { input: $("texture"), error: $("texture-error") });
+  fields.set("materials", { input: null, error: $("materials-error") });
   fields.set("settings", { input: null, error: $("settings-error") });
   fields.set("jobs", { input: null, error: $("jobs-error") });
   let textures;
@@ -752,7 +859,7 @@ async function start() {
   });
 
   const settings = config.settings_schema;
-  const ctx = { root: settings, words: SETTING_WORDS, changed: mapsSummary };
+  const ctx = { root: settings, words: SETTING_WORDS, changed: () => { mapsSummary(); materialsEnabled(); } };
   const limits = { size: limit.max_size, samples: limit.max_samples, max_faces: limit.max_faces };
   settingsControls = {
     ...form(ctx, settings, $("settings-form"), { prefix: [], only: (k) => MAIN_SETTINGS.includes(k), limits }),

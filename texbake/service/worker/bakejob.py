@@ -86,8 +86,10 @@ def run(job_dir: str, lease: int) -> str | None:
     job = json.loads(Path("job.json").read_text())
     try:
         settings = BakeSettings.build(job["settings"])
-        # one core per bake: the service runs as many bakes at a time as it has workers
-        result = bake_mesh(Path(job["mesh"]), settings, workers=1, progress=_write_progress, cache=_cache)
+        # one core per bake: the service runs as many bakes at a time as it has workers; every
+        # texture set and tile counted against this process's limit before the atlas is made
+        result = bake_mesh(Path(job["mesh"]), settings, workers=1, progress=_write_progress, cache=_cache,
+                           memory_limit=_memory_mb << 20)
         result.save(Path(f"out.tmp.{lease}"))
     except BakeError as exc:
         return str(exc)

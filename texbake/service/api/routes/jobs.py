@@ -6,7 +6,6 @@ import functools
 import json
 import logging
 import uuid
-from pathlib import Path
 from typing import Annotated
 from urllib.parse import quote
 
@@ -24,8 +23,9 @@ from ...storage import Storage, StorageMissing, get_storage, zip_stream
 from ...worker.tasks import enqueue_bake, state_changed
 from ..deps import ClientDep, JobDep, SessionDep, SettingsDep, StorageDep
 from ..jsondepth import shallow
-from ..schemas import BakeSettings, JobOut, JobPage
-from ..uploads import COMPANION_FORMATS, UPLOAD_FORMATS, Upload, check_names, copy_of, receive
+from ..schemas import BakeSettings, JobOut, JobPage, SetOut
+from ..uploads import FILES_DOC, MESH_DOC, Upload, check_names, copy_of, receive, safe_stem
+from .inspect import read_upload
 
 router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
 logger = logging.getLogger("texbake.service")
@@ -64,17 +64,9 @@ def _checked(session, job: Job, storage: Storage) -> dict[str, int]:
 def _out(job: Job, request: Request, session) -> JobOut:
     files = sorted(_checked(session, job, get_storage()))
     data = job.as_dict()
-    warnings = (data["report"] or {}).get("warnings", [])
-    return JobOut(url=job_url(job.id, request), files=files, warnings=warnings, **data)
-
-
-def _safe_stem(filename: str | None) -> str:
-    """The upload's name without folders or odd characters (it names the outputs), at most
-    64 characters and 200 bytes as UTF-8 (a file name on disk takes 255 bytes, and a letter
-    may take 4)."""
-    stem = Path((filename or "mesh").replace("\\", "/")).stem
-    safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in stem)[:64]
-    return safe.encode()[:200].decode(errors="ignore") or "mesh"
+    report = data["report"] or {}
+    sets = SetOut.from_report(report) if files else []
+    return JobOut(url=job_url(job.id, request), files=files, warnings=report.get("warnings", []), sets=sets, **data)
 
 
 def _bake_settings(parsed: BakeSettings | None, settings) -> BakeSettings:
@@ -87,13 +79,41 @@ def _bake_settings(parsed: BakeSettings | None, settings) -> BakeSettings:
     for name, (value, limit) in limits.items():
         if value > limit:
             raise HTTPException(422, detail=f"settings.{name}: {value} is over this server's limit of {limit}")
-    try:  # the maps' memory: the faces are not counted yet
-        check_fits(parsed, 0, workers=1, limit=settings.job_memory_mb << 20)
+    try:  # the maps' memory, before the mesh is read: its faces, and the sets it has beyond those named, not yet
+        check_fits(parsed, 0, workers=1, limit=settings.job_memory_mb << 20, sets=_named_sets(parsed))
     except ParameterError as exc:  # named as the other settings are
         raise HTTPException(422, detail=f"settings.{exc.name}: {exc.problem}") from None
     if "max_faces" in parsed.model_fields_set:
         return parsed
     return BakeSettings.build(parsed, max_faces=settings.max_faces)
+
+
+def _named_sets(parsed: BakeSettings) -> list[tuple]:
+    """The texture sets a bake has whatever its mesh, ``(settings, images)`` each
+    (``texbake.memory.check_fits``): one per material ``materials`` names, each with its
+    own settings (one image each at least: its UDIM tiles are known once the mesh is read);
+    without ``materials``, one of the bake's settings. The bake's process counts every set
+    and tile against the same limit where it reads the mesh."""
+    return [(parsed.for_material(name), 1) for name in parsed.materials or {}] or [(parsed, 1)]
+
+
+def _check_materials(info: dict, parsed: BakeSettings, filename: str | None, settings) -> None:
+    """A 422 naming ``settings.materials`` for a material the mesh (``info``: what
+    :func:`.inspect.read_upload` read) has not, and naming ``settings.size`` when its
+    texture sets and UDIM tiles, each at its own settings, need more than a bake's memory."""
+    have = [m["name"] for m in info["materials"]]
+    unknown = sorted(set(parsed.materials or {}) - set(have))
+    if unknown:
+        raise HTTPException(422, detail=f"settings.materials: {filename!r} has no material {unknown[0]!r}; "
+                                        f"its materials: {', '.join(map(repr, have))}")
+    sets = []
+    for m in info["materials"]:
+        own = parsed.for_material(m["name"])
+        sets.append((own, 1 if own.uv == "unwrap" or not m["tiles"] else len(m["tiles"])))  # as texbake.sets.images_of
+    try:
+        check_fits(parsed, info["faces"], workers=1, limit=settings.job_memory_mb << 20, sets=sets)
+    except ParameterError as exc:
+        raise HTTPException(422, detail=f"settings.{exc.name}: {exc.problem}") from None
 
 
 def _too_many(unfinished: int, limit: int) -> HTTPException:
@@ -148,12 +168,6 @@ def _make_job(request: Request, response: Response, session, settings, storage: 
     return _out(job, request, session)
 
 
-MESH_DOC = f"The mesh: {', '.join(UPLOAD_FORMATS)} (a .gltf with its buffers as data: URIs, or with them in 'files')"
-FILES_DOC = (f"The files the mesh refers to, each under the name it uses ({', '.join(COMPANION_FORMATS)}): an OBJ's MTL and its "
-             "images, a glTF's .bin buffers and images. A glTF's buffers must be sent; an OBJ's MTL and the images may be left "
-             "out (the bake draws its own texture). Every file must be one the mesh or a sent MTL refers to, by a plain file name.")
-
-
 @router.post("", status_code=202, response_model=JobOut)
 def create_job(
     request: Request, response: Response, session: SessionDep, settings: SettingsDep, client: ClientDep, storage: StorageDep,
@@ -176,11 +190,13 @@ def create_job(
     A plain function: FastAPI runs it in its thread pool, so the copying, hashing and
     database work of one upload never holds up the event loop (or ``/healthz``)."""
     suffix, names = check_names(mesh, files)
-    # one serialisation of the resolved settings: the job's, the worker's and the dedup key's
-    options = _bake_settings(bake_settings, settings).model_dump(mode="json")
+    baked = _bake_settings(bake_settings, settings)
+    options = baked.model_dump(mode="json")  # one serialisation of the resolved settings: the job's, the worker's and the dedup key's
     _check_unfinished(session, client, settings)
-    upload = receive(mesh, files, names, _safe_stem(mesh.filename) + suffix, settings.data_dir / "uploads", settings.max_upload_bytes)
+    upload = receive(mesh, files, names, safe_stem(mesh.filename) + suffix, settings.data_dir / "uploads", settings.max_upload_bytes)
     try:
+        if baked.materials:  # names of the mesh's materials: checked against the mesh, read once it is here
+            _check_materials(read_upload(upload, mesh.filename, settings), baked, mesh.filename, settings)
         key = upload.key(options, client if settings.api_keys else None)  # with keys, each client has its own jobs
         return _make_job(request, response, session, settings, storage, client, upload=upload, mesh_name=mesh.filename or "mesh",
                          options=options, key=key)
@@ -258,7 +274,7 @@ def _zip_name(job: Job) -> str:
     """``<mesh stem>-<texture>.zip``: results downloaded side by side are told apart by what they are."""
     texture = json.loads(job.settings).get("texture") or BakeSettings.model_fields["texture"].default
     name = texture.get("name", "texture") if isinstance(texture, dict) else str(texture)
-    return f"{_safe_stem(job.mesh_name)}-{_safe_stem(name)}.zip"
+    return f"{safe_stem(job.mesh_name)}-{safe_stem(name)}.zip"
 
 
 def _attachment(filename: str) -> str:
