@@ -31,6 +31,8 @@ COMMANDS = [
     ("bench/bench_service.py", ["--jobs", "4", "--uploads", "4"]),
     ("bench/bench_error.py", ["--sizes", "256", "--repeats", "1", "--textures", "marble"]),
     ("bench/bench_swatch.py", ["--requests", "5"]),
+    ("bench/bench_material.py", ["--rounds", "1", "--size", "256"]),
+    ("bench/bench_blender_material.py", ["--size", "64"]),
 ]
 
 

@@ -3,12 +3,13 @@
     import texbake
     result = texbake.bake_mesh("bunny.ply", "checker", size=1024)
     result.save("out/bunny")
+    texbake.bake_mesh("bunny.ply", material="rusted_iron").save("out/rust")  # a whole PBR texture set (texbake.Material)
 """
 
-from .errors import AtlasError, BakeError, MeshError, OutputError, ParameterError, TextureError
+from .errors import AtlasError, BakeError, MaterialError, MeshError, OutputError, ParameterError, TextureError
 from .version import __version__
 
-__all__ = ["__version__", "BakeSettings", "bake_mesh", "BakeResult", "BakeError", "MeshError", "ParameterError", "AtlasError", "TextureError", "OutputError"]
+__all__ = ["__version__", "BakeSettings", "Material", "bake_mesh", "BakeResult", "BakeError", "MaterialError", "MeshError", "ParameterError", "AtlasError", "TextureError", "OutputError"]
 
 
 def __getattr__(name):  # the pipeline pulls in the heavy libraries: import it on first use
@@ -20,4 +21,8 @@ def __getattr__(name):  # the pipeline pulls in the heavy libraries: import it o
         from .settings import BakeSettings
 
         return BakeSettings
+    if name == "Material":
+        from .materials.model import Material
+
+        return Material
     raise AttributeError(f"module 'bake' has no attribute {name!r}")

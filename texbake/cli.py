@@ -84,6 +84,50 @@ def read_spec(value):
     return data
 
 
+def read_material(value):
+    """A material argument as the command line takes it: a built-in's name, JSON, or a
+    ``.json``/``.yaml`` material file (only the command line reads files)."""
+    from .errors import ParameterError
+
+    if not isinstance(value, str) or value.lstrip().startswith("{") or Path(value).suffix.lower() not in SPEC_SUFFIXES:
+        return value
+    try:
+        text = Path(value).read_text()
+    except OSError as exc:
+        raise ParameterError("material", f"{value}: cannot read material file: {exc.strerror}") from None
+    try:
+        import yaml  # a superset of JSON
+
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ParameterError("material", f"{value}: not a valid material file: {str(exc).splitlines()[0]}") from None
+    if not isinstance(data, dict):
+        raise ParameterError("material", f"{value}: a material file holds one mapping of channels, got {type(data).__name__}")
+    return data
+
+
+def read_packing(value):
+    """``packing`` as the command line takes it: names and templates, comma-separated
+    (``orm,hdrp-mask``), JSON, or a ``.json``/``.yaml`` file of a template or a list of them."""
+    if not isinstance(value, str) or value.lstrip().startswith(("{", "[")):
+        return value
+    items = []
+    for item in (part.strip() for part in value.split(",")):
+        if Path(item).suffix.lower() in SPEC_SUFFIXES:
+            import yaml
+
+            from .errors import ParameterError
+
+            try:
+                data = yaml.safe_load(Path(item).read_text())
+            except (OSError, yaml.YAMLError) as exc:
+                raise ParameterError("packing", f"{item}: cannot read the template: {getattr(exc, 'strerror', None) or exc}") from None
+            items.extend(data if isinstance(data, list) else [data])
+        else:
+            items.append(item)
+    return items
+
+
 def read_materials(value):
     """The ``materials`` setting as the command line takes it: JSON text, or a ``.json`` or
     ``.yaml`` file of it (a mapping of material names to their settings); each one's
@@ -124,6 +168,10 @@ def _bake_one(mesh: str, out: str, given: dict, source: str | None = None, worke
         given["texture"] = with_overrides(read_spec(given.get("texture", "checker")), overrides)
     if isinstance(given.get("bump"), str):
         given["bump"] = read_spec(given["bump"])
+    if isinstance(given.get("material"), str):
+        given["material"] = read_material(given["material"])
+    if isinstance(given.get("packing"), str):
+        given["packing"] = read_packing(given["packing"])
     if given.get("materials") is not None:
         given["materials"] = read_materials(given["materials"])
     result = bake_mesh(mesh, BakeSettings.build(given), source=source, workers=workers, cache=cache, progress=progress)
@@ -175,7 +223,9 @@ def _cache_folder(cache: Path | None, no_cache: bool) -> str | None:
 # One option per BakeSettings field: the command line maps onto the settings one to one.
 _SHORT = {"texture": "-t", "size": "-s", "quality": "-q", "format": "-f"}
 _LISTS = {"size": "N, or W,H", "light": "X,Y,Z", "frames": "T0,T1,... or START:STOP:COUNT",
-          "texture": "a name, JSON, or a .json/.yaml spec file", "bump": "a name, JSON, or a .json/.yaml spec file"}
+          "texture": "a name, JSON, or a .json/.yaml spec file", "bump": "a name, JSON, or a .json/.yaml spec file",
+          "material": "a built-in's name, JSON, or a .json/.yaml material file",
+          "packing": "names or templates, comma-separated: orm,hdrp-mask; JSON; or a .json/.yaml file"}
 
 
 def _option_type(annotation) -> tuple[type, list[str]]:
@@ -465,6 +515,28 @@ def textures(as_json: bool = typer.Option(False, "--json", help="print the JSON 
             limits = ", ".join(f"{k} {v}" for k, v in p["limits"].items())
             table.add_row(p["name"], json.dumps(p["default"]), limits, p["description"])
         console.print(table)
+
+
+@app.command()
+def materials(name: str | None = typer.Argument(None, help="a built-in material: print it as JSON"),
+              as_json: bool = typer.Option(False, "--json", help="print the JSON Schema of a material")):
+    """List the built-in materials, the ops of a material's node graph, or print one material as JSON."""
+    from .materials import BUILTINS, OPS, Material
+
+    if as_json:
+        typer.echo(json.dumps(Material.model_json_schema(), indent=2))
+        return
+    if name is not None:
+        if name not in BUILTINS:
+            _fail(f"material: unknown material {name!r} (built in: {', '.join(sorted(BUILTINS))})")
+        typer.echo(json.dumps(BUILTINS[name], indent=2))
+        return
+    typer.echo("built-in materials (texbake materials NAME prints one):")
+    for builtin in BUILTINS.values():
+        typer.echo(f"  {builtin['name']}: {builtin['description']}")
+    typer.echo("ops of a material's nodes (inputs; each input a number, three numbers, a node's name or a node):")
+    for op, o in OPS.items():
+        typer.echo(f"  {op} ({', '.join(o.inputs) or 'a leaf'}): {o.summary}")
 
 
 def _number(x: float) -> str:

@@ -90,3 +90,29 @@ class OutputError(BakeError):
     that raises this has removed its temporary file, and an older file of that name is
     as it was.
     """
+
+
+class MaterialError(BakeError, ValueError):
+    """A material is invalid: a bad channel, an unknown op or node, a cycle, a colour
+    where a scalar is taken, or a bad texture or parameter inside a node.
+
+    Parameters
+    ----------
+    node : str
+        The node (a named node, a channel, or the path of an inline node such as
+        ``base_color.mask``), or ``""`` for the material as a whole; kept in ``node``.
+    problem : str
+        What is wrong, in one line; kept in ``problem``.
+
+    The message is ``"node 'mask': {problem}"`` (or the problem alone). A ``ValueError``
+    too; picklable. Given as a bake's ``material`` setting it reads
+    ``material: node 'mask': ...`` (a :class:`ParameterError`).
+    """
+
+    def __init__(self, node: str, problem: str):
+        self.node = node
+        self.problem = problem
+        super().__init__(f"node {node!r}: {problem}" if node else problem)
+
+    def __reduce__(self):
+        return (type(self), (self.node, self.problem))

@@ -9,12 +9,15 @@ writer's after them, whichever is more):
 - the process itself: Python, numpy, the compiled kernels, Embree, OpenImageIO (``BASE``);
 - per face: the mesh, its atlas, the lookup's layout and the surface's per-face arrays;
 - per texel: each map (3 channels of float32, or float16 for images over ``HALF_TEXELS``
-  texels written as 8 bits: ``texbake.maps.accumulate``), and two bytes: the sample
-  counts while the tiles run, the coverage and margin masks after them;
+  texels written as 8 bits: ``texbake.maps.accumulate``; a material's maps and packed
+  maps their own channels), and two bytes: the sample counts while the tiles run, the
+  coverage and margin masks after them;
 - while the tiles run, per sample of each tile in flight (one a thread): the lookup's
   rays and coordinates, the surface point, its footprint and normal, and the texture's
   temporaries, for each colour map (``PER_SAMPLE_COLOUR``) and each lit or normal map
-  (``PER_SAMPLE_OTHER``);
+  (``PER_SAMPLE_OTHER``); a material's: beside one colour map's temporaries,
+  ``PER_SAMPLE_MAP`` a map (the node kernel works a block of points at a time) and
+  ``PER_SAMPLE_LEAF`` a texture (four a warp: its moved points and footprints), and its tables (``MATERIAL_BASE``);
 - after them, the margin's and the writer's bands and buffers (``AFTER_TILES``: both work
   a band at a time).
 
@@ -34,6 +37,9 @@ BASE = 48 * 2**20  # measured: a 64x64 bake of a 63k-face mesh peaks at 194 MB, 
 PER_FACE = 900
 PER_SAMPLE_COLOUR = 150
 PER_SAMPLE_OTHER = 60
+PER_SAMPLE_MAP = 20  # a material's, beside one colour map's: its node kernel works a block at a time
+PER_SAMPLE_LEAF = 40  # and each of its textures' values (a warp's moved points too)
+MATERIAL_BASE = 40 * 2**20  # a material's tables (its curves smoothed over spreads) and buffers
 AFTER_TILES = 100 * 2**20
 HALF_TEXELS = 8192 * 8192  # as texbake.maps.accumulate: larger 8-bit images are held as float16
 MIN_TILES = 16  # as texbake.sampling.lookup.tiles
@@ -72,12 +78,26 @@ def _image_bytes(settings, workers: int, tile_samples: int) -> tuple[int, int]:
     others = (settings.shading != "decal") + (settings.bump is not None)
     bits = settings.bits or DEFAULT_BITS[settings.format]
     channel = 2 if bits == 8 and texels > HALF_TEXELS else 4
-    maps = (colours + others) * 3 * channel * texels
+    channels, per_sample, fixed = (colours + others) * 3, PER_SAMPLE_COLOUR * colours + PER_SAMPLE_OTHER * others, 0
+    if settings.material is not None:
+        channels, maps = _material_maps(settings)
+        leaves = sum({"texture": 1, "warp": 4}.get(node.op, 0) for node in settings.material.graph.nodes.values())  # a warp's moved points
+        per_sample, fixed = PER_SAMPLE_COLOUR + PER_SAMPLE_MAP * maps + PER_SAMPLE_LEAF * leaves, MATERIAL_BASE
     masks = 2 * texels  # the coverage and margin masks (the sample counts before them take no more)
     tile = _tile_samples(width, height, samples, tile_samples)
     in_flight = min(max(1, workers), -(-texels * samples // tile)) * tile
-    tiles = in_flight * (PER_SAMPLE_COLOUR * colours + PER_SAMPLE_OTHER * others)
-    return maps + masks, max(tiles, AFTER_TILES)
+    return channels * channel * texels + masks + fixed, max(in_flight * per_sample, AFTER_TILES)
+
+
+def _material_maps(settings) -> tuple[int, int]:
+    """``(channels, maps)`` of a material's bake: its maps' channels (one a scalar, three a
+    colour, the normal map, packed maps, a lit map) and how many maps."""
+    from .materials.graph import CHANNELS
+
+    given = [c for c in settings.material.channels if c != "normal"]
+    lit = settings.shading != "decal"
+    channels = sum(3 if CHANNELS[c] == "colour" else 1 for c in given) + 3 * (settings.normal_map + lit)
+    return channels + sum(len(t.channels) for t in settings.packing or ()), len(given) + settings.normal_map + lit
 
 
 def available_bytes() -> int:

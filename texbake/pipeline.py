@@ -15,6 +15,7 @@ per set and tile -> ``BakeResult`` with its report (output.report).
 from __future__ import annotations
 
 import ctypes
+import hashlib
 import itertools
 import threading
 import time
@@ -317,7 +318,7 @@ def _bake_set(texture_set: TextureSet, bounds: tuple[np.ndarray, np.ndarray], sr
         atlas, key = _atlas(mesh, settings, workers, store)
     mapping = TextureMapping.for_mesh(*bounds, settings.texture_space, settings.precision)  # the whole mesh's: one field
     with timer.stage("normals"):  # of the output mesh; a normal map is baked in its tangent frame
-        baked = _output_mesh(mesh, atlas, tangents=settings.bump is not None)
+        baked = _output_mesh(mesh, atlas, tangents=settings.normal_map)
     out = []
     parts = set_tiles(mesh, atlas, baked)
     for i, tile in enumerate(parts):
@@ -344,12 +345,13 @@ def _bake_tile(tile: Tile, bounds: tuple[np.ndarray, np.ndarray], mapping: Textu
                                                lambda done: say(0.3 + 0.6 * done), lookups)
     covered, hits = _coverage(maps)
     with timer.stage("estimate"):
-        error_estimate = _estimate(sampler, maps, mapping, covered, settings)
+        error_estimate = _estimate(sampler, maps, covered, settings)
     with timer.stage("margin"):
         filled = margin_stage.extend(list(maps.images.values()), covered, settings.margin, workers=workers)
     say(0.95)
     tally = BakeTally(covered, filled, cast=int(cast), rays=int(rays), transfer_missed=int(missed), hits=hits, lookup_reused=reused,
-                      error_estimate=error_estimate, seconds=timer.seconds, faces=len(mesh.faces))
+                      error_estimate=error_estimate, seconds=timer.seconds, faces=len(mesh.faces),
+                      material=None if maps.material is None else maps.material.report())
     return _images(maps, settings), covered, filled, tally
 
 
@@ -399,7 +401,7 @@ def _sampler(mesh: LoadedMesh, atlas: Atlas, baked: BakedMesh, src: LoadedMesh |
                    normals=corner_normals if needs_normals else False,
                    source=None if src is None else (src.vertices, src.faces), reach=reach,
                    frame=None if baked.tangents is None else (baked.normals[baked.faces][front], baked.tangents[baked.faces][front]),
-                   footprints=settings.filtering or settings.bump is not None)
+                   footprints=settings.filtering or settings.normal_map)
 
 
 def _coverage(maps: Maps) -> tuple[np.ndarray, int]:
@@ -416,6 +418,7 @@ def _images(maps: Maps, settings: BakeSettings) -> dict[str, np.ndarray]:
     images = dict(maps.images)
     if settings.frames is not None:
         images["flipbook"] = flipbook([images[name] for name in maps.colours])
+    images.update(maps.packs(images))  # a material's channels packed by template (ORM...)
     return images
 
 
@@ -494,20 +497,30 @@ def _bake_tiles(sampler: Sampler, maps: Maps, settings: BakeSettings, timer: Tim
     return counts, known is not None
 
 
-def _estimate(sampler: Sampler, maps: Maps, mapping: TextureMapping, covered: np.ndarray, settings: BakeSettings) -> dict:
+def _estimate(sampler: Sampler, maps: Maps, covered: np.ndarray, settings: BakeSettings) -> dict:
     """The error estimate of the colour map (``texbake.maps.estimate``): a probe that sends UV
-    points through the same chain, point-sampled in float64."""
-    spec = maps.colours[maps.colour_name]
+    points through the same chain, point-sampled in float64; for a material, of each of its
+    maps too (``channels``), from one probe (the same texels and points for each map)."""
+    probed: dict[bytes, tuple] = {}  # the probe's UV points (a stratum's) -> every map's values there, from one evaluation
 
-    def reference_at(uvs: np.ndarray):
-        s = sampler.at(uvs)
-        hit = np.zeros(len(uvs), dtype=bool)
-        hit[s.index] = True
-        return hit, mapping.evaluate(spec, s.points, None, None, exact=True)
+    def reference_at(name: str):
+        def at(uvs: np.ndarray):
+            key = hashlib.blake2b(np.ascontiguousarray(uvs).tobytes(), digest_size=16).digest()
+            if key not in probed:
+                s = sampler.at(uvs)
+                hit = np.zeros(len(uvs), dtype=bool)
+                hit[s.index] = True
+                probed[key] = hit, maps.reference(s)
+            hit, values = probed[key]
+            return hit, values[name]
+        return at
 
     grid = estimate_stage.probe_grid(settings.samples)
     edge_grid = grid if settings.samples == 1 else min(16, 2 * grid)
-    estimate = estimate_stage.probe_estimate(reference_at, maps.images[maps.colour_name], covered, seed=settings.seed, grid=grid,
-                                             edge_grid=edge_grid)
+    estimates = {name: estimate_stage.probe_estimate(reference_at(name), maps.images[name], covered, seed=settings.seed, grid=grid,
+                                                     edge_grid=edge_grid) for name in maps.estimated}
+    estimate = estimates[maps.colour_name]
     estimate["map"] = maps.colour_name
+    if len(estimates) > 1:
+        estimate["channels"] = {name: {k: e[k] for k in ("rmse", "rmse_interval", "texels")} for name, e in estimates.items()}
     return estimate

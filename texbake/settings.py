@@ -43,8 +43,11 @@ from pydantic import (
     model_validator,
 )
 
-from .errors import ParameterError, TextureError
+from .errors import MaterialError, ParameterError, TextureError
 from .formats import bits_problem, format_name
+from .materials.builtins import BUILTINS
+from .materials.model import Material, parse_material
+from .materials.packing import PackTemplate, parse_packing
 from .textures.spec import TEXTURES, TextureSpec, parse_spec
 from .validation import describe
 
@@ -55,6 +58,38 @@ def _texture(value: Any):
         return parse_spec(value)
     except TextureError as exc:
         raise ValueError(str(exc)) from None
+
+
+def _material(value: Any):
+    """A built-in material's name, JSON text or a material object; never a path."""
+    if value is None:
+        return None
+    try:
+        return parse_material(value)
+    except MaterialError as exc:
+        raise ValueError(str(exc)) from None
+
+
+def _packing(value: Any):
+    """Packing templates: built-in names, template objects, or JSON text of either (or a list of them)."""
+    if value is None:
+        return None
+    if isinstance(value, str) and value.strip().startswith("["):
+        import json
+
+        try:
+            value = json.loads(value)
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"not valid JSON: {exc.msg}") from None
+    items = value if isinstance(value, (list, tuple)) else [value]
+    try:
+        templates = [parse_packing(item) for item in items]
+    except ParameterError as exc:
+        raise ValueError(exc.problem) from None
+    names = [t.name for t in templates]
+    if len(set(names)) < len(names):
+        raise ValueError(f"two templates named {next(n for n in names if names.count(n) > 1)!r}")
+    return templates
 
 
 def _finite(value: float) -> float:
@@ -68,6 +103,17 @@ Texture = Annotated[
     Any,
     PlainValidator(_texture, json_schema_input_type=Union[TextureName, TextureSpec]),  # noqa: UP007  # values, not annotations
     PlainSerializer(lambda spec: spec.model_dump(mode="json"), return_type=dict),
+]
+MaterialName = Literal[tuple(BUILTINS)]  # type: ignore[valid-type]  # the built-ins' names, as an enum
+MaterialSetting = Annotated[
+    Any,
+    PlainValidator(_material, json_schema_input_type=Union[MaterialName, Material, None]),  # noqa: UP007  # values, not annotations
+    PlainSerializer(lambda m: None if m is None else m.model_dump(mode="json"), return_type=Union[dict, None]),  # noqa: UP007
+]
+Packing = Annotated[
+    Any,
+    PlainValidator(_packing, json_schema_input_type=Union[list[Union[Literal["orm", "hdrp-mask"], PackTemplate]], None]),  # noqa: UP007
+    PlainSerializer(lambda ts: None if ts is None else [t.model_dump(mode="json") for t in ts], return_type=Union[list, None]),  # noqa: UP007
 ]
 Finite = Annotated[float, AfterValidator(_finite)]
 MAX_TEXELS = 65536  # a side of the image
@@ -87,7 +133,7 @@ PRESETS: dict[str, dict[str, Any]] = {
 
 # The settings a texture set may have of its own (``materials``); the others are the bake's.
 SET_FIELDS = ("texture", "size", "quality", "samples", "filtering", "precision", "max_octaves", "margin", "uv", "charting",
-              "shading", "light", "bump", "bump_strength", "frames", "seed")
+              "shading", "light", "bump", "bump_strength", "frames", "seed", "material", "normal_convention", "packing")
 NAME_FIELDS = ("mesh", "set", "map", "tile", "ext")  # the fields of a ``names`` template
 DEFAULT_NAMES = "{set}_{map}.{tile}.{ext}"  # one set, no tiles: "albedo.png", as a bake of one material always wrote
 
@@ -166,6 +212,15 @@ class BakeSettings(BaseModel):
     format: Literal["png", "exr", "tif"] = Field("png", description="image format of the maps")
     bits: Literal[8, 16, 32] | None = Field(None, description="png 8 or 16; exr 16 (half) or 32; tif 8, 16 or 32 (default: png 8, exr 16, tif 16)")
     obj: StrictBool = Field(False, description="also write OBJ + MTL")
+    material: MaterialSetting = Field(
+        None, description="a material: a built-in's name (see `texbake materials`) or a material object (on the command "
+        "line also a .json/.yaml file); its channels are baked each as its own map, instead of the texture")
+    normal_convention: Literal["opengl", "directx"] = Field(
+        "opengl", description="the normal map's green channel: opengl (+Y, as glTF) or directx (-Y); the GLB always gets +Y")
+    packing: Packing = Field(
+        None, description="maps packing a material's scalar channels into one image each: built-in orm (R occlusion, G "
+        "roughness, B metallic) and hdrp-mask (R metallic, G occlusion, B detail, A smoothness), or templates like "
+        '{"name": "rma", "channels": ["roughness", "metallic", "occlusion"]}; default with a material: orm')
     texture_set: Literal["per-material", "single"] = Field(
         "per-material", description="per-material: one texture set (its own atlas and maps) per material; single: one for the whole mesh")
     materials: dict[str, MaterialSettings] | None = Field(
@@ -188,6 +243,8 @@ class BakeSettings(BaseModel):
         if preset is None:
             return data
         resolved = {**preset, **data, "quality": name}
+        if data.get("material") is not None and data.get("packing") is None:
+            resolved["packing"] = ["orm"]  # what the GLB's metallic-roughness and occlusion textures are
         if "samples" in data and "filtering" not in data and _above_one(data["samples"]):
             resolved["filtering"] = False  # several samples converge to the texel mean; filtering each would blur it twice
         return resolved
@@ -210,6 +267,12 @@ class BakeSettings(BaseModel):
             raise ValueError(f"bits: {problem}")
         if self.frames is not None and "time" not in type(self.texture).model_fields:
             raise ValueError(f"frames: texture {self.texture.name!r} has no time to animate")
+        if self.material is not None and self.frames is not None:
+            raise ValueError("frames: a material bakes one set of maps, not frames")
+        if self.material is not None and self.bump is not None:
+            raise ValueError("bump: a material's normal map comes from its height (or normal) channel")
+        if self.material is None and self.packing is not None:
+            raise ValueError("packing: packs a material's channels; give a material")
         if self.materials and self.texture_set == "single":
             raise ValueError("materials: texture_set='single' bakes one texture set for the whole mesh; per-material "
                              "settings need texture_set='per-material'")
@@ -236,6 +299,13 @@ class BakeSettings(BaseModel):
         except ValidationError as exc:
             error = parameter_error(exc)
             raise ParameterError(f"materials.{name}.{error.name}", error.problem) from None
+
+    @property
+    def normal_map(self) -> bool:
+        """Whether the bake makes a normal map: a bump texture, or a material's height or normal channel."""
+        if self.material is not None:
+            return bool({"height", "normal"} & set(self.material.channels))
+        return self.bump is not None
 
     @property
     def width_height(self) -> tuple[int, int]:
@@ -268,6 +338,8 @@ class BakeSettings(BaseModel):
         samples = {} if self.samples == PRESETS[self.quality]["samples"] else {"samples": self.samples}
         plain = type(self)(quality=self.quality, **samples).model_dump()
         given = {name: value for name, value in self.model_dump().items() if value != plain[name]}
+        if self.material is not None and given.get("packing") == [{"name": "orm", "channels": ["occlusion", "roughness", "metallic"]}]:
+            del given["packing"]  # a material's default, not given
         return {**given, **samples, "quality": self.quality}
 
 

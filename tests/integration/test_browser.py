@@ -3,7 +3,8 @@ tools/package.json) in headless Chromium (Debian's ``chromium``; ``scripts/run``
 when missing and running as root), served from 127.0.0.1 by the test.
 
 Each render is a screenshot of tools/render-glb.html: the model framed on its bounding box,
-a directional and an ambient light, on a magenta background; or, from the same view, each
+a directional and an ambient light (or an environment light only, for a material's
+roughness and metal), on a magenta background; or, from the same view, each
 material drawn in a flat colour of its own, which tells which pixels show which material. The screenshots are kept under
 pytest's tmp_path and, if TEXBAKE_ARTEFACTS names a folder, copied there.
 
@@ -67,9 +68,11 @@ class _QuietHandler(http.server.SimpleHTTPRequestHandler):
         pass
 
 
-def render(server, glb: Path, name: str, tmp_path: Path, ids: list[str] | None = None) -> np.ndarray:
-    """``(SIZE, SIZE, 3)`` float32 linear screenshot of ``glb`` in three.js; kept as an artefact.
-    ``ids``: material names, each drawn flat in its colour of :data:`IDS` instead (the same view).
+def render(server, glb: Path, name: str, tmp_path: Path, ids: list[str] | None = None, *, environment: bool = False) -> np.ndarray:
+    """``(SIZE, SIZE, 3)`` float32 linear screenshot of ``glb`` in three.js (lit by a
+    directional and an ambient light, or ``environment``: by an environment light only);
+    kept as an artefact. ``ids``: material names, each drawn flat in its colour of
+    :data:`IDS` instead (the same view).
 
     Headless screenshots have come out blank (all background) now and then: retried up to
     three times.
@@ -84,7 +87,8 @@ def render(server, glb: Path, name: str, tmp_path: Path, ids: list[str] | None =
              "--disable-gpu-sandbox", "--disable-background-networking", "--hide-scrollbars", "--no-first-run",
              f"--user-data-dir={tmp_path / 'chromium-profile'}", "--virtual-time-budget=20000",
              f"--window-size={SIZE},{SIZE}", f"--screenshot={shot}",
-             f"{base}/render.html?glb=/{glb.name}&size={SIZE}" + ("" if ids is None else "&ids=" + quote(",".join(ids)))],
+             f"{base}/render.html?glb=/{glb.name}&size={SIZE}" + ("" if ids is None else "&ids=" + quote(",".join(ids)))
+             + ("&env=1" if environment else "")],
             capture_output=True, timeout=120, check=False)
         if shot.is_file():
             image = read_image(shot)[..., :3]
@@ -144,6 +148,54 @@ def test_a_baked_glb_renders_textured_and_smooth_in_three_js(server, tmp_path):
     # smooth: with the GLB's normals, far fewer brightness steps than the same mesh flat
     smooth_steps, flat_steps = steps(plain, model_mask(plain)), steps(flat, model_mask(flat))
     assert flat_steps > 0.02 and smooth_steps < flat_steps / 5, (smooth_steps, flat_steps)  # measured 0.054 and 0
+
+
+def test_roughness_and_metal_vary_where_the_material_says_under_an_environment_light(server, tmp_path):
+    # A sphere whose material makes the even cells of a checker smooth metal and the odd ones
+    # rough paint, against the same bake with one roughness (and no metal) everywhere, both
+    # under an environment light only (three's RoomEnvironment). Which pixel shows which
+    # cell: a third render of the checker alone as emitted light on black.
+    from scipy import ndimage
+
+    sphere = trimesh.creation.icosphere(subdivisions=4)
+    cell = {"op": "texture", "texture": {"name": "checker", "box": [0.25, 0.25, 0.25]}, "output": "value"}  # 1 on even cells
+    varied = {"nodes": {"cell": cell}, "base_color": [0.5, 0.5, 0.5], "roughness": {"op": "mix", "a": 0.9, "b": 0.05, "mask": "cell"},
+              "metallic": "cell"}
+    plain = {"base_color": [0.5, 0.5, 0.5], "roughness": 0.5, "metallic": 0.0}
+    shots = {}
+    for name, material in (("varied", varied), ("plain", plain)):
+        result = texbake.bake_mesh(sphere, material=material, size=256)
+        result.save(tmp_path / name)
+        glb = shutil.copy(tmp_path / name / f"{result.mesh.name}.glb", tmp_path / f"material-{name}.glb")  # its own URL
+        shots[name] = render(server, Path(glb), f"material-{name}", tmp_path, environment=True)
+    checker = texbake.bake_mesh(sphere, {"name": "checker", "box": [0.25, 0.25, 0.25], "color_even": [1, 1, 1], "color_odd": [0, 0, 0]},
+                                size=256)
+    m = checker.mesh
+    cells = encode_png_bytes(checker.images["albedo"])
+    write_glb(tmp_path / "material-cells.glb", m.vertices, m.faces, m.uv, {"baseColor": cells, "emissive": cells}, normals=m.normals,
+              base_factor=(0.0, 0.0, 0.0, 1.0))
+    where = render(server, tmp_path / "material-cells.glb", "material-cells", tmp_path, environment=True)
+    inside = ndimage.binary_erosion(model_mask(where), iterations=3)
+    luma = where @ np.array([0.2126, 0.7152, 0.0722])
+    even = ndimage.binary_erosion((luma > 0.5) & inside, iterations=3)  # away from the cells' edges
+    odd = ndimage.binary_erosion((luma < 0.2) & inside, iterations=3)
+    assert even.sum() > 2000 and odd.sum() > 2000, (even.sum(), odd.sum())
+
+    def detail(image):  # how sharp the shading is: the mean step to a neighbour (a mirror shows the room's edges)
+        y = image @ np.array([0.2126, 0.7152, 0.0722])
+        return np.hypot(*np.gradient(y))
+
+    for name, image in shots.items():
+        d, y = detail(image), image @ np.array([0.2126, 0.7152, 0.0722])
+        shots[name] = (abs(y[even].mean() - y[odd].mean()), d[even].mean(), d[odd].mean())
+    plain_gap, plain_even, plain_odd = shots["plain"]
+    varied_gap, varied_even, varied_odd = shots["varied"]
+    # one roughness everywhere: the cells look alike (measured: 0.007 apart in brightness, their
+    # detail 0.76x); the material's: the metal cells mirror the room (0.37 apart, 9.9x the rough
+    # cells' detail, 11x what the same cells show with one roughness)
+    assert plain_gap < 0.03 and 0.5 < plain_even / plain_odd < 2, shots
+    assert varied_gap > 0.15 and varied_even > 4 * varied_odd, shots
+    assert varied_even > 4 * plain_even, shots
 
 
 def material_masks(ids: np.ndarray, names: list[str]) -> dict[str, np.ndarray]:

@@ -138,6 +138,7 @@ def test_the_fields_read_as_words(api, page):
     assert options(p, "Bit depth") == ["Format default", "8 bits", "16 bits", "32 bits"]
     expect(p.get_by_label("Bit depth", exact=True)).to_have_value("null")  # the format's own, until chosen
     assert options(p, "Bump texture")[:3] == ["No bump", "Position (RGB = XYZ)", "Checker"]
+    assert options(p, "PBR material")[:3] == ["No material (the texture)", "Polished marble", "Oak planks"]  # the built-ins
     expect(p.get_by_label("Also write OBJ + MTL", exact=True)).to_have_attribute("type", "checkbox")
     # no label is a field's name ("Uv", "Obj", "Max Octaves"), no option a bare "none"
     schema = httpx.get(api + "/v1/config", timeout=10).json()["settings_schema"]

@@ -288,6 +288,58 @@ def test_uv_keep_on_a_scene_with_uvs_on_some_parts_keeps_them_and_says_which_par
     assert "part 'ball' (320 faces) has no UVs" in warned[0]
 
 
+def test_a_material_file_bakes_every_channel_and_packs(meshes, tmp_path):
+    (tmp_path / "rust.yaml").write_text(
+        "nodes:\n  patches: {op: texture, output: value, texture: {name: fbm, scale: 5}}\n"
+        "  rust: {op: smoothstep, input: patches, edge0: 0.45, edge1: 0.55}\n"
+        "base_color: {op: mix, a: [0.5, 0.5, 0.52], b: [0.4, 0.15, 0.05], mask: rust}\n"
+        "metallic: {op: invert, input: rust}\nroughness: {op: mix, a: 0.3, b: 0.9, mask: rust}\nheight: rust\n")
+    r = run_cli("bake", meshes / "suzanne.ply", "--material", tmp_path / "rust.yaml", "--size", 64, "--normal-convention", "directx",
+                "--packing", "orm,hdrp-mask", "--out", tmp_path / "o")
+    assert r.returncode == 0, r.stderr
+    names = {p.name for p in (tmp_path / "o").iterdir()}
+    assert {"base_color.png", "metallic.png", "roughness.png", "height.png", "normal.png", "normal_gltf.png", "orm.png",
+            "hdrp-mask.png", "suzanne.glb"} <= names and "albedo.png" not in names
+    report = json.loads((tmp_path / "o" / "report.json").read_text())
+    assert report["settings"]["material"]["nodes"]["rust"]["edge1"] == 0.55 and report["settings"]["normal_convention"] == "directx"
+    assert [t["name"] for t in report["settings"]["packing"]] == ["orm", "hdrp-mask"]
+    built_in = run_cli("bake", meshes / "suzanne.ply", "--material", "lava", "--size", 32, "--out", tmp_path / "lava")
+    assert built_in.returncode == 0 and (tmp_path / "lava" / "emissive.png").exists(), built_in.stderr
+
+
+@pytest.mark.parametrize(("material", "line"), [
+    ('{"nodes": {"a": {"op": "invert", "input": "b"}, "b": {"op": "add", "a": "a", "b": 1}}, "base_color": "a"}',
+     "texbake: error: material: node 'a': a cycle: a -> b -> a"),
+    ('{"base_color": {"op": "mixx", "a": 1}}', "texbake: error: material: node 'base_color': unknown op 'mixx' (did you mean 'mix'?"),
+    ('{"base_color": {"op": "mix", "a": 0, "b": 1, "mask": {"name": "marble"}}}',
+     "texbake: error: material: node 'base_color': input 'mask' takes a scalar, got a colour"),
+    ("glass", "texbake: error: material: unknown material 'glass'"),
+])
+def test_a_graph_error_is_one_line_naming_the_node_and_exit_2(meshes, tmp_path, material, line):
+    r = run_cli("bake", meshes / "suzanne.ply", "--material", material, "--out", tmp_path / "o")
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    (got,) = r.stderr.strip().splitlines()
+    assert got.startswith(line), got
+    assert not (tmp_path / "o").exists()
+
+
+def test_bad_material_files_exit_2_naming_the_file(meshes, tmp_path):
+    (tmp_path / "list.yaml").write_text("- base_color: 1\n")
+    for path, words in ((tmp_path / "missing.json", "cannot read material file"), (tmp_path / "list.yaml", "one mapping of channels")):
+        r = run_cli("bake", meshes / "suzanne.ply", "--material", path, "--out", tmp_path / "o")
+        assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and words in r.stderr and str(path) in r.stderr, r.stderr
+
+
+def test_materials_lists_the_built_ins_and_prints_one():
+    r = run_cli("materials")
+    assert r.returncode == 0
+    for name in ("polished_marble", "oak_planks", "lava", "rusted_iron", "glazed_ceramic_checker", "smoothstep"):
+        assert name in r.stdout
+    lava = json.loads(run_cli("materials", "lava").stdout)
+    assert lava["name"] == "lava" and "emissive" in lava
+    assert json.loads(run_cli("materials", "--json").stdout)["title"] == "Material"
+    bad = run_cli("materials", "lavva")
+    assert bad.returncode == 2 and "unknown material 'lavva'" in bad.stderr
 def test_a_manifest_line_gives_two_materials_two_textures(tmp_path):
     """One manifest line, its ``materials`` mapping: the body checker, the wheels wood
     (from a spec file) at 32²; each set's map is the one a bake of that texture alone gives,

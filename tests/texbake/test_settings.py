@@ -122,3 +122,18 @@ def test_a_bad_value_raises_a_parameter_error_naming_the_field(given, name):
     with pytest.raises(ParameterError) as caught:
         BakeSettings.build(given)
     assert caught.value.name.split(".")[0] == name, caught.value
+
+
+def test_a_material_setting_holds_the_whole_material_and_round_trips():
+    from texbake.materials import BUILTINS
+    from texbake.settings import BakeSettings
+
+    s = BakeSettings(material="lava", size=64)
+    assert s.material.name == "lava" and s.material.nodes == BUILTINS["lava"]["nodes"] and s.normal_map
+    assert [t.name for t in s.packing] == ["orm"]  # a material's default packing, resolved
+    dumped = s.model_dump(mode="json")
+    assert dumped["material"]["emissive"] == BUILTINS["lava"]["emissive"] and dumped["normal_convention"] == "opengl"
+    assert BakeSettings.model_validate(dumped) == s
+    assert BakeSettings.build(s, material=None).packing is None  # the default packing goes with the material
+    assert BakeSettings.build(s, size=32).material == s.material
+    assert not BakeSettings(material={"base_color": 0.5}).normal_map and BakeSettings(bump="noise").normal_map

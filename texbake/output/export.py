@@ -1,5 +1,5 @@
-"""The baked mesh: GLB with the maps bound to its material (base colour, and normal and
-emissive where baked), and OBJ + MTL.
+"""The baked mesh: GLB with the maps bound to its material (base colour, and
+metallic-roughness, occlusion, normal and emissive where baked), and OBJ + MTL.
 
 Vertices are written as they are, one per atlas vertex (seam vertices stay split).
 UVs come in with v up (OpenGL, trimesh, OBJ); glTF puts the image origin at the top left,
@@ -69,7 +69,7 @@ def _mesh_arrays(vertices, faces, uv, normals):
     return v, f, t, n
 
 
-SLOTS = ("baseColor", "normal", "emissive")  # the material's texture slots write_glb fills
+SLOTS = ("baseColor", "metallicRoughness", "occlusion", "normal", "emissive")  # the material's texture slots write_glb fills
 
 
 def _png(path: Path, slot: str, texture) -> bytes:
@@ -98,10 +98,11 @@ class GlbPart:
     tangents: np.ndarray | None = None  # (k, 4)
     material: str = "baked"
     base_factor: tuple[float, float, float, float] = (1.0, 1.0, 1.0, 1.0)
+    fields: dict | None = None  # more of its glTF material's fields (write_glb's material)
 
 
 def write_glb(path, vertices, faces, uv, textures, *, normals=None, tangents=None, name: str = "baked",
-              base_factor: tuple[float, float, float, float] = (1.0, 1.0, 1.0, 1.0)) -> dict:
+              base_factor: tuple[float, float, float, float] = (1.0, 1.0, 1.0, 1.0), material: dict | None = None) -> dict:
     """Write a GLB: one mesh, its UVs, and its material's textures, atomically.
 
     Parameters
@@ -118,9 +119,12 @@ def write_glb(path, vertices, faces, uv, textures, *, normals=None, tangents=Non
         ``(u, 1 - v)`` in float32.
     textures : str, os.PathLike, bytes or dict
         A PNG (file path or bytes), bound as the base colour; or a dict of PNGs by slot:
-        ``"baseColor"`` (required; sRGB colour), ``"normal"`` (a tangent-space normal
+        ``"baseColor"`` (required; sRGB colour, its alpha the opacity where the material's
+        ``alphaMode`` reads it), ``"metallicRoughness"`` (data: G roughness, B metallic,
+        with factors 1), ``"occlusion"`` (data: R), ``"normal"`` (a tangent-space normal
         map, +Y up: linear data) and ``"emissive"`` (sRGB, with ``emissiveFactor`` 1).
-        Slots given the same PNG share one image; the PNGs are embedded as they are.
+        Slots given the same PNG share one image (an ORM map as metallic-roughness and
+        occlusion); the PNGs are embedded as they are.
     normals : (k, 3) array_like of float, optional
         Shading normals, non-zero and finite; normalised here.
     tangents : (k, 4) array_like of float, optional
@@ -131,6 +135,10 @@ def write_glb(path, vertices, faces, uv, textures, *, normals=None, tangents=Non
     base_factor : (4,) tuple of float, optional
         The base colour's factor: black for a texture that is light, not paint (the
         flame, bound as emissive).
+    material : dict, optional
+        More of the glTF material's fields, written over what the textures give (a
+        baked material's ``alphaMode`` and ``alphaCutoff``, its factors where a channel
+        has no map: ``{"pbrMetallicRoughness": {"metallicFactor": 0.0}}``).
 
     Returns
     -------
@@ -146,7 +154,7 @@ def write_glb(path, vertices, faces, uv, textures, *, normals=None, tangents=Non
         A texture file cannot be read, or the GLB cannot be written (a missing folder, a
         name taken by a folder); nothing is left under ``path``'s name.
     """
-    part = GlbPart(vertices, faces, uv, textures, normals, tangents, f"{name}_baked", base_factor)
+    part = GlbPart(vertices, faces, uv, textures, normals, tangents, f"{name}_baked", base_factor, material)
     return write_glb_parts(path, [part], name=name)
 
 
@@ -170,8 +178,8 @@ def write_glb_parts(path, parts: list[GlbPart], *, name: str = "baked") -> dict:
         primitives.append({"attributes": attributes, "indices": index_accessor, "material": k, "mode": _TRIANGLES})
     images: list[bytes] = list(dict.fromkeys(png for *_, pngs in checked for png in pngs.values()))  # one image (and texture) per distinct PNG
     image_views = [buffer.view(png) for png in images]
-    materials = [_material(part.material, {slot: {"index": images.index(png)} for slot, png in pngs.items()}, part.base_factor)
-                 for part, (*_, pngs) in zip(parts, checked, strict=True)]
+    materials = [_material(part.material, {slot: {"index": images.index(png)} for slot, png in pngs.items()}, part.base_factor,
+                           part.fields) for part, (*_, pngs) in zip(parts, checked, strict=True)]
     binary = b"".join(buffer.blobs)
     doc = {
         "asset": {"version": "2.0", "generator": "texbake"},
@@ -260,16 +268,23 @@ def _attributes(buffer: _Buffer, v: np.ndarray, t: np.ndarray, n: np.ndarray | N
     return attributes
 
 
-def _material(name: str, texture: dict[str, dict], base_factor) -> dict:
-    """A material named ``name``: base colour, and normal and emissive where ``texture`` has them."""
-    material: dict = {"name": name,
-                      "pbrMetallicRoughness": {"baseColorTexture": texture["baseColor"], "metallicFactor": 0.0, "roughnessFactor": 1.0}}
+def _material(name: str, texture: dict[str, dict], base_factor, extra: dict | None = None) -> dict:
+    """A material named ``name``: base colour, and metallic-roughness, occlusion, normal and
+    emissive where ``texture`` has them; ``extra`` written over it."""
+    pbr: dict = {"baseColorTexture": texture["baseColor"], "metallicFactor": 0.0, "roughnessFactor": 1.0}
+    material: dict = {"name": name, "pbrMetallicRoughness": pbr}
     if tuple(base_factor) != (1.0, 1.0, 1.0, 1.0):
-        material["pbrMetallicRoughness"]["baseColorFactor"] = [float(x) for x in base_factor]
+        pbr["baseColorFactor"] = [float(x) for x in base_factor]
+    if "metallicRoughness" in texture:  # the texture's values as they are
+        pbr.update(metallicRoughnessTexture=texture["metallicRoughness"], metallicFactor=1.0, roughnessFactor=1.0)
+    if "occlusion" in texture:
+        material["occlusionTexture"] = texture["occlusion"]
     if "normal" in texture:
         material["normalTexture"] = texture["normal"]
     if "emissive" in texture:
         material["emissiveTexture"], material["emissiveFactor"] = texture["emissive"], [1.0, 1.0, 1.0]
+    for key, value in (extra or {}).items():
+        material[key] = {**material.get(key, {}), **value} if isinstance(value, dict) else value
     return material
 
 

@@ -71,6 +71,8 @@ class BakeTally:
         The colour map's error estimate (``texbake.maps.estimate``).
     seconds : dict of str to float
         Seconds per stage, summed over the tiles that ran it.
+    material : dict or None
+        A material's bake: its maps and each node's evaluations (``texbake.maps.material``).
     faces : int
         The faces of the image's mesh (its texture set's, or UDIM tile's).
     """
@@ -84,6 +86,7 @@ class BakeTally:
     lookup_reused: bool = False
     error_estimate: dict = field(default_factory=dict)
     seconds: dict = field(default_factory=dict)
+    material: dict | None = None
     faces: int = 0
 
 
@@ -113,7 +116,7 @@ def bake_report(settings: BakeSettings, mesh: LoadedMesh, units: list, *, source
         ``error_estimate``, ``warnings``, ``skipped``, ``seconds``, ``versions``, and
         ``sets``: per texture set its ``name``, ``materials``, ``faces``, ``size``, its own
         ``settings`` where they differ from the bake's, ``atlas``, ``texels``, ``rays``,
-        ``error_estimate`` and ``tiles`` (per UDIM tile the same figures; none without
+        ``error_estimate``, a material's ``material`` (its maps and nodes' evaluations) and ``tiles`` (per UDIM tile the same figures; none without
         tiles). For one set the top-level figures are its own; for several, the atlas
         names each set's method, and the texels, rays and error are over every image.
     """
@@ -135,6 +138,7 @@ def bake_report(settings: BakeSettings, mesh: LoadedMesh, units: list, *, source
         "texels": sets[0]["texels"] if one else _sum([s["texels"] for s in sets]),
         "rays": sets[0]["rays"] if one else _sum([s["rays"] for s in sets]),
         "error_estimate": sets[0]["error_estimate"] if one else _combined([s["error_estimate"] for s in sets]),
+        **({"material": sets[0]["material"]} if one and "material" in sets[0] else {}),  # several sets: each set's own
         "warnings": warnings + _transfer_warning(sum(t.cast for t in tallies), sum(t.transfer_missed for t in tallies)),
         "skipped": _skipped(source, list(atlases.values()), tallies),
         "seconds": {k: round(v, 4) for k, v in (seconds or {}).items()},
@@ -185,6 +189,7 @@ def _figures(settings: BakeSettings, tally: BakeTally) -> dict:
             "transfer_missed": tally.transfer_missed,
         },
         "error_estimate": tally.error_estimate,
+        **({} if tally.material is None else {"material": tally.material}),
     }
 
 

@@ -18,6 +18,8 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import OutputError, ParameterError
 from ..formats import bits_problem, image_format
 from ..settings import file_name
@@ -41,7 +43,9 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
     for UDIM tiles also ``<name>.usda`` and, with ``obj``, an OBJ whose materials name
     their maps with the ``<UDIM>`` token (:mod:`texbake.output.udim`); ``report.json``
     last, so its presence means the rest is complete. Colour maps are sRGB; the normal map
-    and the coverage are data (a linear PNG: ``texbake.output.images``).
+    and the coverage are data (a linear PNG: ``texbake.output.images``). A material's bake
+    writes a map per channel (``base_color``, ``emissive`` colour; the rest data) and its
+    packed maps (``orm``...), and each set's GLB material is whole (:func:`_slots`).
     """
     fmt = image_format(fmt)
     if bits is not None and (problem := bits_problem(fmt, bits)):
@@ -58,7 +62,7 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
     jobs, owner = {}, {}  # file -> what to write, and its texture set
     for b in result.sets:
         for name, pixels in b.images.items():  # a normal map is no colour
-            jobs[name_of(b, name, fmt)] = (pixels, bits, "data" if name == "normal" else "linear")
+            jobs[name_of(b, name, fmt)] = (pixels, bits, "linear" if is_colour(name) else "data")
         jobs[name_of(b, "coverage", "png")] = (b.coverage[:, :, None], None, "data")
         owner.update({file: b.name for file in jobs if file not in owner})
     with ThreadPoolExecutor(2, thread_name_prefix="texbake-write") as pool:  # two at once: OpenImageIO's compression releases the GIL
@@ -67,9 +71,9 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
 
     glb_parts, obj_parts = [], []
     for b in result.sets:
-        slots = _slots(b, folder, fmt, name_of, written)
+        slots, factor, fields = _slots(b, folder, fmt, name_of, written)
         owner.update({path.name: b.name for path in slots.values() if path.name not in jobs})
-        glb_parts += _glb_parts(b, slots, _material_name(result, b))
+        glb_parts += _glb_parts(b, slots, _material_name(result, b), factor, fields)
         obj_parts.append((b, slots["baseColor"]))
     m = result.sets[0].mesh
     written["glb"] = write_glb_parts(folder / f"{m.name}.glb", glb_parts, name=m.name)
@@ -128,19 +132,59 @@ def _key(file: str) -> str:
     return file.rsplit(".", 1)[0]
 
 
-def _slots(b, folder: Path, fmt: str, name_of, written: dict) -> dict[str, Path]:
-    """The GLB's PNGs of a set (glTF embeds PNG or JPEG only: PNG copies of other formats)."""
-    colour = "albedo" if "albedo" in b.images else min(n for n in b.images if n.startswith("albedo_"))
-    slot_maps = {"baseColor": colour, **({"normal": "normal"} if "normal" in b.images else {})}
-    slots = {}
-    for slot, name in slot_maps.items():
-        slots[slot] = folder / name_of(b, name, "png")
-        if fmt != "png":
-            slots[slot] = folder / name_of(b, f"{name}_gltf", "png")
-            written[_key(slots[slot].name)] = write_image(slots[slot], b.images[name], colorspace="data" if name == "normal" else "linear")
-    if b.settings.texture.emits:  # the flame: its colour is light, not paint
-        slots["emissive"] = slots["baseColor"]
-    return slots
+COLOUR_MAPS = ("lit", "flipbook", "base_color", "emissive")  # and albedo, albedo_0000...: sRGB; every other map is data
+
+
+def is_colour(name: str) -> bool:
+    """Whether the map ``name`` is colour (written sRGB) rather than data (linear)."""
+    return name in COLOUR_MAPS or name.startswith("albedo")
+
+
+def _slots(b, folder: Path, fmt: str, name_of, written: dict) -> tuple[dict[str, Path], tuple, dict]:
+    """``(slots, base colour factor, material fields)`` of a set's GLB material: the PNG of
+    each texture slot (glTF embeds PNG or JPEG only: PNG copies ``<map>_gltf`` of other
+    formats, and of what glTF reads otherwise: a material's base colour with the opacity
+    as its alpha, a normal map with green up, an ORM map where the packing has none)."""
+    images = b.images
+    if b.settings.material is None:
+        colour = "albedo" if "albedo" in images else min(n for n in images if n.startswith("albedo_"))
+        emits = b.settings.texture.emits  # the flame: its colour is light, not paint
+        slots = {"baseColor": colour, **({"normal": "normal"} if "normal" in images else {}), **({"emissive": colour} if emits else {})}
+        return _pngs(b, folder, fmt, name_of, written, slots, {}), (0.0, 0.0, 0.0, 1.0) if emits else (1.0, 1.0, 1.0, 1.0), {}
+    from ..materials import DEFAULTS, PACKINGS, pack
+
+    material, copies = b.settings.material, {}
+    slots = {"baseColor": "base_color"}
+    fields: dict = {}  # without a metallic-roughness map the GLB's factors are the defaults': metallic 0, roughness 1
+    if "opacity" in images:  # glTF reads the opacity from the base colour's alpha
+        copies["base_color"] = np.concatenate([images["base_color"], images["opacity"]], axis=2)
+        fields.update(alphaMode=material.alpha_mode.upper(), **({"alphaCutoff": material.alpha_cutoff} if material.alpha_mode == "mask" else {}))
+    if {"roughness", "metallic", "occlusion"} & set(images):
+        if "orm" not in images:
+            copies["orm"] = pack(PACKINGS["orm"], images, DEFAULTS)
+        slots.update(metallicRoughness="orm", **({"occlusion": "orm"} if "occlusion" in images else {}))
+    if "normal" in images:
+        slots["normal"] = "normal"
+        if b.settings.normal_convention == "directx":  # glTF's is +Y
+            normal = images["normal"]
+            copies["normal"] = np.concatenate([normal[..., :1], 1.0 - normal[..., 1:2], normal[..., 2:]], axis=2)
+    if "emissive" in images:
+        slots["emissive"] = "emissive"
+    return _pngs(b, folder, fmt, name_of, written, slots, copies), (1.0, 1.0, 1.0, 1.0), fields
+
+
+def _pngs(b, folder: Path, fmt: str, name_of, written: dict, slots: dict[str, str], copies: dict) -> dict[str, Path]:
+    """The PNG of each slot's map: the map's own file, or a ``<map>_gltf`` PNG written of
+    ``copies[map]`` (or of the map, in a format that is not PNG)."""
+    out = {}
+    for slot, name in slots.items():
+        out[slot] = folder / name_of(b, name, "png")
+        if fmt != "png" or name in copies:
+            out[slot] = folder / name_of(b, f"{name}_gltf", "png")
+            if _key(out[slot].name) not in written:
+                pixels = copies.get(name, b.images.get(name))
+                written[_key(out[slot].name)] = write_image(out[slot], pixels, colorspace="linear" if is_colour(name) else "data")
+    return out
 
 
 def _material_name(result, b) -> str:
@@ -151,14 +195,11 @@ def _material_name(result, b) -> str:
     return base if b.tile is None else f"{base}.{b.tile}"
 
 
-def _glb_parts(b, slots: dict[str, Path], material: str) -> list[GlbPart]:
+def _glb_parts(b, slots: dict[str, Path], material: str, factor: tuple, fields: dict) -> list[GlbPart]:
     """A set's primitives: one, or one per material where the set holds several (texture_set="single")."""
     m = b.mesh
-    factor = (0.0, 0.0, 0.0, 1.0) if "emissive" in slots else (1.0, 1.0, 1.0, 1.0)
     if m.material is None:
-        return [GlbPart(m.vertices, m.faces, m.uv, slots, m.normals, m.tangents, material, factor)]
-    import numpy as np
-
+        return [GlbPart(m.vertices, m.faces, m.uv, slots, m.normals, m.tangents, material, factor, fields)]
     parts = []
     for k, name in enumerate(m.material_names):
         faces = m.faces[m.material == k]
@@ -167,5 +208,5 @@ def _glb_parts(b, slots: dict[str, Path], material: str) -> list[GlbPart]:
         used, local = np.unique(faces, return_inverse=True)
         normals, tangents = (None if a is None else a[used] for a in (m.normals, m.tangents))
         suffix = "" if b.tile is None else f".{b.tile}"
-        parts.append(GlbPart(m.vertices[used], local.reshape(-1, 3), m.uv[used], slots, normals, tangents, name + suffix, factor))
+        parts.append(GlbPart(m.vertices[used], local.reshape(-1, 3), m.uv[used], slots, normals, tangents, name + suffix, factor, fields))
     return parts

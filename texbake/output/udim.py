@@ -56,8 +56,10 @@ def write_udim(result, folder: Path, name_of, *, fmt: str, obj: bool) -> dict:
 
 
 def _colour(b) -> str:
-    """A set's colour map: its albedo, or its first frame's."""
-    return "albedo" if "albedo" in b.images else min(n for n in b.images if n.startswith("albedo_"))
+    """A set's colour map: its albedo (a material's base colour), or its first frame's."""
+    if "albedo" in b.images or "base_color" in b.images:
+        return "albedo" if "albedo" in b.images else "base_color"
+    return min(n for n in b.images if n.startswith("albedo_"))
 
 
 def _usd_maps(b, name_of, fmt: str, tile) -> dict[str, str]:

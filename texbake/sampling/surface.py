@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import _native
-from ..mesh import group_rows, sample_frames
+from ..mesh import group_rows
 
 # Footprints are clamped to this many object-space units per texel (finite, never NaN).
 _MAX_FOOTPRINT = 1e30
@@ -89,7 +89,8 @@ class SurfaceMap:
             self._normals = (table, np.arange(len(table), dtype=np.int64).reshape(len(self._faces), 3))
         elif normals:
             self._normals = (vertex_normals(self._vertices, self._faces), self._faces)
-        self._frame = frame
+        self._frame = None if frame is None else (np.ascontiguousarray(frame[0], dtype=np.float64),
+                                                  np.ascontiguousarray(frame[1], dtype=np.float64))
 
     def samples(self, face: np.ndarray, bary: np.ndarray, footprints: bool = True) -> SurfaceSamples:
         """Surface samples for ``(n,)`` faces and ``(n, 3)`` barycentric coordinates.
@@ -106,7 +107,11 @@ class SurfaceMap:
                             self._vertices, self._faces, self._uv, self._uv_faces, self._width, self._height, _MAX_FOOTPRINT,
                             table, corners, points, _NO_SAMPLES if dpdx is None else dpdx,
                             _NO_SAMPLES if dpdy is None else dpdy, normals if normals is not None else _NO_SAMPLES)
-        frame = None if self._frame is None else sample_frames(self._frame[0][face], self._frame[1][face], bary)
+        frame = None
+        if self._frame is not None:  # mesh.tangents.sample_frames, compiled: no copies of each sample's corners
+            frame = np.empty((n, 3, 3))
+            _native.sample_frames(np.ascontiguousarray(face, dtype=np.int64), np.ascontiguousarray(bary, dtype=np.float64),
+                                  *self._frame, frame)
         return SurfaceSamples(points, normals, dpdx, dpdy, frame)
 
 

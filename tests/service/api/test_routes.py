@@ -362,6 +362,40 @@ def test_retry_bakes_a_failed_or_cancelled_job_again(client, meshes):
     assert client.post(f"/v1/jobs/{'0' * 32}/retry").status_code == 404
 
 
+def test_a_material_is_a_setting_resolved_before_queueing(client, meshes):
+    """A built-in's name is queued as the whole material it names (the same job as that
+    material written out), with the ORM packing it brings."""
+    from texbake.materials import BUILTINS
+
+    r = post(client, meshes / "suzanne.ply", {"material": "rusted_iron", "size": 256, "normal_convention": "directx"})
+    assert r.status_code == 202, r.text
+    job = r.json()
+    material = job["settings"]["material"]
+    assert material["name"] == "rusted_iron" and material["nodes"] == BUILTINS["rusted_iron"]["nodes"]
+    assert job["settings"]["packing"] == [{"name": "orm", "channels": ["occlusion", "roughness", "metallic"]}]
+    again = post(client, meshes / "suzanne.ply", {"material": BUILTINS["rusted_iron"], "size": 256, "normal_convention": "directx"})
+    assert again.status_code == 200 and again.json()["id"] == job["id"]
+
+
+@pytest.mark.parametrize("material, detail", [
+    ({"nodes": {"a": {"op": "invert", "input": "b"}, "b": {"op": "add", "a": "a", "b": 1}}, "base_color": "a"},
+     "settings.material: node 'a': a cycle: a -> b -> a"),
+    ({"base_color": {"op": "blur", "input": 1}}, "settings.material: node 'base_color': unknown op 'blur' (the ops are: texture, "
+     "constant, position, normal, channel, combine, mix, add, subtract, multiply, divide, power, invert, clamp, threshold, smoothstep, "
+     "remap, blend, warp)"),
+    ({"base_color": {"op": "mix", "a": 0, "b": 1, "mask": [1, 0, 0]}},
+     "settings.material: node 'base_color': input 'mask' takes a scalar, got a colour"),
+])
+def test_a_graph_error_is_a_422_naming_the_node(client, meshes, material, detail):
+    r = post(client, meshes / "suzanne.ply", {"material": material})
+    assert r.status_code == 422 and r.json()["detail"] == detail, r.text
+    assert "\n" not in r.json()["detail"] and client.get("/v1/jobs").json()["total"] == 0
+
+
+def test_a_material_naming_a_server_path_is_an_unknown_name(client, meshes, tmp_path):
+    (tmp_path / "secret.json").write_text('{"base_color": 0.5}')
+    r = post(client, meshes / "suzanne.ply", {"material": str(tmp_path / "secret.json")})
+    assert r.status_code == 422 and r.json()["detail"].startswith("settings.material: unknown material '/"), r.text
 def test_inspect_names_a_meshs_materials_as_a_bake_takes_them(client, meshes, tmp_path):
     """``POST /v1/inspect`` reads the mesh with the bake's own loader (in its child
     process): the materials in the order of their texture sets, their faces, UVs and

@@ -20,6 +20,7 @@ from conftest import ROOT
 
 import texbake
 from texbake.errors import OutputError, ParameterError
+from texbake.materials import BUILTINS
 from texbake.output.export import write_glb, write_obj
 from texbake.output.images import encode_png_bytes, read_image, write_image
 
@@ -309,8 +310,8 @@ def test_glb_bad_slots_and_tangents(tmp_path):
     png = encode_png_bytes(np.zeros((2, 2, 3), np.float32))
     with pytest.raises(ParameterError, match="baseColor"):
         write_glb(tmp_path / "a.glb", v, f, uv, {"normal": png})
-    with pytest.raises(ParameterError, match="occlusion"):
-        write_glb(tmp_path / "a.glb", v, f, uv, {"baseColor": png, "occlusion": png})
+    with pytest.raises(ParameterError, match="clearcoat"):
+        write_glb(tmp_path / "a.glb", v, f, uv, {"baseColor": png, "clearcoat": png})
     with pytest.raises(ParameterError, match="normal: expected a PNG"):
         write_glb(tmp_path / "a.glb", v, f, uv, {"baseColor": png, "normal": b"not a png"})
     tangents = np.tile([1.0, 0.0, 0.0, 1.0], (len(v), 1))
@@ -364,6 +365,66 @@ def png_chunks(path):
     return chunks
 
 
+MATERIAL_SLOTS = {"baseColor": ("pbrMetallicRoughness", "baseColorTexture"),
+                  "metallicRoughness": ("pbrMetallicRoughness", "metallicRoughnessTexture"),
+                  "occlusion": ("occlusionTexture",), "normal": ("normalTexture",), "emissive": ("emissiveTexture",)}
+
+
+def material_slots(material):
+    """``{slot: texture index}`` of a glTF material's textures."""
+    found = {}
+    for slot, path in MATERIAL_SLOTS.items():
+        node = material
+        for key in path:
+            node = node.get(key, {})
+        if "index" in node:
+            found[slot] = node["index"]
+    return found
+
+
+@pytest.mark.parametrize("name", sorted(BUILTINS))
+def test_each_built_in_materials_glb_is_whole_and_validator_clean(meshes, tmp_path, name):
+    """Every map the material has bound to its slot, each the map's own PNG (the ORM map as
+    metallic-roughness and occlusion); Khronos validator 0 errors, 0 warnings."""
+    result = texbake.bake_mesh(meshes / "suzanne.ply", material=name, size=64, margin=2)
+    result.save(tmp_path)
+    doc, binary = glb_parts(tmp_path / "suzanne.glb")
+    (material,) = doc["materials"]
+    slots = material_slots(material)
+    maps = result.images
+    expected = {"baseColor": "base_color.png", "metallicRoughness": "orm.png", **({"occlusion": "orm.png"} if "occlusion" in maps else {}),
+                **({"normal": "normal.png"} if "normal" in maps else {}), **({"emissive": "emissive.png"} if "emissive" in maps else {})}
+    assert set(slots) == set(expected)
+    for slot, index in slots.items():
+        image = doc["images"][doc["textures"][index]["source"]]
+        assert view_bytes(doc, binary, image["bufferView"]) == (tmp_path / expected[slot]).read_bytes(), slot
+    pbr = material["pbrMetallicRoughness"]
+    assert (pbr["metallicFactor"], pbr["roughnessFactor"]) == (1.0, 1.0)  # the ORM map's values as they are
+    assert material.get("emissiveFactor") == ([1.0, 1.0, 1.0] if "emissive" in maps else None)
+    assert "alphaMode" not in material  # no opacity channel
+    assert ("TANGENT" in doc["meshes"][0]["primitives"][0]["attributes"]) == ("normal" in maps)
+    for data_map in ("orm", "normal", "roughness"):
+        if (tmp_path / f"{data_map}.png").exists():
+            assert b"sRGB" not in png_chunks(tmp_path / f"{data_map}.png")  # data: linear
+    report = assert_valid(tmp_path / "suzanne.glb")
+    assert report["issues"]["numWarnings"] == 0, report["issues"]["messages"]
+
+
+def test_an_opacity_channel_is_the_base_colours_alpha_and_the_alpha_mode(meshes, tmp_path):
+    material = {"base_color": [0.8, 0.2, 0.1], "opacity": {"op": "texture", "texture": "checker", "output": "value"},
+                "alpha_mode": "mask", "alpha_cutoff": 0.4}
+    result = texbake.bake_mesh(meshes / "suzanne.ply", material=material, size=32, margin=2, normal_convention="directx")
+    result.save(tmp_path)
+    doc, binary = glb_parts(tmp_path / "suzanne.glb")
+    (glb_material,) = doc["materials"]
+    assert (glb_material["alphaMode"], glb_material["alphaCutoff"]) == ("MASK", 0.4)
+    rgba = glb_texture(tmp_path / "suzanne.glb", tmp_path)
+    assert rgba.shape[2] == 4
+    np.testing.assert_allclose(rgba[..., 3], result.images["opacity"][..., 0], rtol=0, atol=0.5 / 255)  # alpha: 8-bit, linear
+    assert "metallicRoughness" not in material_slots(glb_material)  # no roughness, metallic or occlusion map: the factors
+    assert (glb_material["pbrMetallicRoughness"]["metallicFactor"], glb_material["pbrMetallicRoughness"]["roughnessFactor"]) == (0.0, 1.0)
+    report = assert_valid(tmp_path / "suzanne.glb")
+    assert report["issues"]["numWarnings"] == 0, report["issues"]["messages"]
 def test_a_glb_keeps_every_material_by_name_one_primitive_each(tmp_path):
     """Per material (the default) and with one texture set for the mesh: one primitive per
     material, each material by its name; validator-clean."""
@@ -392,3 +453,25 @@ def _gltf(path):
     data = path.read_bytes()
     (length,) = struct.unpack_from("<I", data, 12)
     return json.loads(data[20 : 20 + length])
+
+
+def test_each_texture_set_may_have_its_own_material(tmp_path):
+    # a mesh of two materials: the body baked as rusted iron, the wheels as the texture; the
+    # GLB a primitive each, the body's material whole, the wheels' the albedo alone
+    from conftest import two_material_scene
+
+    scene = tmp_path / "cart.glb"
+    two_material_scene(scene)
+    result = texbake.bake_mesh(scene, texture="marble", size=64, materials={"body": {"material": "rusted_iron"}})
+    body, wheels = sorted(result.sets, key=lambda s: s.name)
+    assert body.settings.material.nodes == BUILTINS["rusted_iron"]["nodes"] and wheels.settings.material is None
+    assert {"base_color", "metallic", "orm", "normal"} <= set(body.images) and "albedo" in wheels.images
+    (entry,) = [s for s in result.report["sets"] if s["name"] == "body"]
+    assert entry["material"]["name"] == "rusted_iron" and "material" not in result.report  # several sets: each its own
+    result.save(tmp_path / "out")
+    doc, _ = glb_parts(tmp_path / "out" / "cart.glb")
+    by_name = {m["name"]: m for m in doc["materials"]}
+    assert "metallicRoughnessTexture" in by_name["body"]["pbrMetallicRoughness"] and "normalTexture" in by_name["body"]
+    assert "metallicRoughnessTexture" not in by_name["wheels"]["pbrMetallicRoughness"]
+    assert assert_valid(tmp_path / "out" / "cart.glb")["issues"]["numWarnings"] == 0
+    assert json.loads((tmp_path / "out" / "report.json").read_text())["sets"][0]["outputs"]

@@ -37,3 +37,23 @@ def test_vertex_normals_are_shared_across_seams():
     f = np.array([[0, 1, 2], [4, 3, 1]])
     n = vertex_normals(v, f)
     assert np.allclose(n[0], n[4]) and np.allclose(np.linalg.norm(n, axis=1), 1)
+
+
+def test_the_compiled_frames_are_the_tangents_modules_reference():
+    # random corner normals and tangents, some faces with a zero normal or a zero tangent (then
+    # any vector orthogonal to the normal), mirrored w: the kernel against sample_frames (a
+    # tangent along the normal is left out: what rounding leaves of it is noise in either)
+    from texbake import _native
+    from texbake.mesh.tangents import sample_frames
+
+    rng = np.random.default_rng(11)
+    m, n = 40, 400
+    normals = rng.normal(size=(m, 3, 3))
+    tangents = np.concatenate([rng.normal(size=(m, 3, 3)), rng.choice([-1.0, 1.0], (m, 3, 1))], axis=2)
+    tangents[:5, :, :3] = 0.0
+    normals[5:7] = 0.0
+    face = rng.integers(0, m, n)
+    bary = rng.dirichlet([1, 1, 1], n)
+    out = np.empty((n, 3, 3))
+    _native.sample_frames(face, bary, normals, tangents, out)
+    np.testing.assert_allclose(out, sample_frames(normals[face], tangents[face], bary), rtol=0, atol=1e-14)

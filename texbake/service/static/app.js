@@ -16,7 +16,9 @@ const sleep = (ms) => new Promise((resolve) => setTimeout(resolve, ms));
 const KEY = "texbake.key"; // the API key: this tab's session storage only
 const FINISHED = ["done", "failed", "cancelled"];
 const MAIN_SETTINGS = ["size", "quality", "shading", "bump", "bump_strength", "frames", "format"];
-const NOT_SETTINGS = ["texture", "cage", "materials"]; // the texture has its own section, the materials their list under the mesh; the service takes no source mesh
+// the texture has its own section, the materials their list under the mesh; the service takes no source mesh;
+// packing stays at its default (ORM)
+const NOT_SETTINGS = ["texture", "cage", "materials", "packing"];
 const MATERIAL_FORMATS = [".obj", ".gltf", ".glb"]; // the formats whose meshes may have several materials (the others have one)
 
 let config, catalogue, textureSchema; // GET /v1/config, GET /v1/textures
@@ -515,7 +517,8 @@ function mapsSummary() {
   if (!settingsControls.shading) return;
   const s = Object.fromEntries(Object.entries(settingsControls).map(([k, c]) => [k, c.get()]));
   const animated = !settingsControls.frames.element.hidden && s.frames?.length;
-  const maps = [animated ? "an albedo map per frame and a flipbook" : "albedo", s.shading !== "decal" && "lit", s.bump && "normal", "coverage"];
+  const maps = s.material ? ["the material's base colour, roughness, metallic, normal...", "ORM", s.shading !== "decal" && "lit", "coverage"]
+    : [animated ? "an albedo map per frame and a flipbook" : "albedo", s.shading !== "decal" && "lit", s.bump && "normal", "coverage"];
   $("maps").textContent = `This bake writes: ${maps.filter(Boolean).join(", ")} maps and a GLB.`;
 }
 

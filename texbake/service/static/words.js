@@ -51,6 +51,12 @@ export const SETTING_WORDS = {
   texture_set: { label: "Texture sets", options: { "per-material": "One per material (its own maps)", single: "One for the whole mesh" },
     hint: "One per material: each material its own atlas and maps, and its own texture if given one under Materials." },
   names: { label: "File names", hint: "A template of {mesh}, {set} (the material), {map}, {tile} (UDIM) and {ext}; a field without a value is left out." },
+  material: { label: "PBR material", none: "No material (the texture)",
+    options: { polished_marble: "Polished marble", oak_planks: "Oak planks", lava: "Lava", rusted_iron: "Rusted iron",
+      glazed_ceramic_checker: "Glazed ceramic checker" },
+    hint: "A built-in material: base colour, roughness, metallic, normal and more maps (and an ORM map) instead of the texture." },
+  normal_convention: { label: "Normal map convention", options: { opengl: "OpenGL (+Y, glTF)", directx: "DirectX (-Y)" },
+    hint: "The normal map's green channel; the GLB always gets OpenGL's." },
 };
 
 const OCTAVES = {
