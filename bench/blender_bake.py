@@ -40,7 +40,12 @@ def bake(args) -> None:
     bpy.ops.wm.obj_import(filepath=args.mesh)
     obj = bpy.context.selected_objects[0]
     bpy.context.view_layer.objects.active = obj
+    bake_emission(obj, args.size, args.samples, args.out)
 
+
+def bake_emission(obj, size: int, samples: int, out: str) -> None:
+    """Give ``obj`` the marble emission material and bake its ``EMIT`` pass into a ``size``
+    square image with ``samples`` Cycles samples (CPU, 2 threads), saved as PNG at ``out``."""
     mat = bpy.data.materials.new("marble")
     mat.use_nodes = True
     nodes, links = mat.node_tree.nodes, mat.node_tree.links
@@ -60,7 +65,7 @@ def bake(args) -> None:
     links.new(wave.outputs["Fac"], ramp.inputs["Fac"])
     links.new(ramp.outputs["Color"], emit.inputs["Color"])
     links.new(emit.outputs["Emission"], output.inputs["Surface"])
-    image = bpy.data.images.new("baked", args.size, args.size)
+    image = bpy.data.images.new("baked", size, size)
     target = nodes.new("ShaderNodeTexImage")
     target.image = image
     nodes.active = target  # the bake writes into the active image node
@@ -70,12 +75,12 @@ def bake(args) -> None:
     scene = bpy.context.scene
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"
-    scene.cycles.samples = args.samples
+    scene.cycles.samples = samples
     scene.render.threads_mode = "FIXED"
     scene.render.threads = 2
     scene.render.bake.margin = 16
     bpy.ops.object.bake(type="EMIT")
-    image.filepath_raw = args.out
+    image.filepath_raw = out
     image.file_format = "PNG"
     image.save()
 
