@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <vector>
 
 #include "arrays.hpp"
 
@@ -183,6 +184,107 @@ void barycentric(In<double, shape<-1, 2>> points, In<int32_t, nb::ndim<1>> face,
   }
 }
 
+
+// ---- point location through a uniform grid over the UV triangles (no Embree) ----------
+// The grid: nx * ny cells over [lo_u, lo_u + nx / inv_u) x [lo_v, lo_v + ny / inv_v); a face
+// is listed in every cell its UV box overlaps (CSR: start (nx * ny + 1,), cells' faces in
+// increasing face order). A point is in the first listed face of its cell that holds it.
+struct Grid {
+  double lo_u, lo_v, inv_u, inv_v;
+  int64_t nx, ny;
+  // the cell range [c0, c1] along one axis of the interval [a, b], clamped into the grid
+  static void span(double a, double b, double lo, double inv, int64_t n, int64_t& c0, int64_t& c1) {
+    c0 = int64_t(std::floor(std::min(std::max((a - lo) * inv, 0.0), double(n - 1))));
+    c1 = int64_t(std::floor(std::min(std::max((b - lo) * inv, 0.0), double(n - 1))));
+  }
+  template <class F>
+  void cells_of(const Atlas& atlas, int64_t f, F&& visit) const {
+    const double *a = atlas.corner(f, 0), *b = atlas.corner(f, 1), *c = atlas.corner(f, 2);
+    int64_t u0, u1, v0, v1;
+    span(std::min({a[0], b[0], c[0]}), std::max({a[0], b[0], c[0]}), lo_u, inv_u, nx, u0, u1);
+    span(std::min({a[1], b[1], c[1]}), std::max({a[1], b[1], c[1]}), lo_v, inv_v, ny, v0, v1);
+    for (int64_t v = v0; v <= v1; ++v)
+      for (int64_t u = u0; u <= u1; ++u) visit(v * nx + u);
+  }
+};
+
+// (b - a) x (p - a) with the edge's endpoints in one order whichever face has it: the two
+// faces of a shared edge compute the same number, negated, so that no point on it falls
+// between them (watertight)
+inline double edge_side(const double* a, const double* b, double px, double py) {
+  const bool swap = a[0] > b[0] || (a[0] == b[0] && a[1] > b[1]);
+  const double *p0 = swap ? b : a, *p1 = swap ? a : b;
+  const double side = (p1[0] - p0[0]) * (py - p0[1]) - (p1[1] - p0[1]) * (px - p0[0]);
+  return swap ? -side : side;
+}
+
+inline bool holds(const Atlas& atlas, int64_t f, double px, double py) {
+  const double *a = atlas.corner(f, 0), *b = atlas.corner(f, 1), *c = atlas.corner(f, 2);
+  const double area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+  if (!(std::fabs(area) > 0)) return false;  // UV-degenerate (or NaN): never holds a point
+  const double s0 = edge_side(a, b, px, py), s1 = edge_side(b, c, px, py), s2 = edge_side(c, a, px, py);
+  return area > 0 ? (s0 >= 0 && s1 >= 0 && s2 >= 0) : (s0 <= 0 && s1 <= 0 && s2 <= 0);
+}
+
+Grid grid_of(double lo_u, double lo_v, double inv_u, double inv_v, int64_t nx, int64_t ny) {
+  if (nx < 1 || ny < 1 || !(inv_u > 0) || !(inv_v > 0)) throw std::invalid_argument("grid: nx, ny >= 1 and positive inverse cell sizes");
+  return {lo_u, lo_v, inv_u, inv_v, nx, ny};
+}
+
+void grid_count(In<double, shape<-1, 2>> uv, In<int64_t, shape<-1, 3>> faces, In<bool, nb::ndim<1>> usable, double lo_u,
+                double lo_v, double inv_u, double inv_v, int64_t nx, int64_t ny, Out<int64_t, nb::ndim<1>> count) {
+  const Atlas atlas(uv, faces);
+  const Grid g = grid_of(lo_u, lo_v, inv_u, inv_v, nx, ny);
+  if (int64_t(usable.shape(0)) != atlas.m || int64_t(count.shape(0)) != nx * ny + 1)
+    throw std::invalid_argument("grid_count: usable of m, count of nx * ny + 1");
+  int64_t* n = count.data();
+  std::fill_n(n, nx * ny + 1, int64_t(0));
+  for (int64_t f = 0; f < atlas.m; ++f)
+    if (usable.data()[f]) g.cells_of(atlas, f, [&](int64_t cell) { ++n[cell + 1]; });
+  for (int64_t i = 0; i < nx * ny; ++i) n[i + 1] += n[i];  // start of each cell
+}
+
+void grid_fill(In<double, shape<-1, 2>> uv, In<int64_t, shape<-1, 3>> faces, In<bool, nb::ndim<1>> usable, double lo_u,
+               double lo_v, double inv_u, double inv_v, int64_t nx, int64_t ny, In<int64_t, nb::ndim<1>> start,
+               Out<int32_t, nb::ndim<1>> listed) {
+  const Atlas atlas(uv, faces);
+  const Grid g = grid_of(lo_u, lo_v, inv_u, inv_v, nx, ny);
+  if (int64_t(usable.shape(0)) != atlas.m || int64_t(start.shape(0)) != nx * ny + 1 ||
+      int64_t(listed.shape(0)) != start.data()[nx * ny])
+    throw std::invalid_argument("grid_fill: usable of m, start of nx * ny + 1, listed of start[-1]");
+  std::vector<int64_t> at(start.data(), start.data() + nx * ny);
+  for (int64_t f = 0; f < atlas.m; ++f)
+    if (usable.data()[f]) g.cells_of(atlas, f, [&](int64_t cell) { listed.data()[at[cell]++] = int32_t(f); });
+}
+
+void grid_locate(In<double, shape<-1, 2>> points, In<double, shape<-1, 2>> uv, In<int64_t, shape<-1, 3>> faces, double lo_u,
+                 double lo_v, double inv_u, double inv_v, int64_t nx, int64_t ny, In<int64_t, nb::ndim<1>> start,
+                 In<int32_t, nb::ndim<1>> listed, Out<int32_t, nb::ndim<1>> face) {
+  const Atlas atlas(uv, faces);
+  const Grid g = grid_of(lo_u, lo_v, inv_u, inv_v, nx, ny);
+  const int64_t n = points.shape(0);
+  if (int64_t(face.shape(0)) != n || int64_t(start.shape(0)) != nx * ny + 1 || int64_t(listed.shape(0)) != start.data()[nx * ny])
+    throw std::invalid_argument("grid_locate: face of n, start of nx * ny + 1, listed of start[-1]");
+  const double* p = points.data();
+  for (int64_t i = 0; i < n; ++i) {
+    const double px = p[2 * i], py = p[2 * i + 1];
+    const double cu = (px - g.lo_u) * g.inv_u, cv = (py - g.lo_v) * g.inv_v;
+    int32_t found = -1;
+    // a point on the grid's far side (cu == nx) is in its last cell; outside (or NaN): no face
+    if (cu >= 0 && cv >= 0 && cu <= double(nx) && cv <= double(ny)) {
+      const int64_t cell = std::min(int64_t(cv), ny - 1) * nx + std::min(int64_t(cu), nx - 1);
+      for (int64_t k = start.data()[cell]; k < start.data()[cell + 1]; ++k) {
+        const int64_t f = listed.data()[k];
+        if (holds(atlas, f, px, py)) {
+          found = int32_t(f);
+          break;
+        }
+      }
+    }
+    face.data()[i] = found;
+  }
+}
+
 }  // namespace
 
 void bind_lookup(nb::module_& m) {
@@ -199,6 +301,16 @@ void bind_lookup(nb::module_& m) {
   m.def("walk", &walk, nb::arg("points"), nb::arg("face").noconvert(), nb::arg("uv"), nb::arg("faces"), nb::arg("across"),
         nb::arg("steps"), nb::arg("bary").noconvert(), nb::arg("inside").noconvert(), Release(),
         "Each point's barycentrics in its face, walking across UV edges (at most steps faces) to the face holding it.");
+  m.def("grid_count", &grid_count, nb::arg("uv"), nb::arg("faces"), nb::arg("usable"), nb::arg("lo_u"), nb::arg("lo_v"),
+        nb::arg("inv_u"), nb::arg("inv_v"), nb::arg("nx"), nb::arg("ny"), nb::arg("count").noconvert(), Release(),
+        "count (nx * ny + 1,) := each cell's start in the grid's face list (the usable faces' UV boxes), then its total.");
+  m.def("grid_fill", &grid_fill, nb::arg("uv"), nb::arg("faces"), nb::arg("usable"), nb::arg("lo_u"), nb::arg("lo_v"),
+        nb::arg("inv_u"), nb::arg("inv_v"), nb::arg("nx"), nb::arg("ny"), nb::arg("start"), nb::arg("listed").noconvert(),
+        Release(), "listed := the faces of each grid cell, in increasing order, from start (grid_count's).");
+  m.def("grid_locate", &grid_locate, nb::arg("points"), nb::arg("uv"), nb::arg("faces"), nb::arg("lo_u"), nb::arg("lo_v"),
+        nb::arg("inv_u"), nb::arg("inv_v"), nb::arg("nx"), nb::arg("ny"), nb::arg("start"), nb::arg("listed"),
+        nb::arg("face").noconvert(), Release(),
+        "face (n,) := the first face of each point's grid cell that holds it (watertight edge tests), -1 where none does.");
   m.def("barycentric", &barycentric, nb::arg("points"), nb::arg("face"), nb::arg("uv"), nb::arg("faces"),
         nb::arg("bary").noconvert(), nb::arg("inside").noconvert(), Release(),
         "Each point's barycentrics in its face (clamped, renormalised) and whether it lies inside; face -1 rows left.");
