@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import platform
 from dataclasses import dataclass, field
@@ -18,12 +19,18 @@ if TYPE_CHECKING:  # for the annotations only: the report reads these objects, i
     from ..mesh import LoadedMesh
     from ..settings import BakeSettings
 
-_LIBRARIES = ("texbake", "numpy", "scipy", "trimesh", "xatlas", "embreex", "OpenImageIO", "pydantic")
+_LIBRARIES = ("texbake", "numpy", "trimesh", "xatlas", "embreex", "OpenImageIO", "mapbox_earcut", "pydantic")
 
 
 def library_versions() -> dict[str, str | None]:
     """Installed versions of the libraries a bake uses (None where one is missing), and
-    ``kernels``: how the compiled kernels were built (:func:`kernels_build`)."""
+    ``kernels``: how the compiled kernels were built (:func:`kernels_build`). Read once a
+    process (the package metadata is a file read each: 10-20 ms a report in a batch)."""
+    return dict(_library_versions())
+
+
+@functools.cache
+def _library_versions() -> dict[str, str | None]:
     versions: dict[str, str | None] = {"python": platform.python_version()}
     for name in _LIBRARIES:
         try:
