@@ -367,6 +367,17 @@ def test_a_material_swatch_is_its_channel_on_the_sphere(client):
     assert built_in.status_code == 200 and built_in.headers["ETag"] != got.headers["ETag"]
 
 
+def test_the_built_in_materials_are_listed_as_the_bake_takes_them(client):
+    from texbake.materials import parse_material
+
+    r = client.get("/v1/materials").json()
+    names = [m["name"] for m in r["materials"]]
+    assert names == ["polished_marble", "oak_planks", "lava", "rusted_iron", "glazed_ceramic_checker"]
+    assert r["channels"]["base_color"] == "colour" and r["channels"]["roughness"] == "scalar" and r["defaults"]["roughness"] == 1.0
+    for listed in r["materials"]:  # each object is the built-in itself
+        assert parse_material(listed).model_dump() == parse_material(listed["name"]).model_dump()
+
+
 @pytest.mark.parametrize("body, words", [
     ({"material": {**TWO_LAYERS, "roughness": {"op": "mix", "a": 0.2, "b": 0.9, "mask": {"op": "texture", "output": "value",
                                                  "texture": {"name": "marble", "frequency": -1}}}}, "channel": "roughness"},
