@@ -352,7 +352,7 @@ def test_the_material_editor(api, page, meshes):
     p.goto(api + "/")
     swatch(page, "20-material-start")
     p.get_by_label("PBR material", exact=True).select_option(label="A new material")
-    channel = lambda name: p.locator(f"#material-card fieldset.channel[data-channel='{name}']")  # noqa: E731
+    channel = lambda name: p.locator(f"#material-card fieldset.channel[data-channel='{name}']")
     p.get_by_label("Material name", exact=True).fill("two_layers")
     # the base colour: a red base, blue over it through the default checker mask
     base = channel("base_color")
