@@ -421,6 +421,40 @@ def test_the_material_editor(api, page, meshes):
     assert job["settings"]["material"]["roughness"]["op"] == "mix", job["settings"]["material"]
 
 
+def test_a_built_in_material_in_the_editor(api, page):
+    """A built-in loaded into the editor: a channel mixed through a named node is layers with
+    that node as its mask, one the editor has no form for is its JSON; every channel it gives
+    swatched; an edit to a layer changes its swatch; JSON that does not read is said beside its
+    channel without asking the server."""
+    p = page.page
+    p.goto(api + "/")
+    swatch(page, "30-built-in-start")
+    p.get_by_label("PBR material", exact=True).select_option(label="Glazed ceramic checker")
+    channel = lambda name: p.locator(f"#material-card fieldset.channel[data-channel='{name}']")
+    rough, height = channel("roughness"), channel("height")
+    expect(rough.get_by_label("Roughness", exact=True)).to_have_value("layers")  # mix(0.03, 0.1, "wave")
+    expect(rough.get_by_label("Layer 1 mask", exact=True)).to_have_value("node")
+    expect(rough.get_by_label("Layer 1 mask: node", exact=True)).to_have_value("wave")
+    expect(height.get_by_label("Height", exact=True)).to_have_value("json")  # an add of two multiplies
+    for c in ("base_color", "roughness", "metallic", "height"):
+        expect(channel(c).locator("img.channel-swatch[data-ready='1']")).to_be_attached(timeout=30000)
+    expect(channel("emissive").locator("img.channel-swatch")).to_have_attribute("data-ready", "none")  # not given: no swatch
+    expect(p.locator("#material-sphere[data-ready='1']")).to_be_attached(timeout=30000)
+    glossy = page.shot("31-built-in-roughness", rough.locator("img.channel-swatch"))
+    page.shot("31-built-in-sphere", p.locator("#material-sphere"))
+    rough.get_by_label("Layer 1: value", exact=True).fill("0.9")
+    expect(rough.locator("img.channel-swatch[data-ready='1']")).to_be_attached(timeout=30000)
+    rougher = page.shot("32-built-in-roughness-0.9", rough.locator("img.channel-swatch"))
+    assert rougher[40:88, 40:88].mean() > glossy[40:88, 40:88].mean() + 0.1
+    # JSON that does not read: said beside the channel, nothing sent
+    sent = posts(page)
+    height.get_by_label("Height: expression", exact=True).fill('{"op": "add",')
+    expect(height.locator(".channel-edit > .error")).to_contain_text("expression: not JSON", timeout=10000)
+    expect(p.locator("#material-state")).to_have_text("not updated: see the error")
+    assert posts(page) == sent
+    page.shot("33-built-in-bad-json")
+
+
 def test_the_page_at_phone_width(api, browser, tmp_path, meshes):
     # two jobs for the list: one done under a long name (not ASCII), one failed with its reason
     long_name = "suzanne-с-длинным-именем-из-сканера-2024-05-17.ply"

@@ -421,8 +421,11 @@ const isConstant = (v) => typeof v === "number" || (Array.isArray(v) && v.length
 const onlyKeys = (v, keys) => Object.keys(v).every((k) => keys.includes(k));
 const isTexture = (v, colour) => isPlain(v) && (colour ? !("op" in v) && typeof v.name === "string"
   : v.op === "texture" && v.output === "value" && isPlain(v.texture) && onlyKeys(v, ["op", "output", "texture"]));
-const isMask = (v) => isTexture(v, false) || (isPlain(v) && v.op === "invert" && onlyKeys(v, ["op", "input"]) && isMask(v.input))
-  || (isPlain(v) && v.op === "smoothstep" && onlyKeys(v, ["op", "input", "edge0", "edge1"]) && isTexture(v.input, false));
+let editorNodes = {}; // the named nodes of the material chosen (a mask may be one of them)
+const isNamed = (v) => typeof v === "string" && v in editorNodes;
+const isMaskSource = (v) => isTexture(v, false) || isNamed(v);
+const isMask = (v) => isMaskSource(v) || (isPlain(v) && v.op === "invert" && onlyKeys(v, ["op", "input"]) && isMask(v.input))
+  || (isPlain(v) && v.op === "smoothstep" && onlyKeys(v, ["op", "input", "edge0", "edge1"]) && isMaskSource(v.input));
 const isInput = (v, colour) => isConstant(v) || isTexture(v, colour);
 const isLayers = (v, colour) => isPlain(v) && v.op === "mix" && onlyKeys(v, ["op", "a", "b", "mask"]) && isInput(v.b, colour) && isMask(v.mask)
   && (isInput(v.a, colour) || isLayers(v.a, colour));
@@ -494,12 +497,25 @@ function layerInput(label, path, value, colour, fallback) {
     ? constantInput(`${label}: value`, v, colour, fallback) : textureInput(`${label}: texture`, [...path, "texture"], v, colour)));
 }
 
-// A mask: a texture's value, through smoothstep's edges (both empty: as it is), inverted or not
+// A named node of the material, by name
+function nodeInput(label, value) {
+  const id = `m${++ids}`;
+  const select = el("select", { id }, Object.keys(editorNodes).map((n) => el("option", { value: n, textContent: n })));
+  if (value) select.value = value;
+  select.addEventListener("change", () => materialChanged());
+  return { element: el("div", { className: "field" }, el("label", { htmlFor: id, textContent: label }), select), get: () => select.value };
+}
+
+// A mask: a texture's value (or a named node's), through smoothstep's edges (both empty: as it is), inverted or not
 function maskInput(label, path, value) {
   let invert = false, edges = null, texture = value;
   if (texture?.op === "invert") { invert = true; texture = texture.input; }
   if (texture?.op === "smoothstep") { edges = [texture.edge0, texture.edge1]; texture = texture.input; }
-  const pick = textureInput(`${label}: texture`, [...path, "texture"], texture ?? { op: "texture", output: "value", texture: { name: "checker", box: [0.25, 0.25, 0.25] } }, false);
+  const checker = { op: "texture", output: "value", texture: { name: "checker", box: [0.25, 0.25, 0.25] } };
+  const pickTexture = (v) => textureInput(`${label}: texture`, [...path, "texture"], v ?? checker, false);
+  const pick = !Object.keys(editorNodes).length ? pickTexture(texture)
+    : kindSwitch(label, { texture: "A texture", node: "A named node" }, isNamed(texture) ? "node" : "texture", texture,
+      (kind, v) => (kind === "node" ? nodeInput(`${label}: node`, v) : pickTexture(v)));
   const boxes = [0, 1].map((i) => {
     const box = el("input", { type: "number", step: "any", value: edges?.[i] ?? "", placeholder: "none" });
     box.setAttribute("aria-label", `${label}: ${i ? "upper" : "lower"} edge`);
@@ -550,8 +566,13 @@ function jsonInput(label, value) {
   const id = `m${++ids}`;
   const input = el("textarea", { id, rows: 4, spellcheck: false, value: JSON.stringify(value ?? 0.5, null, 1) });
   input.addEventListener("input", () => materialChanged(600));
-  const get = () => { try { return JSON.parse(input.value); } catch { return { unreadable: input.value }; } };
+  const get = () => readJson(input.value, label);
   return { element: el("div", { className: "field" }, el("label", { htmlFor: id, textContent: label }), input), get };
+}
+
+// JSON text, or an error the page can tell without the server: `{body: {detail}}` as showError takes
+function readJson(text, what) {
+  try { return JSON.parse(text); } catch (error) { throw { body: { detail: `${what}: not JSON: ${error.message}` } }; }
 }
 
 const CHANNEL_KINDS = { none: "Not given (the default)", constant: "A constant", texture: "A texture", layers: "Layers through masks", json: "An expression (JSON)" };
@@ -585,6 +606,7 @@ function chooseMaterial(choice) {
   $("material-about").textContent = given ? (given.description || "A material of your own: give each channel a constant, a texture or layers.") : "Bake the texture (2. Texture) into an albedo map.";
   if (!given) { mapsSummary(); return; }
   const { nodes = {}, name, height_scale: scale, ...rest } = given;
+  editorNodes = nodes;
   materialExtras = Object.fromEntries(Object.entries(rest).filter(([k]) => !(k in materialCatalogue.channels)));
   $("material-name").value = name || "";
   $("material-height-scale").value = scale ?? 0.01;
@@ -597,28 +619,37 @@ function chooseMaterial(choice) {
   materialChanged(0);
 }
 
-// The material object the editor shows (null: none chosen)
+// The material object the editor shows (null: none chosen). Throws {body: {detail}} (as
+// showError takes) for JSON that does not read, naming the channel
 function materialObject() {
   if ($("material").value === "") return null;
-  let nodes;
-  try { nodes = JSON.parse($("material-nodes").value || "{}"); } catch { nodes = { unreadable: $("material-nodes").value }; }
+  const nodes = readJson($("material-nodes").value || "{}", "material.nodes");
   const scale = $("material-height-scale").valueAsNumber;
   const out = { ...materialExtras, name: $("material-name").value, ...(Object.keys(nodes).length ? { nodes } : {}), ...(Number.isFinite(scale) ? { height_scale: scale } : {}) };
+  const wrong = [];
   for (const [channel, editor] of Object.entries(channelEditors)) {
-    const value = editor.get();
-    if (value !== undefined) out[channel] = value;
+    try {
+      const value = editor.get();
+      if (value !== undefined) out[channel] = value;
+    } catch (error) { wrong.push(`material.${channel}: ${error.body?.detail.replace(/^[^:]*: /, "") ?? error}`); }
   }
+  if (wrong.length) throw { body: { detail: wrong.join("; ") } };
   return out;
 }
 
 async function updateMaterial() {
   materialAbort?.abort();
   const abort = (materialAbort = new AbortController());
-  const material = materialObject();
+  let material, images;
+  try { material = materialObject(); } catch (error) {
+    clearErrors("material");
+    showError(error, "material");
+    $("material-state").textContent = "not updated: see the error";
+    return;
+  }
   if (!material) return;
   const given = Object.keys(channelEditors).filter((c) => material[c] !== undefined);
   $("material-state").textContent = "updating…";
-  let images;
   try {
     images = await Promise.all(given.map(async (channel) => [channel, await (await api("/v1/swatch", {
       method: "POST", headers: { "Content-Type": "application/json" }, signal: abort.signal,
@@ -805,7 +836,7 @@ function mapsSummary() {
   if (!settingsControls.shading) return;
   const s = Object.fromEntries(Object.entries(settingsControls).map(([k, c]) => [k, c.get()]));
   const animated = !settingsControls.frames.element.hidden && s.frames?.length;
-  const maps = materialObject() ? ["the material's base colour, roughness, metallic, normal...", "ORM", s.shading !== "decal" && "lit", "coverage"]
+  const maps = $("material").value !== "" ? ["the material's base colour, roughness, metallic, normal...", "ORM", s.shading !== "decal" && "lit", "coverage"]
     : [animated ? "an albedo map per frame and a flipbook" : "albedo", s.shading !== "decal" && "lit", s.bump && "normal", "coverage"];
   $("maps").textContent = `This bake writes: ${maps.filter(Boolean).join(", ")} maps and a GLB.`;
 }
@@ -868,8 +899,9 @@ function bakeSettings() {
 
 async function bake(event) {
   event.preventDefault();
-  clearErrors("mesh", "settings", "materials", ...Object.keys(settingsControls), "texture");
-  const wrong = [typedWrong(settingsControls), typedWrong(textureControls)].filter(Boolean).join("; ");
+  clearErrors("mesh", "settings", "materials", ...Object.keys(settingsControls), "texture", "material");
+  let settings, wrong = [typedWrong(settingsControls), typedWrong(textureControls)].filter(Boolean).join("; ");
+  try { settings = bakeSettings(); } catch (error) { wrong = [wrong, error.body.detail].filter(Boolean).join("; "); }
   if (!meshFile || wrong) {
     if (!meshFile) showError({ body: { detail: $("mesh").files.length ? "mesh: choose a mesh file this server takes" : "mesh: choose a mesh file first" } }, "mesh");
     if (wrong) showError({ body: { detail: wrong } }, "settings");
@@ -878,7 +910,7 @@ async function bake(event) {
   const form = new FormData();
   form.append("mesh", meshFile);
   for (const file of companionFiles) form.append("files", file);
-  form.append("settings", JSON.stringify(bakeSettings()));
+  form.append("settings", JSON.stringify(settings));
   $("bake").disabled = true;
   setProgress(`Uploading ${meshFile.name}`, 0);
   try {
