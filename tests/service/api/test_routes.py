@@ -385,6 +385,9 @@ def test_the_built_in_materials_are_listed_as_the_bake_takes_them(client):
     ({"material": {"base_color": "nowhere"}}, "material: node 'base_color': unknown node 'nowhere'"),
     ({"material": {"base_color": 0.5, "roughness": [0.1, 0.2, 0.3]}}, "material: node 'roughness': the roughness channel takes a scalar"),
     ({"material": "rusted_iron", "channel": "shine"}, "channel: "),
+    ({"material": {"base_color": 0.5, "roughness": json.loads(
+        '{"op": "invert", "input": ' * 200 + "0.5" + "}" * 200)}}, "request body: JSON nested 202 deep: the limit is 32"),  # refused unparsed
+    ({"material": 7}, "material: expected a material's name or a material"),
     ({"material": "rusted_iron", "texture": "marble"}, "texture: give a texture or a material, not both"),
 ])
 def test_a_bad_material_swatch_is_a_422_naming_the_node(client, body, words):
