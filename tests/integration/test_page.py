@@ -378,6 +378,10 @@ def test_the_material_editor(api, page, meshes):
         return shots, page.shot(f"{name}-sphere", p.locator("#material-sphere"))
 
     shots, metallic_sphere = swatches("21-material")
+    unnamed = p.evaluate("""() => [...document.querySelectorAll("#material-card input, #material-card select, #material-card button")]
+        .filter((c) => !c.labels?.length && !c.getAttribute("aria-label") && !c.textContent.trim() && c.getAttribute("aria-hidden") !== "true")
+        .map((c) => c.outerHTML)""")
+    assert not unnamed, unnamed  # every control of the editor has a name a screen reader says
     disk = {c: shot[40:88, 40:88] for c, shot in shots.items()}  # the middle of each 128-pixel swatch
     # both layers show: red and blue in the base colour, low and high in the roughness
     red, blue = (disk["base_color"][..., 0] > 0.5).mean(), (disk["base_color"][..., 2] > 0.5).mean()
