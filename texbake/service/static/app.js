@@ -603,7 +603,7 @@ function chooseMaterial(choice) {
   $("material-channels").replaceChildren();
   const given = choice === "" ? null : choice === "new" ? { name: "my_material", base_color: [0.8, 0.8, 0.8] } : materialCatalogue.materials.find((m) => m.name === choice);
   $("material-editor").hidden = !given;
-  $("material-about").textContent = given ? (given.description || "A material of your own: give each channel a constant, a texture or layers.") : "Bake the texture (2. Texture) into an albedo map.";
+  $("material-about").textContent = given ? `${given.description || "A material of your own: give each channel a constant, a texture or layers."} The bake takes it in place of the texture (2. Texture).` : "Bake the texture (2. Texture) into an albedo map.";
   if (!given) { mapsSummary(); return; }
   const { nodes = {}, name, height_scale: scale, ...rest } = given;
   editorNodes = nodes;
