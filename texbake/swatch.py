@@ -6,6 +6,10 @@ footprint (the change of the point over one pixel, dp/dx and dp/dy) go through t
 own :class:`~texbake.textures.mapping.TextureMapping`, so a swatch is filtered as a bake is.
 The sphere is lit as a ``lit`` map is (``texbake.maps.shading``), except for textures that emit
 light (the flame); a slice is the plane z = 0.5, unlit.
+
+:func:`material_swatch` is one channel of a material on the same sphere (or slice), unlit:
+the channel's own values, as its map of a bake holds them, which the page's PBR-lit
+sphere takes as its textures.
 """
 
 from __future__ import annotations
@@ -73,5 +77,40 @@ def swatch(spec, size: int = 256, view: str = "sphere", *, light=(0.3, 0.5, 0.8)
         colour = lit(colour, normals, mode="ambient-diffuse", light=light)
     out = np.zeros((size, size, 4), np.float32)
     out[inside, :3] = colour
+    out[inside, 3] = coverage
+    return out
+
+
+def material_swatch(material, channel: str, size: int = 256, view: str = "sphere") -> np.ndarray:
+    """``(size, size, 4)`` float32 image of one channel of a material: its values (linear
+    RGB for ``base_color``, ``emissive`` and ``normal``; a scalar channel grey) and alpha (0
+    off the sphere), unlit, evaluated at the texture swatch's points and footprints.
+
+    ``material``: a :class:`~texbake.materials.Material`, its object or JSON, or a built-in's
+    name; ``channel``: one of :data:`~texbake.materials.CHANNELS` (one the material does not
+    give is its default: what a bake's GLB takes for it). Raises
+    :class:`~texbake.errors.MaterialError` for a bad material (naming the node) and
+    :class:`~texbake.errors.ParameterError` for a bad channel, size or view.
+    """
+    from .materials import CHANNELS, DEFAULTS, evaluate_material, parse_material
+
+    if channel not in CHANNELS:
+        raise ParameterError("channel", f"expected one of {', '.join(CHANNELS)}, got {channel!r}")
+    if not isinstance(size, int) or not MIN_SIZE <= size <= MAX_SIZE:
+        raise ParameterError("size", f"expected an integer from {MIN_SIZE} to {MAX_SIZE}, got {size!r}")
+    if view not in VIEWS:
+        raise ParameterError("view", f"expected one of {', '.join(VIEWS)}, got {view!r}")
+    material = parse_material(material)
+    inside, coverage, points, dpdx, dpdy, normals = (_sphere if view == "sphere" else _slice)(size)
+    if channel in material.graph.channels:
+        footprint = np.stack([dpdx, dpdy], axis=1)
+        if normals is None:  # the slice's plane faces +z
+            normals = np.tile([0.0, 0.0, 1.0], (len(points), 1))
+        values = evaluate_material(material, points, footprint, normals=normals, channels=[channel])[channel]
+    else:
+        default = np.atleast_1d(np.asarray(DEFAULTS[channel], dtype=np.float64))
+        values = np.broadcast_to(default, (len(points), default.size))
+    out = np.zeros((size, size, 4), np.float32)
+    out[inside, :3] = values if values.shape[1] == 3 else np.repeat(values, 3, axis=1)
     out[inside, 3] = coverage
     return out

@@ -344,6 +344,126 @@ def test_a_round_trip_on_the_page(api, page, meshes):
     page.shot("15-docs")
 
 
+def test_the_material_editor(api, page, meshes):
+    """A new material of two layers built on the page: a swatch per channel (each its own),
+    the PBR-lit sphere (not blank; its metal shows), a node's error beside its channel, and a
+    bake with it whose report names the material."""
+    p = page.page
+    p.goto(api + "/")
+    swatch(page, "20-material-start")
+    p.get_by_label("PBR material", exact=True).select_option(label="A new material")
+    channel = lambda name: p.locator(f"#material-card fieldset.channel[data-channel='{name}']")
+    p.get_by_label("Material name", exact=True).fill("two_layers")
+    # the base colour: a red base, blue over it through the default checker mask
+    base = channel("base_color")
+    base.get_by_label("Base colour", exact=True).select_option(label="Layers through masks")
+    base.get_by_label("Base: value", exact=True).fill("#cc2211")
+    base.get_by_label("Layer 1: value", exact=True).fill("#1133cc")
+    # the roughness: 0.1, and 0.9 over it through a noise mask
+    rough = channel("roughness")
+    rough.get_by_label("Roughness", exact=True).select_option(label="Layers through masks")
+    rough.get_by_label("Base: value", exact=True).fill("0.1")
+    rough.get_by_label("Layer 1: value", exact=True).fill("0.9")
+    rough.get_by_label("Layer 1 mask: texture", exact=True).select_option(label="Noise")
+    metal = channel("metallic")
+    metal.get_by_label("Metallic", exact=True).select_option(label="A constant")
+    metal.get_by_label("Metallic: value", exact=True).fill("1")
+
+    def swatches(name):
+        shots = {}
+        for c in ("base_color", "roughness", "metallic"):
+            expect(channel(c).locator("img.channel-swatch[data-ready='1']")).to_be_attached(timeout=30000)
+            shots[c] = page.shot(f"{name}-{c}", channel(c).locator("img.channel-swatch"))
+        expect(p.locator("#material-sphere[data-ready='1']")).to_be_attached(timeout=30000)
+        return shots, page.shot(f"{name}-sphere", p.locator("#material-sphere"))
+
+    shots, metallic_sphere = swatches("21-material")
+    unnamed = p.evaluate("""() => [...document.querySelectorAll("#material-card input, #material-card select, #material-card button")]
+        .filter((c) => !c.labels?.length && !c.getAttribute("aria-label") && !c.textContent.trim() && c.getAttribute("aria-hidden") !== "true")
+        .map((c) => c.outerHTML)""")
+    assert not unnamed, unnamed  # every control of the editor has a name a screen reader says
+    disk = {c: shot[40:88, 40:88] for c, shot in shots.items()}  # the middle of each 128-pixel swatch
+    # both layers show: red and blue in the base colour, low and high in the roughness
+    red, blue = (disk["base_color"][..., 0] > 0.5).mean(), (disk["base_color"][..., 2] > 0.5).mean()
+    assert red > 0.2 and blue > 0.2, (red, blue)
+    assert np.ptp(disk["roughness"][..., 0]) > 0.4 and np.ptp(disk["metallic"]) < 0.02, (np.ptp(disk["roughness"]), np.ptp(disk["metallic"]))
+    for a, b in (("base_color", "roughness"), ("base_color", "metallic"), ("roughness", "metallic")):  # each channel its own
+        assert np.abs(disk[a] - disk[b]).mean() > 0.05, (a, b)
+    # the lit sphere: not the background, and not flat
+    h, w = metallic_sphere.shape[:2]
+    middle = metallic_sphere[h // 4 : h * 3 // 4, w // 4 : w * 3 // 4]
+    assert (np.abs(middle - BACKGROUND).max(axis=2) > 0.05).mean() > 0.95 and middle.std() > 0.03, middle.std()
+    # metal 0: the same sphere, lit otherwise (a dielectric takes its base colour, a metal the environment's tint by it)
+    metal.get_by_label("Metallic: value", exact=True).fill("0")
+    _, plastic_sphere = swatches("22-material-metal-0")
+    assert np.abs(plastic_sphere - metallic_sphere).mean() > 0.02, np.abs(plastic_sphere - metallic_sphere).mean()
+
+    # a node's error from the server, beside its channel: the roughness's mask of marble at a bad frequency
+    rough.get_by_label("Layer 1 mask: texture", exact=True).select_option(label="Marble")
+    rough.get_by_text("Layer 1 mask: texture: its parameters", exact=True).click()
+    rough.get_by_label("Stripe frequency", exact=True).fill("-1")
+    expect(rough.locator(".channel-edit > .error")).to_contain_text("node 'roughness.mask': texture: frequency: expected a number above 0",
+                                                                      timeout=20000)
+    expect(p.locator("#material-state")).to_have_text("not updated: see the error")
+    page.shot("23-material-error")
+    # baked so, the bake's own 422 says the same beside the channel
+    p.set_input_files("#mesh", meshes / "bunny.ply")
+    p.get_by_label("Image size", exact=True).fill("64")
+    p.get_by_role("button", name="Bake", exact=True).click()
+    expect(p.locator("#status")).to_have_text("Not sent: see the error above", timeout=20000)
+    expect(rough.locator(".channel-edit > .error")).to_have_text(
+        "node 'roughness.mask': texture: frequency: expected a number above 0 and at most 1000000, got -1")
+    rough.get_by_label("Stripe frequency", exact=True).fill("8")
+    expect(rough.locator(".channel-edit > .error")).to_be_empty(timeout=20000)
+    swatches("24-material-fixed")
+
+    # a bake with it: the material's maps, and its name in the report
+    expect(p.locator("#maps")).to_contain_text("the material's base colour")
+    p.get_by_role("button", name="Bake", exact=True).click()
+    expect(p.locator("#status")).to_contain_text("Done: bunny.ply", timeout=90000)
+    expect(p.locator("#figures")).to_contain_text("two_layers", timeout=20000)
+    expect(p.locator("#viewer[data-ready='1']")).to_be_attached(timeout=20000)
+    page.shot("25-material-baked")
+    job = httpx.get(f"{api}/v1/jobs", params={"limit": 1}, timeout=10).json()["jobs"][0]
+    report = httpx.get(f"{api}/v1/jobs/{job['id']}", timeout=10).json()["report"]
+    assert report["material"]["name"] == "two_layers" and {"base_color", "roughness", "metallic"} <= set(report["material"]["maps"]), report["material"]
+    assert job["settings"]["material"]["roughness"]["op"] == "mix", job["settings"]["material"]
+
+
+def test_a_built_in_material_in_the_editor(api, page):
+    """A built-in loaded into the editor: a channel mixed through a named node is layers with
+    that node as its mask, one the editor has no form for is its JSON; every channel it gives
+    swatched; an edit to a layer changes its swatch; JSON that does not read is said beside its
+    channel without asking the server."""
+    p = page.page
+    p.goto(api + "/")
+    swatch(page, "30-built-in-start")
+    p.get_by_label("PBR material", exact=True).select_option(label="Glazed ceramic checker")
+    channel = lambda name: p.locator(f"#material-card fieldset.channel[data-channel='{name}']")
+    rough, height = channel("roughness"), channel("height")
+    expect(rough.get_by_label("Roughness", exact=True)).to_have_value("layers")  # mix(0.03, 0.1, "wave")
+    expect(rough.get_by_label("Layer 1 mask", exact=True)).to_have_value("node")
+    expect(rough.get_by_label("Layer 1 mask: node", exact=True)).to_have_value("wave")
+    expect(height.get_by_label("Height", exact=True)).to_have_value("json")  # an add of two multiplies
+    for c in ("base_color", "roughness", "metallic", "height"):
+        expect(channel(c).locator("img.channel-swatch[data-ready='1']")).to_be_attached(timeout=30000)
+    expect(channel("emissive").locator("img.channel-swatch")).to_have_attribute("data-ready", "none")  # not given: no swatch
+    expect(p.locator("#material-sphere[data-ready='1']")).to_be_attached(timeout=30000)
+    glossy = page.shot("31-built-in-roughness", rough.locator("img.channel-swatch"))
+    page.shot("31-built-in-sphere", p.locator("#material-sphere"))
+    rough.get_by_label("Layer 1: value", exact=True).fill("0.9")
+    expect(rough.locator("img.channel-swatch[data-ready='1']")).to_be_attached(timeout=30000)
+    rougher = page.shot("32-built-in-roughness-0.9", rough.locator("img.channel-swatch"))
+    assert rougher[40:88, 40:88].mean() > glossy[40:88, 40:88].mean() + 0.1
+    # JSON that does not read: said beside the channel, nothing sent
+    sent = posts(page)
+    height.get_by_label("Height: expression", exact=True).fill('{"op": "add",')
+    expect(height.locator(".channel-edit > .error")).to_contain_text("expression: not JSON", timeout=10000)
+    expect(p.locator("#material-state")).to_have_text("not updated: see the error")
+    assert posts(page) == sent
+    page.shot("33-built-in-bad-json")
+
+
 def test_the_page_at_phone_width(api, browser, tmp_path, meshes):
     # two jobs for the list: one done under a long name (not ASCII), one failed with its reason
     long_name = "suzanne-с-длинным-именем-из-сканера-2024-05-17.ply"

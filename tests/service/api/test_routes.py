@@ -6,6 +6,7 @@ and every test passes alone and in any order."""
 
 import json
 
+import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
@@ -306,6 +307,91 @@ def test_the_swatch_is_a_png_cached_by_its_spec(client):
 ])
 def test_a_bad_swatch_is_a_422_naming_the_parameter(client, method, request_args, words):
     r = getattr(client, method)("/v1/swatch", **request_args)
+    assert r.status_code == 422 and words in r.json()["detail"], r.text[:300]
+
+
+def _png_image(content: bytes, *, stored: bool = False):
+    """The PNG's pixels: read as texbake reads them (sRGB decoded to linear), or ``stored``:
+    its 8-bit values as they are in the file, over 255."""
+    import tempfile
+    from pathlib import Path
+
+    import OpenImageIO as oiio
+
+    from texbake.output.images import read_image
+
+    with tempfile.TemporaryDirectory() as folder:
+        (Path(folder) / "s.png").write_bytes(content)
+        if stored:
+            return oiio.ImageBuf(str(Path(folder) / "s.png")).get_pixels(oiio.UINT8) / 255.0
+        return read_image(Path(folder) / "s.png")
+
+
+TWO_LAYERS = {"nodes": {"mask": {"op": "texture", "output": "value", "texture": {"name": "checker", "box": [0.25, 0.25, 0.25]}}},
+              "base_color": {"op": "mix", "a": [0.8, 0.1, 0.05], "b": [0.05, 0.1, 0.8], "mask": "mask"},
+              "roughness": {"op": "mix", "a": 0.2, "b": 0.9, "mask": "mask"}, "metallic": 0.75}
+
+
+def test_a_material_swatch_is_its_channel_on_the_sphere(client):
+    """Each channel of a material on the texture swatch's sphere, unlit: the checker mask's
+    two values where the material says, data channels stored as they are (not sRGB)."""
+    from texbake.swatch import material_swatch
+
+    shots = {}
+    for channel in ("base_color", "roughness", "metallic", "occlusion"):
+        r = client.post("/v1/swatch", json={"material": TWO_LAYERS, "channel": channel, "size": 64})
+        assert r.status_code == 200 and r.headers["content-type"] == "image/png", r.text[:300]
+        shots[channel] = _png_image(r.content)
+        assert shots[channel].shape == (64, 64, 4) and shots[channel][0, 0, 3] == 0 and shots[channel][32, 32, 3] == 1
+    on = shots["roughness"][..., 3] == 1
+    rough = shots["roughness"][on][:, 0]
+    # the two layers: 0.2 and 0.9 in 8 bits (8-bit rounding 0.5/255; filtered checker edges between)
+    assert abs(np.quantile(rough, 0.02) - 0.2) < 0.01 and abs(np.quantile(rough, 0.98) - 0.9) < 0.01, np.quantile(rough, [0.02, 0.98])
+    metallic = _png_image(client.post("/v1/swatch", json={"material": TWO_LAYERS, "channel": "metallic", "size": 64}).content,
+                          stored=True)
+    assert np.abs(metallic[on][:, :3] - 191 / 255).max() < 1e-6  # data: 0.75 stored as 191/255, not sRGB's 225
+    base = _png_image(client.post("/v1/swatch", json={"material": TWO_LAYERS, "size": 64}).content, stored=True)
+    assert np.abs(base[on][:, 0].max() - 231 / 255) < 1e-6  # colour: linear 0.8 stored as sRGB's 231
+    assert np.abs(shots["occlusion"][on][:, :3] - 1.0).max() < 0.003  # not given: the default
+    red = shots["base_color"][on]
+    assert (red[:, 0] > 0.7).mean() > 0.3 and (red[:, 2] > 0.7).mean() > 0.3  # both layers' colours show (read back as linear)
+    # red where the roughness is low: the same mask in both channels
+    assert np.corrcoef(red[:, 0], rough)[0, 1] < -0.95
+    # the route's image is the library's, and GET with the material's JSON answers the same
+    expected = material_swatch(TWO_LAYERS, "roughness", 64)
+    assert np.abs(shots["roughness"][..., 0] - expected[..., 0]).max() < 0.003
+    got = client.get("/v1/swatch", params={"material": json.dumps(TWO_LAYERS), "channel": "roughness", "size": 64})
+    assert got.status_code == 200 and got.content == client.post("/v1/swatch", json={
+        "material": TWO_LAYERS, "channel": "roughness", "size": 64}).content
+    built_in = client.get("/v1/swatch", params={"material": "rusted_iron", "channel": "metallic"})
+    assert built_in.status_code == 200 and built_in.headers["ETag"] != got.headers["ETag"]
+
+
+def test_the_built_in_materials_are_listed_as_the_bake_takes_them(client):
+    from texbake.materials import parse_material
+
+    r = client.get("/v1/materials").json()
+    names = [m["name"] for m in r["materials"]]
+    assert names == ["polished_marble", "oak_planks", "lava", "rusted_iron", "glazed_ceramic_checker"]
+    assert r["channels"]["base_color"] == "colour" and r["channels"]["roughness"] == "scalar" and r["defaults"]["roughness"] == 1.0
+    for listed in r["materials"]:  # each object is the built-in itself
+        assert parse_material(listed).model_dump() == parse_material(listed["name"]).model_dump()
+
+
+@pytest.mark.parametrize("body, words", [
+    ({"material": {**TWO_LAYERS, "roughness": {"op": "mix", "a": 0.2, "b": 0.9, "mask": {"op": "texture", "output": "value",
+                                                 "texture": {"name": "marble", "frequency": -1}}}}, "channel": "roughness"},
+     "material: node 'roughness.mask': texture: frequency: expected a number above 0"),
+    ({"material": {"base_color": "nowhere"}}, "material: node 'base_color': unknown node 'nowhere'"),
+    ({"material": {"base_color": 0.5, "roughness": [0.1, 0.2, 0.3]}}, "material: node 'roughness': the roughness channel takes a scalar"),
+    ({"material": "rusted_iron", "channel": "shine"}, "channel: "),
+    ({"material": {"base_color": 0.5, "roughness": json.loads(
+        '{"op": "invert", "input": ' * 200 + "0.5" + "}" * 200)}}, "request body: JSON nested 202 deep: the limit is 32"),  # refused unparsed
+    ({"material": 7}, "material: expected a material's name or a material"),
+    ({"material": "rusted_iron", "texture": "marble"}, "texture: give a texture or a material, not both"),
+])
+def test_a_bad_material_swatch_is_a_422_naming_the_node(client, body, words):
+    r = client.post("/v1/swatch", json=body)
     assert r.status_code == 422 and words in r.json()["detail"], r.text[:300]
 
 

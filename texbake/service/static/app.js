@@ -4,7 +4,8 @@
 import * as THREE from "three";
 import { GLTFLoader } from "three/addons/loaders/GLTFLoader.js";
 import { OrbitControls } from "three/addons/controls/OrbitControls.js";
-import { SETTING_WORDS, TEXTURE_NAMES, TEXTURE_WORDS, wordsFor } from "./words.js";
+import { RoomEnvironment } from "three/addons/environments/RoomEnvironment.js";
+import { MATERIAL_WORDS, SETTING_WORDS, TEXTURE_NAMES, TEXTURE_WORDS, wordsFor } from "./words.js";
 
 const $ = (id) => document.getElementById(id);
 function el(tag, props = {}, ...children) { // an element with properties and children (false and null left out)
@@ -17,8 +18,8 @@ const KEY = "texbake.key"; // the API key: this tab's session storage only
 const FINISHED = ["done", "failed", "cancelled"];
 const MAIN_SETTINGS = ["size", "quality", "shading", "bump", "bump_strength", "frames", "format"];
 // the texture has its own section, the materials their list under the mesh; the service takes no source mesh;
-// packing stays at its default (ORM)
-const NOT_SETTINGS = ["texture", "cage", "materials", "packing"];
+// packing stays at its default (ORM); the material has its editor
+const NOT_SETTINGS = ["texture", "cage", "materials", "packing", "material"];
 const MATERIAL_FORMATS = [".obj", ".gltf", ".glb"]; // the formats whose meshes may have several materials (the others have one)
 
 let config, catalogue, textureSchema; // GET /v1/config, GET /v1/textures
@@ -112,7 +113,9 @@ function showError(error, fallback) {
   if (error.status === 401) { $("key-form").hidden = false; fallback = "key"; }
   const body = error.body || { detail: String(error.message || error) };
   for (const { path, text } of problems(body)) {
-    const names = path[0] === "settings" || path[0] === "body" ? path.slice(1) : path;
+    let names = path[0] === "settings" || path[0] === "body" ? path.slice(1) : path;
+    const node = names[0] === "material" && /^node '([^']+)': /.exec(text); // a material's node: beside its channel
+    if (node) names = ["material", fields.has(`material.${node[1].split(/[.#]/)[0]}`) ? node[1].split(/[.#]/)[0] : "nodes"];
     let n = names.length, field;
     for (; n > 0 && !(field = fields.get(names.slice(0, n).join("."))); n--);
     if (!field || error.status === 401) { field = fields.get(fallback); n = 0; }
@@ -318,11 +321,12 @@ function colourMap({ ctx, path, value, title }) {
 
 // The controls of a schema's top-level properties into `into`; {key: control}. `ctx`:
 // {root: the schema, words: its table in words.js, changed: called on every edit}
-function form(ctx, node, into, { prefix, only, skip = [], limits = {} }) {
+// `values`: what the controls start at, where not their defaults
+function form(ctx, node, into, { prefix, only, skip = [], limits = {}, values = {} }) {
   const out = {};
   for (const [key, prop] of Object.entries(node.properties)) {
     if (key === "name" || skip.includes(key) || (only && !only(key))) continue;
-    const start = limits[key] != null ? Math.min(prop.default ?? limits[key], limits[key]) : prop.default;
+    const start = key in values ? values[key] : limits[key] != null ? Math.min(prop.default ?? limits[key], limits[key]) : prop.default;
     out[key] = control(ctx, prop, key, [...prefix, key], start, limits[key]);
     out[key].default = prop.default;
     into.append(out[key].element);
@@ -398,6 +402,321 @@ async function updateSwatch() {
     showError(error, "texture");
     $("swatch-state").textContent = "not updated: see the error";
   }
+}
+
+// ---- the material editor ---------------------------------------------------------------
+// A material (GET /v1/materials: the built-ins, the channels and their defaults) is its
+// channels, each not given, a constant, a texture, layers (a base with inputs mixed over it,
+// each through a mask texture) or, where a built-in's graph is none of these, its
+// expression as JSON; and the named nodes those refer to (JSON). The editor writes the
+// material object the bake's `material` setting takes. After each edit every channel given
+// is swatched (POST /v1/swatch: the channel on the texture swatch's sphere, unlit) and the
+// swatches are the maps of a MeshStandardMaterial on a sphere lit by an environment light.
+let materialCatalogue; // GET /v1/materials
+let channelEditors = {}; // channel -> {element, get(), img}
+let materialExtras = {}; // what the chosen material has beside its channels and nodes (description, alpha mode)
+const isColourChannel = (channel) => materialCatalogue.channels[channel] === "colour";
+const isPlain = (v) => v && typeof v === "object" && !Array.isArray(v);
+const isConstant = (v) => typeof v === "number" || (Array.isArray(v) && v.length === 3 && v.every((x) => typeof x === "number"));
+const onlyKeys = (v, keys) => Object.keys(v).every((k) => keys.includes(k));
+const isTexture = (v, colour) => isPlain(v) && (colour ? !("op" in v) && typeof v.name === "string"
+  : v.op === "texture" && v.output === "value" && isPlain(v.texture) && onlyKeys(v, ["op", "output", "texture"]));
+let editorNodes = {}; // the named nodes of the material chosen (a mask may be one of them)
+const isNamed = (v) => typeof v === "string" && v in editorNodes;
+const isMaskSource = (v) => isTexture(v, false) || isNamed(v);
+const isMask = (v) => isMaskSource(v) || (isPlain(v) && v.op === "invert" && onlyKeys(v, ["op", "input"]) && isMask(v.input))
+  || (isPlain(v) && v.op === "smoothstep" && onlyKeys(v, ["op", "input", "edge0", "edge1"]) && isMaskSource(v.input));
+const isInput = (v, colour) => isConstant(v) || isTexture(v, colour);
+const isLayers = (v, colour) => isPlain(v) && v.op === "mix" && onlyKeys(v, ["op", "a", "b", "mask"]) && isInput(v.b, colour) && isMask(v.mask)
+  && (isInput(v.a, colour) || isLayers(v.a, colour));
+function kindOf(value, colour) {
+  if (value == null) return "none";
+  return isConstant(value) ? "constant" : isTexture(value, colour) ? "texture" : isLayers(value, colour) ? "layers" : "json";
+}
+
+let materialTimer = 0, materialAbort = null;
+function materialChanged(wait = 250) {
+  clearTimeout(materialTimer);
+  materialAbort?.abort();
+  $("material-sphere").dataset.ready = "0";
+  for (const { img } of Object.values(channelEditors)) { img.classList.add("stale"); img.dataset.ready = "0"; }
+  mapsSummary();
+  materialTimer = setTimeout(updateMaterial, wait);
+}
+
+// A select of kinds, and what the kind chosen shows below it; `make(kind, value)` -> {element, get()}
+function kindSwitch(label, kinds, kind, value, make, className = "kind") {
+  const id = `m${++ids}`;
+  const select = el("select", { id }, Object.entries(kinds).map(([k, words]) => el("option", { value: k, textContent: words })));
+  select.value = kind;
+  const body = el("div", { className: "kind-body" });
+  let editor;
+  const build = (k, v) => { editor = make(k, v); body.replaceChildren(editor.element); };
+  build(kind, value);
+  select.addEventListener("change", () => { build(select.value, undefined); materialChanged(); });
+  const element = el("div", { className }, el("label", { htmlFor: id, textContent: label }), select, body);
+  return { element, select, get: () => editor.get(), kind: () => select.value };
+}
+
+function constantInput(label, value, colour, fallback) {
+  const id = `m${++ids}`;
+  const start = value ?? fallback;
+  const input = colour ? el("input", { id, type: "color", value: hex([start].flat().length === 3 ? start : [start, start, start]) })
+    : el("input", { id, type: "number", step: "any", value: start });
+  const read = colour ? () => linear(input.value) : () => (Number.isFinite(input.valueAsNumber) ? input.valueAsNumber : input.value);
+  let touched = false;
+  input.addEventListener("input", () => { touched = true; materialChanged(); });
+  return { element: el("div", { className: "field" }, el("label", { htmlFor: id, textContent: label }), input), get: () => (touched || value == null ? read() : value) };
+}
+
+// A texture: which one (the valued ones only where a scalar is taken), its parameters folded below
+function textureInput(label, path, value, colour) {
+  const spec = value == null ? { name: "checker" } : colour ? value : value.texture;
+  const id = `m${++ids}`;
+  const names = catalogue.map((t) => t.name).filter((n) => colour || materialCatalogue.valued.includes(n));
+  const select = el("select", { id }, names.map((n) => el("option", { value: n, textContent: TEXTURE_NAMES[n] ?? n })));
+  const params = el("div", { className: "form" });
+  let controls = {};
+  const build = (name, given) => {
+    for (const key of [...fields.keys()]) if (key.startsWith(path.join(".") + ".")) fields.delete(key);
+    select.value = name;
+    params.replaceChildren();
+    controls = form({ root: textureSchema, words: TEXTURE_WORDS, changed: () => materialChanged() }, textureDef(name), params, { prefix: path, values: given });
+  };
+  build(names.includes(spec.name) ? spec.name : names[0], spec);
+  select.addEventListener("change", () => { build(select.value, {}); materialChanged(); });
+  const read = () => ({ name: select.value, ...changedValues(controls) });
+  const element = el("div", { className: "field" }, el("label", { htmlFor: id, textContent: label }), select,
+    el("details", {}, el("summary", { textContent: `${label}: its parameters` }), params));
+  return { element, get: () => (colour ? read() : { op: "texture", output: "value", texture: read() }) };
+}
+
+const INPUT_KINDS = { constant: "A constant", texture: "A texture" };
+function layerInput(label, path, value, colour, fallback) {
+  return kindSwitch(label, INPUT_KINDS, value == null ? "constant" : kindOf(value, colour), value, (kind, v) => (kind === "constant"
+    ? constantInput(`${label}: value`, v, colour, fallback) : textureInput(`${label}: texture`, [...path, "texture"], v, colour)));
+}
+
+// A named node of the material, by name
+function nodeInput(label, value) {
+  const id = `m${++ids}`;
+  const select = el("select", { id }, Object.keys(editorNodes).map((n) => el("option", { value: n, textContent: n })));
+  if (value) select.value = value;
+  select.addEventListener("change", () => materialChanged());
+  return { element: el("div", { className: "field" }, el("label", { htmlFor: id, textContent: label }), select), get: () => select.value };
+}
+
+// A mask: a texture's value (or a named node's), through smoothstep's edges (both empty: as it is), inverted or not
+function maskInput(label, path, value) {
+  let invert = false, edges = null, texture = value;
+  if (texture?.op === "invert") { invert = true; texture = texture.input; }
+  if (texture?.op === "smoothstep") { edges = [texture.edge0, texture.edge1]; texture = texture.input; }
+  const checker = { op: "texture", output: "value", texture: { name: "checker", box: [0.25, 0.25, 0.25] } };
+  const pickTexture = (v) => textureInput(`${label}: texture`, [...path, "texture"], v ?? checker, false);
+  const pick = !Object.keys(editorNodes).length ? pickTexture(texture)
+    : kindSwitch(label, { texture: "A texture", node: "A named node" }, isNamed(texture) ? "node" : "texture", texture,
+      (kind, v) => (kind === "node" ? nodeInput(`${label}: node`, v) : pickTexture(v)));
+  const boxes = [0, 1].map((i) => {
+    const box = el("input", { type: "number", step: "any", value: edges?.[i] ?? "", placeholder: "none" });
+    box.setAttribute("aria-label", `${label}: ${i ? "upper" : "lower"} edge`);
+    box.addEventListener("input", () => materialChanged());
+    return box;
+  });
+  const flip = el("input", { type: "checkbox", checked: invert });
+  flip.setAttribute("aria-label", `${label}: inverted`);
+  flip.addEventListener("change", () => materialChanged());
+  const get = () => {
+    let mask = pick.get();
+    if (boxes.every((b) => Number.isFinite(b.valueAsNumber))) mask = { op: "smoothstep", input: mask, edge0: boxes[0].valueAsNumber, edge1: boxes[1].valueAsNumber };
+    return flip.checked ? { op: "invert", input: mask } : mask;
+  };
+  const element = el("div", { className: "mask" }, pick.element,
+    el("p", { className: "hint", textContent: "Its edges (a smooth step from the lower to the upper; empty: the value as it is):" }),
+    el("div", { className: "triple" }, boxes), el("label", {}, flip, " Inverted"));
+  return { element, get };
+}
+
+// Layers: a base, then each layer's input mixed over what is below it where its mask is 1
+function layersInput(channel, value, colour) {
+  const fallback = materialCatalogue.defaults[channel];
+  const stack = [];
+  let base = value ?? { op: "mix", a: fallback, b: colour ? [0.05, 0.1, 0.6] : 0.2, mask: undefined };
+  while (isPlain(base) && base.op === "mix") { stack.unshift(base); base = base.a; }
+  const list = el("div", { className: "layers" });
+  const baseInput = layerInput("Base", ["material", channel, "base"], base, colour, fallback);
+  const layers = [];
+  const add = (layer) => {
+    const n = ++ids;
+    const input = layerInput(`Layer ${layers.length + 1}`, ["material", channel, `l${n}`], layer.b, colour, colour ? [0.5, 0.5, 0.5] : 0.5);
+    const mask = maskInput(`Layer ${layers.length + 1} mask`, ["material", channel, `l${n}`, "mask"], layer.mask);
+    const remove = el("button", { type: "button", textContent: "Remove this layer" });
+    const entry = { input, mask, element: el("fieldset", { className: "layer" }, el("legend", { textContent: `Layer ${layers.length + 1}` }), input.element, mask.element, remove) };
+    remove.addEventListener("click", () => { layers.splice(layers.indexOf(entry), 1); entry.element.remove(); materialChanged(); });
+    layers.push(entry);
+    list.append(entry.element);
+  };
+  stack.forEach(add);
+  const more = el("button", { type: "button", textContent: "Add a layer" });
+  more.addEventListener("click", () => { add({ b: undefined, mask: undefined }); materialChanged(); });
+  const get = () => layers.reduce((below, l) => ({ op: "mix", a: below, b: l.input.get(), mask: l.mask.get() }), baseInput.get());
+  return { element: el("div", {}, baseInput.element, list, more), get };
+}
+
+function jsonInput(label, value) {
+  const id = `m${++ids}`;
+  const input = el("textarea", { id, rows: 4, spellcheck: false, value: JSON.stringify(value ?? 0.5, null, 1) });
+  input.addEventListener("input", () => materialChanged(600));
+  const get = () => readJson(input.value, label);
+  return { element: el("div", { className: "field" }, el("label", { htmlFor: id, textContent: label }), input), get };
+}
+
+// JSON text, or an error the page can tell without the server: `{body: {detail}}` as showError takes
+function readJson(text, what) {
+  try { return JSON.parse(text); } catch (error) { throw { body: { detail: `${what}: not JSON: ${error.message}` } }; }
+}
+
+const CHANNEL_KINDS = { none: "Not given (the default)", constant: "A constant", texture: "A texture", layers: "Layers through masks", json: "An expression (JSON)" };
+function channelEditor(channel, value) {
+  const colour = isColourChannel(channel), words = MATERIAL_WORDS.channels[channel];
+  const kinds = channel === "base_color" ? Object.fromEntries(Object.entries(CHANNEL_KINDS).filter(([k]) => k !== "none")) : CHANNEL_KINDS;
+  const img = el("img", { className: "channel-swatch", width: 128, height: 128, alt: `the ${words} on a sphere` });
+  img.dataset.channel = channel;
+  const error = el("p", { className: "error", role: "alert" });
+  const editor = kindSwitch(words, kinds, kindOf(value, colour), value, (kind, v) => {
+    if (kind === "none") return { element: el("p", { className: "hint", textContent: `The default: ${JSON.stringify(materialCatalogue.defaults[channel])}` }), get: () => undefined };
+    if (kind === "constant") return constantInput(`${words}: value`, v, colour, materialCatalogue.defaults[channel]);
+    if (kind === "texture") return textureInput(`${words}: texture`, ["material", channel, "texture"], v, colour);
+    if (kind === "layers") return layersInput(channel, v, colour);
+    return jsonInput(`${words}: expression`, v ?? materialCatalogue.defaults[channel]);
+  });
+  fields.set(`material.${channel}`, { input: editor.select, error });
+  const element = el("fieldset", { className: "channel" }, el("legend", { textContent: words }),
+    el("div", { className: "channel-row" }, img, el("div", { className: "channel-edit" }, editor.element, error)));
+  element.dataset.channel = channel;
+  return { element, get: editor.get, img };
+}
+
+function chooseMaterial(choice) {
+  for (const path of [...fields.keys()]) if (path.startsWith("material.")) fields.delete(path);
+  clearErrors("material");
+  channelEditors = {};
+  $("material-channels").replaceChildren();
+  const given = choice === "" ? null : choice === "new" ? { name: "my_material", base_color: [0.8, 0.8, 0.8] } : materialCatalogue.materials.find((m) => m.name === choice);
+  $("material-editor").hidden = !given;
+  $("material-about").textContent = given ? `${given.description || "A material of your own: give each channel a constant, a texture or layers."} The bake takes it in place of the texture (2. Texture).` : "Bake the texture (2. Texture) into an albedo map.";
+  if (!given) { mapsSummary(); return; }
+  const { nodes = {}, name, height_scale: scale, ...rest } = given;
+  editorNodes = nodes;
+  materialExtras = Object.fromEntries(Object.entries(rest).filter(([k]) => !(k in materialCatalogue.channels)));
+  $("material-name").value = name || "";
+  $("material-height-scale").value = scale ?? 0.01;
+  $("material-nodes").value = JSON.stringify(nodes, null, 1);
+  $("material-nodes-box").hidden = !Object.keys(nodes).length;
+  for (const channel of Object.keys(materialCatalogue.channels)) {
+    channelEditors[channel] = channelEditor(channel, given[channel]);
+    $("material-channels").append(channelEditors[channel].element);
+  }
+  materialChanged(0);
+}
+
+// The material object the editor shows (null: none chosen). Throws {body: {detail}} (as
+// showError takes) for JSON that does not read, naming the channel
+function materialObject() {
+  if ($("material").value === "") return null;
+  const nodes = readJson($("material-nodes").value || "{}", "material.nodes");
+  const scale = $("material-height-scale").valueAsNumber;
+  const out = { ...materialExtras, name: $("material-name").value, ...(Object.keys(nodes).length ? { nodes } : {}), ...(Number.isFinite(scale) ? { height_scale: scale } : {}) };
+  const wrong = [];
+  for (const [channel, editor] of Object.entries(channelEditors)) {
+    try {
+      const value = editor.get();
+      if (value !== undefined) out[channel] = value;
+    } catch (error) { wrong.push(`material.${channel}: ${error.body?.detail.replace(/^[^:]*: /, "") ?? error}`); }
+  }
+  if (wrong.length) throw { body: { detail: wrong.join("; ") } };
+  return out;
+}
+
+async function updateMaterial() {
+  materialAbort?.abort();
+  const abort = (materialAbort = new AbortController());
+  let material, images;
+  try { material = materialObject(); } catch (error) {
+    clearErrors("material");
+    showError(error, "material");
+    $("material-state").textContent = "not updated: see the error";
+    return;
+  }
+  if (!material) return;
+  const given = Object.keys(channelEditors).filter((c) => material[c] !== undefined);
+  $("material-state").textContent = "updating…";
+  try {
+    images = await Promise.all(given.map(async (channel) => [channel, await (await api("/v1/swatch", {
+      method: "POST", headers: { "Content-Type": "application/json" }, signal: abort.signal,
+      body: JSON.stringify({ material, channel, size: 128 }) })).blob()]));
+  } catch (error) {
+    if (error.name === "AbortError" || abort !== materialAbort) return;
+    clearErrors("material");
+    showError(error, "material");
+    $("material-state").textContent = "not updated: see the error";
+    return;
+  }
+  if (abort !== materialAbort) return;
+  clearErrors("material");
+  for (const [channel, editor] of Object.entries(channelEditors)) {
+    const found = images.find(([c]) => c === channel), img = editor.img;
+    if (img.src.startsWith("blob:")) URL.revokeObjectURL(img.src);
+    img.classList.remove("stale");
+    if (!found) { img.removeAttribute("src"); img.dataset.ready = "none"; continue; }
+    img.onload = () => { if (abort === materialAbort) img.dataset.ready = "1"; };
+    img.src = URL.createObjectURL(found[1]);
+  }
+  await litSphere(Object.fromEntries(images), abort);
+  if (abort === materialAbort) $("material-state").textContent = "";
+}
+
+const sphere = {};
+function setupSphere() {
+  sphere.renderer = new THREE.WebGLRenderer({ antialias: true });
+  sphere.renderer.setSize(256, 256);
+  sphere.renderer.toneMapping = THREE.ACESFilmicToneMapping;
+  $("material-sphere").append(sphere.renderer.domElement);
+  sphere.scene = new THREE.Scene();
+  sphere.scene.background = new THREE.Color(0x262b33);
+  sphere.scene.environment = new THREE.PMREMGenerator(sphere.renderer).fromScene(new RoomEnvironment(), 0.02).texture;
+  sphere.camera = new THREE.OrthographicCamera(-1.05, 1.05, 1.05, -1.05, 0.1, 10);
+  sphere.camera.position.set(0, 0, 3);
+  // each point of the sphere's front takes the swatches' pixel in front of it: its (x, y) is its uv
+  const geometry = new THREE.SphereGeometry(1, 128, 96), p = geometry.attributes.position, uv = geometry.attributes.uv;
+  for (let i = 0; i < p.count; i++) uv.setXY(i, 0.5 + 0.5 * p.getX(i), 0.5 + 0.5 * p.getY(i));
+  sphere.mesh = new THREE.Mesh(geometry, new THREE.MeshStandardMaterial());
+  sphere.scene.add(sphere.mesh);
+}
+
+// The swatches ({channel: PNG blob}) as a MeshStandardMaterial's maps; a channel not given takes its default
+async function litSphere(images, abort) {
+  if (!sphere.renderer) setupSphere();
+  const loader = new THREE.TextureLoader(), maps = {};
+  for (const [channel, blob] of Object.entries(images)) {
+    const url = URL.createObjectURL(blob);
+    try { maps[channel] = await loader.loadAsync(url); } finally { URL.revokeObjectURL(url); }
+    maps[channel].colorSpace = ["base_color", "emissive"].includes(channel) ? THREE.SRGBColorSpace : THREE.NoColorSpace;
+  }
+  if (abort !== materialAbort) { Object.values(maps).forEach((t) => t.dispose()); return; }
+  const d = materialCatalogue.defaults, colour = (rgb) => new THREE.Color().setRGB(...rgb, THREE.LinearSRGBColorSpace);
+  const old = sphere.mesh.material;
+  sphere.mesh.material = new THREE.MeshStandardMaterial({
+    color: maps.base_color ? 0xffffff : colour(d.base_color), map: maps.base_color ?? null,
+    roughness: maps.roughness ? 1 : d.roughness, roughnessMap: maps.roughness ?? null,
+    metalness: maps.metallic ? 1 : d.metallic, metalnessMap: maps.metallic ?? null,
+    aoMap: maps.occlusion ?? null, normalMap: maps.normal ?? null, bumpMap: maps.normal ? null : maps.height ?? null, bumpScale: 4,
+    emissive: maps.emissive ? 0xffffff : 0x000000, emissiveMap: maps.emissive ?? null,
+    alphaMap: maps.opacity ?? null, transparent: !!maps.opacity,
+  });
+  for (const key of ["map", "roughnessMap", "metalnessMap", "aoMap", "normalMap", "bumpMap", "emissiveMap", "alphaMap"]) old[key]?.dispose();
+  old.dispose();
+  sphere.renderer.render(sphere.scene, sphere.camera);
+  $("material-sphere").dataset.ready = "1";
 }
 
 // ---- the mesh --------------------------------------------------------------------------
@@ -517,7 +836,7 @@ function mapsSummary() {
   if (!settingsControls.shading) return;
   const s = Object.fromEntries(Object.entries(settingsControls).map(([k, c]) => [k, c.get()]));
   const animated = !settingsControls.frames.element.hidden && s.frames?.length;
-  const maps = s.material ? ["the material's base colour, roughness, metallic, normal...", "ORM", s.shading !== "decal" && "lit", "coverage"]
+  const maps = $("material").value !== "" ? ["the material's base colour, roughness, metallic, normal...", "ORM", s.shading !== "decal" && "lit", "coverage"]
     : [animated ? "an albedo map per frame and a flipbook" : "albedo", s.shading !== "decal" && "lit", s.bump && "normal", "coverage"];
   $("maps").textContent = `This bake writes: ${maps.filter(Boolean).join(", ")} maps and a GLB.`;
 }
@@ -574,13 +893,15 @@ function focusInvalid() {
 
 function bakeSettings() {
   const materials = materialSettings();
-  return { texture: textureSpec(), ...changedValues(settingsControls), ...(materials ? { materials } : {}) };
+  const material = materialObject();
+  return { texture: textureSpec(), ...changedValues(settingsControls), ...(materials ? { materials } : {}), ...(material ? { material } : {}) };
 }
 
 async function bake(event) {
   event.preventDefault();
-  clearErrors("mesh", "settings", "materials", ...Object.keys(settingsControls), "texture");
-  const wrong = [typedWrong(settingsControls), typedWrong(textureControls)].filter(Boolean).join("; ");
+  clearErrors("mesh", "settings", "materials", ...Object.keys(settingsControls), "texture", "material");
+  let settings, wrong = [typedWrong(settingsControls), typedWrong(textureControls)].filter(Boolean).join("; ");
+  try { settings = bakeSettings(); } catch (error) { wrong = [wrong, error.body.detail].filter(Boolean).join("; "); }
   if (!meshFile || wrong) {
     if (!meshFile) showError({ body: { detail: $("mesh").files.length ? "mesh: choose a mesh file this server takes" : "mesh: choose a mesh file first" } }, "mesh");
     if (wrong) showError({ body: { detail: wrong } }, "settings");
@@ -589,7 +910,7 @@ async function bake(event) {
   const form = new FormData();
   form.append("mesh", meshFile);
   for (const file of companionFiles) form.append("files", file);
-  form.append("settings", JSON.stringify(bakeSettings()));
+  form.append("settings", JSON.stringify(settings));
   $("bake").disabled = true;
   setProgress(`Uploading ${meshFile.name}`, 0);
   try {
@@ -711,10 +1032,11 @@ function figures(report) {
   const size = [report.settings?.size].flat(); // one number: square
   const rows = [
     ["Mesh", `${report.mesh.name}: ${report.mesh.faces.toLocaleString()} faces, ${report.mesh.vertices.toLocaleString()} vertices`],
-    ["Maps", `${(size.length === 1 ? [size[0], size[0]] : size).join(" × ")} texels, texture ${report.settings?.texture?.name}`],
+    ["Maps", `${(size.length === 1 ? [size[0], size[0]] : size).join(" × ")} texels, ${report.material ? `material ${report.material.name || "unnamed"}` : `texture ${report.settings?.texture?.name}`}`],
     report.atlas.charts == null ? ["UV atlas", "one per texture set (below)"] // several sets: each its own
       : ["UV atlas", `${report.atlas.method}, ${report.atlas.charts} charts, ${Math.round(100 * report.atlas.utilisation)} % of the texture used — ${report.atlas.reason}`],
     ["Texels covered", `${report.texels.covered.toLocaleString()} of ${report.texels.total.toLocaleString()}`],
+    report.material && ["Material", `${report.material.name || "unnamed"}: ${report.material.maps.join(", ")} maps`],
     report.error_estimate && ["Error estimate", `RMSE ${report.error_estimate.rmse.toExponential(2)} (${report.error_estimate.method})`],
     ["Seconds", seconds.map(([k, v]) => `${k} ${v.toFixed(2)}`).join(", ")],
   ].filter(Boolean);
@@ -838,8 +1160,10 @@ async function start() {
   fields.set("materials", { input: null, error: $("materials-error") });
   fields.set("settings", { input: null, error: $("settings-error") });
   fields.set("jobs", { input: null, error: $("jobs-error") });
+  fields.set("material", { input: $("material"), error: $("material-error") });
+  fields.set("material.nodes", { input: $("material-nodes"), error: $("material-nodes-error") });
   let textures;
-  [config, textures] = await Promise.all([json("/v1/config"), json("/v1/textures")]);
+  [config, textures, materialCatalogue] = await Promise.all([json("/v1/config"), json("/v1/textures"), json("/v1/materials")]);
   catalogue = textures.textures;
   textureSchema = textures.schema;
   $("key-form").hidden = !config.auth;
@@ -869,6 +1193,12 @@ async function start() {
   const first = resolve(settings, settings.properties.texture).default;
   buildTexture(typeof first === "string" ? first : catalogue[0].name);
 
+  $("material").append(el("option", { value: "", textContent: SETTING_WORDS.material.none }),
+    ...materialCatalogue.materials.map((m) => el("option", { value: m.name, textContent: SETTING_WORDS.material.options[m.name] ?? m.name })),
+    el("option", { value: "new", textContent: MATERIAL_WORDS.new }));
+  $("material").addEventListener("change", () => chooseMaterial($("material").value));
+  for (const id of ["material-name", "material-height-scale", "material-nodes"]) $(id).addEventListener("input", () => materialChanged(400));
+  chooseMaterial("");
   $("texture").addEventListener("change", () => buildTexture($("texture").value));
   $("texture-reset").addEventListener("click", () => buildTexture($("texture").value));
   $("swatch-view").addEventListener("change", () => swatchSoon(0));

@@ -59,6 +59,13 @@ export const SETTING_WORDS = {
     hint: "The normal map's green channel; the GLB always gets OpenGL's." },
 };
 
+// The material editor's words: its channels, and the choice of a new material
+export const MATERIAL_WORDS = {
+  new: "A new material",
+  channels: { base_color: "Base colour", roughness: "Roughness", metallic: "Metallic", normal: "Normal map (tangent space)",
+    height: "Height", occlusion: "Ambient occlusion", emissive: "Emission", opacity: "Opacity" },
+};
+
 const OCTAVES = {
   basis: { label: "Noise basis", options: { value: "Value noise", perlin: "Perlin (gradient) noise" } },
   interpolation: { label: "Interpolation", options: { linear: "Linear", cubic: "Cubic", "catmull-rom": "Catmull-Rom" }, hint: "Value noise only." },

@@ -1,10 +1,12 @@
-"""The texture catalogue, the server's configuration, health and readiness."""
+"""The texture catalogue, the built-in materials, the server's configuration, health and readiness."""
 
 from __future__ import annotations
 
 from fastapi import APIRouter
 from fastapi.responses import JSONResponse
 
+from texbake.materials import BUILTINS, CHANNELS, DEFAULTS
+from texbake.materials.nodes import VALUED
 from texbake.textures.spec import catalogue, json_schema
 
 from ...health import ready
@@ -18,6 +20,15 @@ router = APIRouter(tags=["meta"])
 @router.get("/v1/textures")
 def textures():
     return {"textures": catalogue(), "schema": json_schema()}
+
+
+@router.get("/v1/materials")
+def materials():
+    """The built-in materials, each as its JSON object (what the bake's ``material`` takes,
+    by name or as the object); the channels, each ``scalar`` or ``colour``, and the value
+    of one a material does not give; the textures that have a value (a scalar) as well as a
+    colour: what the page's material editor starts from."""
+    return {"materials": list(BUILTINS.values()), "channels": CHANNELS, "defaults": DEFAULTS, "valued": list(VALUED)}
 
 
 @router.get("/v1/config", response_model=ServerConfig)
