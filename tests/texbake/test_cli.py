@@ -71,7 +71,9 @@ def test_batch_summary_as_json_with_atlas_warnings_and_whole_paths(meshes, tmp_p
     for row in rows.values():  # each item's own bake and save: at least the report's stages, not much more
         seconds = json.loads((Path(row["out"]) / "report.json").read_text())["seconds"]
         wall = sum(seconds[stage] for stage in WALL_STAGES)
-        assert 0.05 < wall <= row["seconds"] <= wall + 5, (row["seconds"], seconds)
+        # every stage timed (a 32² bake of kept UVs takes 0.03 s of them now, some stages
+        # under the report's 0.1 ms), and the item's time covers them
+        assert 0 < wall <= row["seconds"] <= wall + 5, (row["seconds"], seconds)
     table = run_cli("batch", tmp_path / "*.obj", "--out", out, "--size", 32)  # not a terminal: nothing cut
     assert table.returncode == 0 and str(out / "capsule") in table.stdout
     assert rows["capsule.obj"]["atlas"] in table.stdout
