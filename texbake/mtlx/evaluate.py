@@ -1,0 +1,90 @@
+"""A read MaterialX document evaluated at points: its ops in order, each over the whole
+batch (numpy), the channels' values out.
+
+:func:`evaluate_document` is the library's call; the bake's leaf (``texbake.materials``'
+``mtlx`` op) calls :func:`evaluate_channel` with the samples' object-space points and
+normals. Values are float64; a string input (``space``) is passed as it is.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import MtlxError
+from .document import WIDTHS, Document, Ref
+from .nodes import PRIMITIVES, Context, Unavailable, unsupported
+
+
+def evaluate_ops(document: Document, wanted: list, ctx: Context) -> dict[str, np.ndarray]:
+    """``op id -> (n, width)`` float64 for the ops ``wanted`` (:class:`Ref` s or constants) need."""
+    needed: set[str] = set()
+    stack = [w.op for w in wanted if isinstance(w, Ref)]
+    while stack:
+        op_id = stack.pop()
+        if op_id not in needed:
+            needed.add(op_id)
+            stack.extend(v.op for v in document.ops[op_id].inputs.values() if isinstance(v, Ref))
+    n = len(ctx.position)
+    values: dict[str, np.ndarray] = {}
+    for op_id, op in document.ops.items():
+        if op_id not in needed:
+            continue
+        args = {name: _value(v, values, n) for name, v in op.inputs.items()}
+        function = PRIMITIVES[op.category]
+        if function is None:
+            raise MtlxError(document.path, op.where, unsupported(op.category, "evaluated only where it feeds a shader's normal"))
+        try:
+            out = function(args, WIDTHS.get(op.type, 1), ctx)
+        except Unavailable as exc:
+            raise MtlxError(document.path, op.where, f"{op.category}: needs {exc}") from None
+        values[op_id] = np.asarray(out, dtype=np.float64).reshape(n, -1)
+    return values
+
+
+def _value(v, values: dict, n: int):
+    if isinstance(v, Ref):
+        return values[v.op]
+    if isinstance(v, str):
+        return v
+    return np.broadcast_to(np.asarray(v, dtype=np.float64)[None, :], (n, len(v)))
+
+
+def evaluate_channel(document: Document, channel: str, ctx: Context) -> np.ndarray:
+    """``(n, k)`` float64: one channel of ``document`` (k its value's width)."""
+    return evaluate_document(document, ctx, [channel])[channel]
+
+
+def evaluate_document(document: Document, ctx: Context, channels: list[str] | None = None) -> dict[str, np.ndarray]:
+    """``channel -> (n, k)`` float64 at the context's points (default: every channel)."""
+    wanted = list(document.channels) if channels is None else channels
+    values = evaluate_ops(document, [document.channels[c] for c in wanted], ctx)
+    return {c: np.array(_value(document.channels[c], values, len(ctx.position)), dtype=np.float64) for c in wanted}
+
+
+def evaluate_mtlx(source, points, *, normals=None, texcoords=None, channels=None) -> dict[str, np.ndarray]:
+    """Evaluate a ``.mtlx`` document's channels at object-space points, without a mesh.
+
+    Parameters
+    ----------
+    source : str, Path or Document
+        A ``.mtlx`` file (a Path), its XML text, or a read :class:`Document`.
+    points : (n, 3) array_like of float
+        Object-space points.
+    normals : (n, 3) array_like of float, optional
+        Unit normals (for a graph with a normal node).
+    texcoords : (n, 2) array_like of float, optional
+        Texture coordinates (for a graph with texcoord, ramps or splits).
+    channels : list of str, optional
+        Which channels (default: all the shader gives).
+
+    Returns
+    -------
+    dict of str to (n, k) ndarray of float64
+    """
+    from .document import read_document
+
+    document = source if isinstance(source, Document) else read_document(source)
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    ctx = Context(p, None if normals is None else np.asarray(normals, dtype=np.float64).reshape(-1, 3),
+                  None if texcoords is None else np.asarray(texcoords, dtype=np.float64).reshape(-1, 2))
+    return evaluate_document(document, ctx, channels)
