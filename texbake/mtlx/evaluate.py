@@ -37,7 +37,8 @@ def evaluate_ops(document: Document, wanted: list, ctx: Context) -> dict[str, np
             out = function(args, WIDTHS.get(op.type, 1), ctx)
         except Unavailable as exc:
             raise MtlxError(document.path, op.where, f"{op.category}: needs {exc}") from None
-        values[op_id] = np.asarray(out, dtype=np.float64).reshape(n, -1)
+        out = np.asarray(out, dtype=np.float64)
+        values[op_id] = out[:, None] if out.ndim == 1 else out
     return values
 
 
