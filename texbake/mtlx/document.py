@@ -283,8 +283,10 @@ class _Flattener:
         inputs = {}
         for definition in nodedef.getActiveInputs():
             name = definition.getName()
+            if category == "normalmap" and name not in ("in", "scale"):
+                continue  # the frame it decodes in is the renderer's: texbake bakes its tangent-space "in"
             given = node.getInput(name)
-            inputs[name] = self.input(given, node, scope) if given is not None else self._geomprop_or_default(definition)
+            inputs[name] = self.input(given, node, scope) if given is not None else self._geomprop_or_default(definition, node)
         impl = nodedef.getImplementation()
         if impl is not None and isinstance(impl, _node_graph_class()):  # the library's own definition, expanded
             self.scopes += 1
@@ -305,7 +307,7 @@ class _Flattener:
         self.ops[op_id] = Op(op_id, "constant", _type_of(len(value)), {"value": value}, node.getNamePath())
         return Ref(op_id)
 
-    def _geomprop_or_default(self, definition):
+    def _geomprop_or_default(self, definition, node):
         prop = definition.getDefaultGeomPropString()
         if not prop:
             if definition.getType() in ("string", "filename"):
@@ -313,8 +315,8 @@ class _Flattener:
             value = definition.getValue()
             return np.zeros(WIDTHS.get(definition.getType(), 1)) if value is None else value_array(value)
         if prop not in GEOMPROPS:
-            raise MtlxError(self.where, definition.getParent().getName(),
-                            f"geometric property {prop!r} is not one texbake gives (it gives: {', '.join(GEOMPROPS)})")
+            raise MtlxError(self.where, node.getNamePath(), f"{node.getCategory()}: its input {definition.getName()!r} reads the "
+                            f"geometric property {prop!r}, not one texbake gives (it gives: {', '.join(GEOMPROPS)})")
         category, arg = GEOMPROPS[prop]
         op_id = f"<{prop}>"
         if op_id not in self.ops:
