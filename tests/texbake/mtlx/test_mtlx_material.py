@@ -100,3 +100,14 @@ def test_texcoord_graph_is_refused_before_the_bake():
 def test_missing_file(tmp_path):
     with pytest.raises(MtlxError, match=r"nothere.mtlx: cannot read"):
         material_from_mtlx(tmp_path / "nothere.mtlx")
+
+
+@pytest.mark.parametrize("mesh", ["bunny.ply", "fandisk.obj", "Duck.glb", "suzanne_blender_uv.obj"])
+def test_marble_on_more_shared_meshes(meshes, tmp_path, mesh):
+    from texbake import bake_mesh
+
+    result = bake_mesh(meshes / mesh, {"material": material_from_mtlx(MARBLE), "size": 96})
+    written = result.save(tmp_path)
+    assert_valid_glb(written["glb"]["path"])
+    validated(Path(written["mtlx"]["path"]))
+    assert result.report["material"]["nodes"]["base_color"]["evaluations"] > 0
