@@ -76,3 +76,25 @@ def test_written_document_validates(baked):
     assert shader.getInputValue("emissive_strength") == 1.0  # its product is in the emissive map
     normalmap = shader.getInput("normal").getConnectedNode()
     assert normalmap.getCategory() == "normalmap" and normalmap.getInput("in").getConnectedNode().getCategory() == "image"
+
+
+def test_usd_binds_every_map(baked):
+    """<mesh>.usda opens with usd-core, its mesh bound to a UsdPreviewSurface reading each baked map."""
+    from pxr import Usd, UsdShade
+
+    out, result = baked
+    stage = Usd.Stage.Open(str(out / "suzanne.usda"))
+    assert stage is not None and result.report["outputs"]["usd"]["path"] == "suzanne.usda"
+    mesh = next(p for p in stage.Traverse() if p.GetTypeName() == "Mesh")
+    material, _ = UsdShade.MaterialBindingAPI(mesh).ComputeBoundMaterial()
+    surface = material.ComputeSurfaceSource()[0]
+    assert surface.GetIdAttr().Get() == "UsdPreviewSurface"
+    bound = {}
+    for name in ("diffuseColor", "metallic", "normal", "emissiveColor"):
+        source = surface.GetInput(name).GetConnectedSources()[0][0].source
+        texture = UsdShade.Shader(source.GetPrim())
+        assert texture.GetIdAttr().Get() == "UsdUVTexture", name
+        bound[name] = texture.GetInput("file").Get().path
+        assert (out / bound[name]).is_file(), name
+    assert bound["metallic"].endswith("metallic.png") and bound["emissiveColor"].endswith("emissive.png")
+    assert surface.GetInput("diffuseColor").GetConnectedSources()[0][0].source.GetPrim().GetName() == "Albedo"
