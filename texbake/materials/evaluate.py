@@ -76,7 +76,8 @@ def _leaf(node, mapping: TextureMapping, q, dqdx, dqdy, normals, values: dict, m
     if node.op == "mtlx":
         from ..mtlx.material import channel_values
 
-        return channel_values(node.params, q / mapping.scale + mapping.origin, normals), None
+        scaled = [None if d is None else d / mapping.scale for d in (dqdx, dqdy)]  # the footprint in object space
+        return channel_values(node.params, q / mapping.scale + mapping.origin, normals, *scaled), None
     if node.op == "warp":
         p = node.params
         q, dqdx, dqdy = leaves.warped_points(q, dqdx, dqdy, values[node.inputs["by"]], p.amount, p.axis)

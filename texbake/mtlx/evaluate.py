@@ -8,10 +8,13 @@ normals. Values are float64; a string input (``space``) is passed as it is.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from ..errors import MtlxError
 from .document import WIDTHS, Document, Ref
+from .footprint import differentials, footprint_width
 from .nodes import PRIMITIVES, Context, Unavailable, unsupported
 
 
@@ -26,10 +29,16 @@ def evaluate_ops(document: Document, wanted: list, ctx: Context) -> dict[str, np
             stack.extend(v.op for v in document.ops[op_id].inputs.values() if isinstance(v, Ref))
     n = len(ctx.position)
     values: dict[str, np.ndarray] = {}
+    grads: dict[str, Any] = {}  # op id -> its output's differentials (footprint.py), None where unknown
+    filtering = ctx.dpdx is not None and ctx.dpdy is not None
     for op_id, op in document.ops.items():
         if op_id not in needed:
             continue
         args = {name: _value(v, values, n) for name, v in op.inputs.items()}
+        if filtering:
+            inputs = {name: (grads.get(v.op) if isinstance(v, Ref) else (0.0, 0.0)) for name, v in op.inputs.items()}
+            if op.category in FILTERED:
+                args["_width"] = footprint_width(inputs.get("position"))
         function = PRIMITIVES[op.category]
         if function is None:
             raise MtlxError(document.path, op.where, unsupported(op.category, "evaluated only where it feeds a shader's normal"))
@@ -39,7 +48,12 @@ def evaluate_ops(document: Document, wanted: list, ctx: Context) -> dict[str, np
             raise MtlxError(document.path, op.where, f"{op.category}: needs {exc}") from None
         out = np.asarray(out, dtype=np.float64)
         values[op_id] = out[:, None] if out.ndim == 1 else out
+        if filtering:
+            grads[op_id] = differentials(op.category, args, inputs, values[op_id].shape[1], ctx)
     return values
+
+
+FILTERED = ("noise3d", "fractal3d")  # the nodes that read the footprint's width (in "_width")
 
 
 def _value(v, values: dict, n: int):
@@ -62,7 +76,7 @@ def evaluate_document(document: Document, ctx: Context, channels: list[str] | No
     return {c: np.array(_value(document.channels[c], values, len(ctx.position)), dtype=np.float64) for c in wanted}
 
 
-def evaluate_mtlx(source, points, *, normals=None, texcoords=None, channels=None) -> dict[str, np.ndarray]:
+def evaluate_mtlx(source, points, *, normals=None, texcoords=None, channels=None, footprint=None) -> dict[str, np.ndarray]:
     """Evaluate a ``.mtlx`` document's channels at object-space points, without a mesh.
 
     Parameters
@@ -77,6 +91,9 @@ def evaluate_mtlx(source, points, *, normals=None, texcoords=None, channels=None
         Texture coordinates (for a graph with texcoord, ramps or splits).
     channels : list of str, optional
         Which channels (default: all the shader gives).
+    footprint : (n, 2, 3) array_like of float, optional
+        ``dpdx`` and ``dpdy`` of each point: noise3d and fractal3d filtered over it
+        (``footprint.py``); None: point-sampled, as MaterialX's GLSL.
 
     Returns
     -------
@@ -86,6 +103,8 @@ def evaluate_mtlx(source, points, *, normals=None, texcoords=None, channels=None
 
     document = source if isinstance(source, Document) else read_document(source)
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    f = None if footprint is None else np.asarray(footprint, dtype=np.float64).reshape(-1, 2, 3)
     ctx = Context(p, None if normals is None else np.asarray(normals, dtype=np.float64).reshape(-1, 3),
-                  None if texcoords is None else np.asarray(texcoords, dtype=np.float64).reshape(-1, 2))
+                  None if texcoords is None else np.asarray(texcoords, dtype=np.float64).reshape(-1, 2),
+                  None if f is None else f[:, 0], None if f is None else f[:, 1])
     return evaluate_document(document, ctx, channels)

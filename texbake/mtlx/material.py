@@ -88,10 +88,12 @@ def _fit(values: np.ndarray, width: int) -> np.ndarray:
     return np.repeat(values[:, :1], 3, axis=1) if k == 1 else values[:, :3] if k >= 3 else np.pad(values, ((0, 0), (0, 3 - k)))
 
 
-def channel_values(params, points: np.ndarray, normals: np.ndarray | None) -> np.ndarray:
-    """The ``mtlx`` node's ``(n, 1)`` or ``(n, 3)`` float64 values at ``(n, 3)`` object-space points."""
+def channel_values(params, points: np.ndarray, normals: np.ndarray | None, dpdx: np.ndarray | None = None,
+                   dpdy: np.ndarray | None = None) -> np.ndarray:
+    """The ``mtlx`` node's ``(n, 1)`` or ``(n, 3)`` float64 values at ``(n, 3)`` object-space
+    points, filtered over their footprints ``dpdx``, ``dpdy`` (None: point-sampled)."""
     from .evaluate import evaluate_channel
 
     document = _document(params.document, params.path)
-    values = evaluate_channel(document, params.channel, Context(points, normals))
+    values = evaluate_channel(document, params.channel, Context(points, normals, None, dpdx, dpdy))
     return np.ascontiguousarray(_fit(values, 1 if params.kind == "scalar" else 3))

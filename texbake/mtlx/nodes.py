@@ -7,8 +7,8 @@ width and the :class:`Context` of the points, and gives ``(n, width)`` float64. 
 formulas are those of the library's GLSL implementations (``genglsl``: the inline
 expressions and ``mx_*.glsl``); the noises are ``noise.py``'s port of ``mx_noise.glsl``.
 Nodes the library defines as nodegraphs are expanded into these (``document.py``), never
-evaluated here. This first version is numpy, vectorised over points (not compiled), and
-point-sampled: no footprint filtering.
+evaluated here. This first version is numpy, vectorised over points (not compiled); noise3d
+and fractal3d are filtered over the footprint where one is given (``footprint.py``).
 """
 
 from __future__ import annotations
@@ -25,11 +25,14 @@ from . import noise
 class Context:
     """The points a graph is evaluated at: ``position`` ``(n, 3)`` float64 in object
     space (world = object: a bake has no transform), ``normal`` ``(n, 3)`` unit (or None)
-    and ``texcoord`` ``(n, 2)`` (or None: a bake's samples carry no texture coordinates)."""
+    ``texcoord`` ``(n, 2)`` (or None: a bake's samples carry no texture coordinates) and
+    the footprint ``dpdx``, ``dpdy`` (``footprint.py``; None: point sampling)."""
 
     position: np.ndarray
     normal: np.ndarray | None = None
     texcoord: np.ndarray | None = None
+    dpdx: np.ndarray | None = None  # (n, 3) the footprint in object space (None: point sampling)
+    dpdy: np.ndarray | None = None
 
 
 class Unavailable(Exception):
@@ -137,12 +140,14 @@ def _ifelse(compare: Callable) -> Callable:
 def _noise3d(v, w, ctx):
     p = v["position"]
     value = noise.perlin_float(p)[:, None] if w == 1 else noise.perlin_vec3(p)[:, :w]
-    return value * v["amplitude"] + v["pivot"]
+    return noise.filtered(value, v.get("_width")) * v["amplitude"] + v["pivot"]
 
 
 def _fractal3d(v, w, ctx):
     p, octaves, lac, dim = v["position"], v["octaves"][:, 0], v["lacunarity"][:, 0], v["diminish"][:, 0]
-    value = noise.fractal_float(p, octaves, lac, dim)[:, None] if w == 1 else noise.fractal_vec3(p, octaves, lac, dim)[:, :w]
+    width = v.get("_width")
+    value = (noise.fractal_float(p, octaves, lac, dim, width)[:, None] if w == 1 else
+             noise.fractal_vec3(p, octaves, lac, dim, width)[:, :w])
     return value * v["amplitude"]
 
 

@@ -10,9 +10,17 @@ Every function takes ``(n, 3)`` float64 points and gives ``(n,)`` (a float noise
 ``(n, 3)`` (a vector3 noise) float64: the hash is bit-exact with the GLSL's; the floating
 point is float64 where a GPU's is float32 (so values agree with a float32 run to ~1e-6,
 except at points within float32's rounding of a cell boundary).
+
+Footprint filtering (texbake's, not MaterialX's: its GLSL point-samples): given the
+footprint's width in the noise's cells, each Perlin octave is shrunk towards its mean (0)
+by the share of it a box filter over the footprint keeps (:func:`keep`, the same
+``fade_factor`` as texbake's own noises), octaves past ``DROP_CELLS`` cells dropped.
+Cell and Worley noise stay point-sampled.
 """
 
 from __future__ import annotations
+
+import functools
 
 import numpy as np
 
@@ -144,18 +152,43 @@ def cell_vec3(p: np.ndarray) -> np.ndarray:
     return np.stack([bits_to_01(bjfinal(a + _U32(k), b, c)) for k in range(3)], axis=1)
 
 
-def fractal_float(p: np.ndarray, octaves, lacunarity, diminish) -> np.ndarray:
+@functools.cache
+def _keep_table() -> tuple[np.ndarray, np.ndarray]:
+    """texbake's own octave filter (``texbake._native.fade_factor``: the share of an octave a
+    box over the footprint keeps, 0 from ``DROP_CELLS`` cells on), tabulated for numpy."""
+    from .._native import DROP_CELLS, fade_factor
+
+    s = np.linspace(0.0, float(DROP_CELLS), 8193)
+    return s, np.array([fade_factor(float(x)) for x in s])
+
+
+def keep(cells: np.ndarray) -> np.ndarray:
+    """``(n,)``: the share of a zero-mean octave kept under a footprint ``cells`` lattice cells wide."""
+    s, table = _keep_table()
+    return np.interp(cells, s, table, right=0.0)
+
+
+def filtered(value: np.ndarray, width: np.ndarray | None) -> np.ndarray:
+    """One Perlin octave (mean 0) shrunk towards its mean by :func:`keep` of the footprint ``width`` (None: as it is)."""
+    if width is None:
+        return value
+    k = keep(width)
+    return value * (k[:, None] if value.ndim == 2 else k)
+
+
+def fractal_float(p: np.ndarray, octaves, lacunarity, diminish, width: np.ndarray | None = None) -> np.ndarray:
     """``mx_fractal3d_noise_float``: the sum of ``octaves`` Perlin octaves (per point
-    ``octaves``, ``lacunarity`` and ``diminish`` may be ``(n,)`` arrays)."""
-    return _fractal(perlin_float, p, octaves, lacunarity, diminish)
+    ``octaves``, ``lacunarity`` and ``diminish`` may be ``(n,)`` arrays); with ``width``
+    ``(n,)`` (the footprint in the noise's cells), each octave filtered (:func:`filtered`)."""
+    return _fractal(perlin_float, p, octaves, lacunarity, diminish, width)
 
 
-def fractal_vec3(p: np.ndarray, octaves, lacunarity, diminish) -> np.ndarray:
+def fractal_vec3(p: np.ndarray, octaves, lacunarity, diminish, width: np.ndarray | None = None) -> np.ndarray:
     """``mx_fractal3d_noise_vec3``: ``(n, 3)``."""
-    return _fractal(perlin_vec3, p, octaves, lacunarity, diminish)
+    return _fractal(perlin_vec3, p, octaves, lacunarity, diminish, width)
 
 
-def _fractal(basis, p, octaves, lacunarity, diminish):
+def _fractal(basis, p, octaves, lacunarity, diminish, width=None):
     n = len(p)
     octaves = np.broadcast_to(np.asarray(octaves, dtype=np.int64), (n,))
     lacunarity = np.broadcast_to(np.asarray(lacunarity, dtype=np.float64), (n,))[:, None]
@@ -167,6 +200,9 @@ def _fractal(basis, p, octaves, lacunarity, diminish):
         live = (i < octaves).astype(np.float64)
         value = basis(p)
         weight = amplitude * live
+        if width is not None:
+            weight = weight * keep(width)
+            width = width * lacunarity[:, 0]
         term = value * (weight[:, None] if value.ndim == 2 else weight)
         result = term if result is None else result + term
         amplitude = amplitude * diminish
