@@ -51,6 +51,14 @@ CASES = {
                                   '<input name="style" type="integer" value="1" /></worleynoise3d>', "float", 16),
     "worleynoise3d vector3, distances": ('<worleynoise3d name="v" type="vector3"><input name="position" type="vector3" nodename="p" />'
                                          '</worleynoise3d>', "vector3", 16),
+    **{f"unifiednoise3d type {t} ({kind}: a library nodegraph)": (
+        f'<unifiednoise3d name="v" type="float"><input name="position" type="vector3" nodename="p" />'
+        f'<input name="type" type="integer" value="{t}" /><input name="freq" type="vector3" value="0.5, 0.5, 0.5" /></unifiednoise3d>',
+        "float", 16) for t, kind in enumerate(["perlin", "cell", "worley", "fractal"])},
+    "rotate3d then noise3d vector3": ('<rotate3d name="r" type="vector3"><input name="in" type="vector3" nodename="p" />'
+                                      '<input name="amount" type="float" value="33" /><input name="axis" type="vector3" value="1, 2, 3" />'
+                                      '</rotate3d><noise3d name="v" type="vector3"><input name="position" type="vector3" nodename="r" />'
+                                      '</noise3d>', "vector3", 16),
 }
 
 

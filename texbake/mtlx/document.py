@@ -186,6 +186,7 @@ class _Flattener:
         self.doc, self.where, self.ops = doc, where, ops
         self.done: dict[tuple, Ref] = {}
         self.scopes = 0
+        self.expanding: list[str] = []  # the document's nodes being expanded from their definitions, outermost first
 
     def shader_input(self, shader, name: str):
         inp = shader.getInput(name)
@@ -279,7 +280,7 @@ class _Flattener:
         category = node.getCategory()
         nodedef = node.getNodeDef()
         if nodedef is None:
-            raise MtlxError(self.where, node.getNamePath(), unsupported(category, "no node definition matches its inputs"))
+            raise MtlxError(self.where, self._user_node(node), unsupported(category, "no node definition matches its inputs"))
         inputs = {}
         for definition in nodedef.getActiveInputs():
             name = definition.getName()
@@ -291,16 +292,27 @@ class _Flattener:
         if impl is not None and isinstance(impl, _node_graph_class()):  # the library's own definition, expanded
             self.scopes += 1
             inner = _Scope(inputs, self.scopes)  # its interface bound to this node's inputs
-            ref = self.graph_output(impl.getOutput(output) or impl.getOutputs()[0], inner)
+            self.expanding.append(f"{node.getNamePath()} ({category}, defined by the library's {impl.getName()})")
+            try:
+                ref = self.graph_output(impl.getOutput(output) or impl.getOutputs()[0], inner)
+            finally:
+                self.expanding.pop()
             self.done[key] = ref if isinstance(ref, Ref) else self._constant_op(ref, node, output)
             return self.done[key]
         if category not in PRIMITIVES or PRIMITIVES[category] is None and category != "normalmap":
-            raise MtlxError(self.where, node.getNamePath(), unsupported(category))
+            raise MtlxError(self.where, self._user_node(node), unsupported(category))
         op_id = f"{node.getNamePath()}@{key[0]}" if key[0] else node.getNamePath()
         outputs = nodedef.getActiveOutputs()
         self.ops[op_id] = Op(op_id, category, outputs[0].getType() if outputs else node.getType(), inputs, node.getNamePath())
         self.done[key] = Ref(op_id, output)
         return self.done[key]
+
+    def _user_node(self, node) -> str:
+        """The node a message names: the document's own (``node``, or the one whose library
+        definition holds it, saying so)."""
+        if not self.expanding:
+            return node.getNamePath()
+        return f"{self.expanding[0]}: its {node.getName()}"
 
     def _constant_op(self, value, node, output: str) -> Ref:
         op_id = f"{node.getNamePath()}#{output}"
@@ -321,7 +333,8 @@ class _Flattener:
         op_id = f"<{prop}>"
         if op_id not in self.ops:
             inputs = {"index": np.zeros(1)} if category == "texcoord" else {"space": arg}
-            self.ops[op_id] = Op(op_id, category, "vector2" if category == "texcoord" else "vector3", inputs, prop)
+            self.ops[op_id] = Op(op_id, category, "vector2" if category == "texcoord" else "vector3", inputs,
+                                 self._user_node(node))
         return Ref(op_id)
 
 

@@ -182,6 +182,14 @@ def _cross(v, w, ctx):
     return np.cross(a, b)
 
 
+def _rotate3d(v, w, ctx):
+    """``mx_rotate_vector3``: Rodrigues' rotation of ``in`` about ``axis`` by ``amount`` degrees (v' = v M)."""
+    x, axis = v["in"], _normalize(v["axis"])
+    angle = np.radians(v["amount"])
+    s, c = np.sin(angle), np.cos(angle)
+    return x * c + np.cross(x, axis) * s + axis * np.einsum("ij,ij->i", axis, x)[:, None] * (1.0 - c)
+
+
 def _normalize(a):
     length = np.linalg.norm(a, axis=1, keepdims=True)
     return _divide(a, length)
@@ -211,7 +219,9 @@ PRIMITIVES: dict[str, Callable | None] = {
     "dotproduct": _dot, "crossproduct": _cross,
     "ramplr": _ramp(0, "valuel", "valuer"), "ramptb": _ramp(1, "valueb", "valuet"),
     "splitlr": _split(0, "valuel", "valuer"), "splittb": _split(1, "valueb", "valuet"),
+    "rotate3d": _rotate3d,
     "noise3d": _noise3d, "fractal3d": _fractal3d, "cellnoise3d": _cellnoise3d, "worleynoise3d": _worleynoise3d,
+    "cellnoise2d": lambda v, w, ctx: noise.cell_float2(v["texcoord"])[:, None],
     "normalmap": None,  # read where it feeds a shader's normal (document.py), never evaluated
 }
 

@@ -85,6 +85,18 @@ def hash_int3(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
     return bjfinal(seed + _u(x), seed + _u(y), seed + _u(z))
 
 
+def hash_int2(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``mx_hash_int(x, y)`` of int cells: uint32."""
+    seed = _SEED[2]
+    return bjfinal(seed + _u(x), seed + _u(y), np.broadcast_to(seed, np.shape(x)).copy())
+
+
+def cell_float2(p: np.ndarray) -> np.ndarray:
+    """``mx_cell_noise_float(vec2)``: ``(n,)`` in [0, 1] over ``(n, 2)`` points."""
+    cell = np.floor(p).astype(np.int64)
+    return bits_to_01(hash_int2(cell[:, 0], cell[:, 1]))
+
+
 def bits_to_01(bits: np.ndarray) -> np.ndarray:
     """``mx_bits_to_01``: uint32 to [0, 1]."""
     return bits.astype(np.float64) / float(0xFFFFFFFF)

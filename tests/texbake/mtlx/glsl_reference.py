@@ -165,3 +165,14 @@ def mx_worley_noise_float(p, jitter, style, metric=0):
     if style == 1:
         return mx_cell_noise_float([minpos[k] + p[k] for k in range(3)])
     return math.sqrt(sqdist) if metric == 0 else sqdist
+
+
+def mx_hash_int2(x, y):
+    a = b = c = (0xDEADBEEF + (2 << 2) + 13) & M
+    a = (a + uint(x)) & M
+    b = (b + uint(y)) & M
+    return mx_bjfinal(a, b, c)
+
+
+def mx_cell_noise_float2(p):
+    return mx_bits_to_01(mx_hash_int2(math.floor(p[0]), math.floor(p[1])))

@@ -130,3 +130,31 @@ def test_bad_documents():
     with pytest.raises(MtlxError, match="not a valid MaterialX document"):
         read_document(document('  <add name="a" type="float"><input name="in1" type="float" nodename="missing" /></add>',
                                '<input name="specular_roughness" type="float" nodename="a" />'))
+
+
+def test_unifiednoise3d_expands_to_primitives():
+    """unifiednoise3d is a library nodegraph (switch, rotate3d, the four noises...): it
+    expands and evaluates, each type a different noise."""
+    values = []
+    for kind in range(4):
+        body = f'  <unifiednoise3d name="u" type="float"><input name="type" type="integer" value="{kind}" /></unifiednoise3d>'
+        doc = read_document(document(body, '<input name="specular_roughness" type="float" nodename="u" />'))
+        values.append(evaluate_mtlx(doc, np.random.default_rng(7).uniform(-3, 3, (500, 3)))["roughness"][:, 0])
+        assert values[-1].std() > 0.05 and 0.0 <= values[-1].min() and values[-1].max() <= 1.0  # clampoutput: [outmin, outmax]
+    assert all(not np.allclose(values[i], values[j]) for i in range(4) for j in range(i))
+
+
+def test_rotate3d():
+    """mx_rotate_vector3 (v' = v M): x rotated 90 degrees about z is -y; lengths kept."""
+    body = """  <position name="p" type="vector3" />
+  <rotate3d name="r" type="vector3"><input name="in" type="vector3" nodename="p" /><input name="amount" type="float" value="90" />
+    <input name="axis" type="vector3" value="0, 0, 2" /></rotate3d>
+  <convert name="c" type="color3"><input name="in" type="vector3" nodename="r" /></convert>"""
+    doc = read_document(document(body, '<input name="base_color" type="color3" nodename="c" />'))
+    np.testing.assert_allclose(evaluate_mtlx(doc, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])["base_color"], [[0, -1, 0], [1, 0, 0]], atol=1e-12)
+
+
+def test_error_inside_a_definition_names_the_documents_node():
+    body = '  <tiledimage name="tiles" type="color3"><input name="file" type="filename" value="t.png" /></tiledimage>'
+    with pytest.raises(MtlxError, match=r"node \"tiles \(tiledimage, defined by the library's NG_tiledimage_color3\): its \w+\": image: "):
+        read_document(document(body, '<input name="base_color" type="color3" nodename="tiles" />'))

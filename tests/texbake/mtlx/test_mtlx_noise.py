@@ -35,6 +35,11 @@ def test_cell_float_and_vec3():
     np.testing.assert_allclose(noise.cell_vec3(p), [ref.mx_cell_noise_vec3(q) for q in p], rtol=0, atol=TOL)
 
 
+def test_cell_float2():
+    p = points(10_000, 9)[:, :2]
+    np.testing.assert_allclose(noise.cell_float2(p), [ref.mx_cell_noise_float2(q) for q in p], rtol=0, atol=TOL)
+
+
 def test_fractal_float():
     p = points(10_000, 4) / 8.0
     expected = np.array([ref.mx_fractal3d_noise_float(q, 4, 2.0, 0.5) for q in p])
