@@ -237,7 +237,7 @@ class _Flattener:
             if graph_input is None:
                 raise MtlxError(self.where, owner.getNamePath(), f"interface input {name!r} is not on its nodegraph")
             return self.input(graph_input, owner.getParent(), {})
-        if inp.getNodeName() or inp.getNodeGraphString() or (inp.getOutputString() and not inp.getNodeName()):
+        if inp.getNodeName() or inp.getNodeGraphString() or inp.getOutputString():
             return self._connection(inp, owner, scope)
         if inp.getType() in ("string", "filename"):
             return inp.getValueString()
@@ -264,7 +264,8 @@ class _Flattener:
     def graph_output(self, out, scope: dict):
         """What a nodegraph's output reads (in the graph's ``scope``)."""
         if out.getInterfaceName():
-            return scope.get(out.getInterfaceName()) or self.input(out, out, scope)
+            name = out.getInterfaceName()
+            return scope[name] if name in scope else self.input(out, out, scope)
         if not out.getNodeName():
             return self.input(out, out, scope)
         node = out.getParent().getNode(out.getNodeName())

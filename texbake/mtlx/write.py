@@ -67,7 +67,3 @@ def _fresh_input(shader, name: str, type_: str):
 def _connect(shader, name: str, type_: str, node) -> None:
     _fresh_input(shader, name, type_).setConnectedNode(node)
 
-
-def baked_maps(channels, name_of) -> dict[str, str]:
-    """``channel -> file name`` of the baked channels (``name_of(channel)``: the map's file)."""
-    return {c: name_of(c) for c in channels}
