@@ -42,7 +42,9 @@ SHADERS: dict[str, dict[str, tuple[str, ...]]] = {
                           "occlusion": ("occlusion",), "emissive": ("emissiveColor",), "opacity": ("opacity",),
                           "normal": ("normal",), "height": ("displacement",)},
 }
-WIDTHS = {"float": 1, "integer": 1, "boolean": 1, "vector2": 2, "color3": 3, "vector3": 3, "color4": 4, "vector4": 4}
+WORKING_SPACE = "lin_rec709"  # texbake's: linear Rec.709 (its maps' colours)
+WIDTHS = {"float": 1, "integer": 1, "boolean": 1, "vector2": 2, "color3": 3, "vector3": 3, "color4": 4, "vector4": 4, "matrix33": 9,
+          "matrix44": 16}
 # the library's geometric properties (defaultgeomprop) -> the primitive that gives it
 GEOMPROPS = {"Pobject": ("position", "object"), "Pworld": ("position", "world"), "Nobject": ("normal", "object"),
              "Nworld": ("normal", "world"), "UV0": ("texcoord", "0")}
@@ -141,10 +143,29 @@ def read_document(source: str | Path, *, path: str | None = None) -> Document:
         if value is not None:
             out.channels[channel] = value
             out.inputs[channel] = tuple(given)
+    _fold_constants(out)
     if not out.channels:
         raise MtlxError(where, shader.getName(), f"{category}: none of its inputs is one texbake bakes "
                         f"({', '.join(n for ns in SHADERS[category].values() for n in ns)})")
     return out
+
+
+def _fold_constants(document: Document) -> None:
+    """A channel whose graph reads no geometry (a colour constant through its colour space's
+    transform, say) is the constant it evaluates to."""
+    from .evaluate import evaluate_document
+    from .nodes import Context
+
+    for channel, value in list(document.channels.items()):
+        stack, seen, varies = [value], set(), False
+        while stack and not varies:
+            v = stack.pop()
+            if isinstance(v, Ref) and v.op not in seen:
+                seen.add(v.op)
+                varies = document.ops[v.op].category in ("position", "normal", "texcoord")
+                stack.extend(document.ops[v.op].inputs.values())
+        if isinstance(value, Ref) and not varies:
+            document.channels[channel] = evaluate_document(document, Context(np.zeros((1, 3))), [channel])[channel][0]
 
 
 def _surface_shader(doc, where: str):
@@ -164,9 +185,11 @@ def _surface_shader(doc, where: str):
 
 
 def value_array(value) -> np.ndarray:
-    """A MaterialX value (float, int, bool, Color3, Vector3...) as ``(k,)`` float64."""
+    """A MaterialX value (float, int, bool, Color3, Vector3, a matrix...) as ``(k,)`` float64."""
     if hasattr(value, "asTuple"):
         return np.asarray(value.asTuple(), dtype=np.float64)
+    if hasattr(value, "numRows"):  # a matrix: its rows one after another, as the document writes it
+        return np.array([value[i, j] for i in range(value.numRows()) for j in range(value.numColumns())], dtype=np.float64)
     return np.atleast_1d(np.asarray(float(value), dtype=np.float64))
 
 
@@ -244,7 +267,23 @@ class _Flattener:
         value = inp.getValue()
         if value is None:
             return _default(owner.getNodeDef() if hasattr(owner, "getNodeDef") else None, inp.getName())
+        space = inp.getActiveColorSpace() if inp.getType() in ("color3", "color4") else ""
+        if space and space != WORKING_SPACE:
+            return self._to_working_space(value_array(value), space, inp.getType(), owner)
         return value_array(value)
+
+    def _to_working_space(self, value: np.ndarray, space: str, type_: str, owner):
+        """A colour constant in ``space`` through the library's own transform to lin_rec709
+        (cmlib's ``<space>_to_lin_rec709`` nodegraph, expanded)."""
+        nodedef = standard_library().getNodeDef(f"ND_{space}_to_{WORKING_SPACE}_{type_}")
+        impl = None if nodedef is None else nodedef.getImplementation()
+        if impl is None or not isinstance(impl, _node_graph_class()):
+            known = sorted({d.getNodeString().removesuffix(f"_to_{WORKING_SPACE}") for d in standard_library().getNodeDefs()
+                            if d.getNodeString().endswith(f"_to_{WORKING_SPACE}")})
+            raise MtlxError(self.where, owner.getNamePath(), f"colour space {space!r} has no transform to {WORKING_SPACE} in the "
+                            f"library (it has: {', '.join(known)})")
+        self.scopes += 1
+        return self.graph_output(impl.getOutput("out"), _Scope({"in": value}, self.scopes))
 
     def _connection(self, inp, owner, scope: dict):
         output = inp.getOutputString() or "out"

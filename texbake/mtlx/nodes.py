@@ -190,6 +190,16 @@ def _rotate3d(v, w, ctx):
     return x * c + np.cross(x, axis) * s + axis * np.einsum("ij,ij->i", axis, x)[:, None] * (1.0 - c)
 
 
+def _transformmatrix(v, w, ctx):
+    """``mx_matrix_mul(mat, in)`` as MaterialX's GLSL has it: ``in`` (with 1 appended where
+    the matrix is one wider) times the matrix, the document's rows being GLSL's columns (v' = v M)."""
+    x, m = v["in"], v["mat"]
+    k = int(round(np.sqrt(m.shape[1])))
+    if x.shape[1] < k:
+        x = np.concatenate([x, np.ones((len(x), k - x.shape[1]))], axis=1)
+    return np.einsum("ni,nij->nj", x, m.reshape(len(m), k, k))[:, :w]
+
+
 def _normalize(a):
     length = np.linalg.norm(a, axis=1, keepdims=True)
     return _divide(a, length)
@@ -219,7 +229,7 @@ PRIMITIVES: dict[str, Callable | None] = {
     "dotproduct": _dot, "crossproduct": _cross,
     "ramplr": _ramp(0, "valuel", "valuer"), "ramptb": _ramp(1, "valueb", "valuet"),
     "splitlr": _split(0, "valuel", "valuer"), "splittb": _split(1, "valueb", "valuet"),
-    "rotate3d": _rotate3d,
+    "rotate3d": _rotate3d, "transformmatrix": _transformmatrix,
     "noise3d": _noise3d, "fractal3d": _fractal3d, "cellnoise3d": _cellnoise3d, "worleynoise3d": _worleynoise3d,
     "cellnoise2d": lambda v, w, ctx: noise.cell_float2(v["texcoord"])[:, None],
     "normalmap": None,  # read where it feeds a shader's normal (document.py), never evaluated

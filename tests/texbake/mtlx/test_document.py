@@ -158,3 +158,21 @@ def test_error_inside_a_definition_names_the_documents_node():
     body = '  <tiledimage name="tiles" type="color3"><input name="file" type="filename" value="t.png" /></tiledimage>'
     with pytest.raises(MtlxError, match=r"node \"tiles \(tiledimage, defined by the library's NG_tiledimage_color3\): its \w+\": image: "):
         read_document(document(body, '<input name="base_color" type="color3" nodename="tiles" />'))
+
+
+@pytest.mark.parametrize("space, expected", [
+    ("srgb_texture", [0.21404114, 0.03310477, 0.00154799]),  # the sRGB curve
+    ("acescg", [1.705051 * 0.5 - 0.621792 * 0.2 - 0.083259 * 0.02, -0.130256 * 0.5 + 1.140805 * 0.2 - 0.010548 * 0.02,
+                -0.024003 * 0.5 - 0.128969 * 0.2 + 1.152972 * 0.02]),  # ACEScg to Rec.709 (v' = v M, as cmlib writes it)
+    ("lin_rec709", [0.5, 0.2, 0.02]),
+])
+def test_colour_constants_through_their_colour_space(space, expected):
+    """A colour constant in another colour space goes through the library's own transform
+    (cmlib's nodegraphs) to texbake's lin_rec709, and stays a constant."""
+    doc = read_document(document("", f'<input name="base_color" type="color3" value="0.5, 0.2, 0.02" colorspace="{space}" />'))
+    np.testing.assert_allclose(doc.channels["base_color"], expected, atol=1e-6)
+
+
+def test_unknown_colour_space():
+    with pytest.raises(MtlxError, match=r"node 'SR': colour space 'bogus' has no transform to lin_rec709 .*\(it has: acescg, "):
+        read_document(document("", '<input name="base_color" type="color3" value="0.5, 0.2, 0.02" colorspace="bogus" />'))
