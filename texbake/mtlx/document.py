@@ -229,7 +229,12 @@ class _Flattener:
             raise MtlxError(self.where, op.where if op else shader.getName(),
                             f"{name}: texbake bakes a normal given through a normalmap node (a tangent-space map), "
                             f"got {op.category if op else 'a value'}")
-        return op.inputs["in"]
+        scale = op.inputs.get("scale", np.ones(1))
+        if not isinstance(scale, Ref) and np.all(scale == 1.0):
+            return op.inputs["in"]
+        op_id = f"{op.id}#scaled"  # the map's xy scaled as normalmap does (texbake's encoding kept)
+        self.ops[op_id] = Op(op_id, "texbake:normalmap_scale", "vector3", {"in": op.inputs["in"], "scale": scale}, op.where)
+        return Ref(op_id)
 
     def product(self, factors: list, where: str):
         """The product of constants and refs (a ``multiply`` op where any is a ref)."""

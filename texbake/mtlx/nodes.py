@@ -200,6 +200,14 @@ def _transformmatrix(v, w, ctx):
     return np.einsum("ni,nij->nj", x, m.reshape(len(m), k, k))[:, :w]
 
 
+def _normalmap_scale(v, w, ctx):
+    """mx_normalmap's tangent-space part, re-encoded: ``n = 2 in - 1``, ``n.xy *= scale``,
+    normalised, ``0.5 + 0.5 n`` (texbake's normal channel)."""
+    n = 2.0 * v["in"] - 1.0
+    n = np.concatenate([n[:, :2] * v["scale"], n[:, 2:]], axis=1)
+    return 0.5 + 0.5 * _normalize(n)
+
+
 def _normalize(a):
     length = np.linalg.norm(a, axis=1, keepdims=True)
     return _divide(a, length)
@@ -233,6 +241,7 @@ PRIMITIVES: dict[str, Callable | None] = {
     "noise3d": _noise3d, "fractal3d": _fractal3d, "cellnoise3d": _cellnoise3d, "worleynoise3d": _worleynoise3d,
     "cellnoise2d": lambda v, w, ctx: noise.cell_float2(v["texcoord"])[:, None],
     "normalmap": None,  # read where it feeds a shader's normal (document.py), never evaluated
+    "texbake:normalmap_scale": _normalmap_scale,  # a normalmap's scale, where it is not 1 (document.py)
 }
 
 _IMAGES = ("image", "tiledimage", "hextiledimage", "latlongimage", "triplanarprojection", "gltf_image", "gltf_colorimage",
@@ -246,6 +255,6 @@ def unsupported(category: str, why: str = "") -> str:
                "a shading node (it needs a light or the view)" if category.endswith(("_bsdf", "_edf", "_vdf", "light"))
                or category in ("surface", "viewdirection", "facingratio", "layer", "mix_bsdf") else
                "not a node texbake evaluates")
-    supported = sorted(c for c in PRIMITIVES if PRIMITIVES[c] is not None)
+    supported = sorted(c for c in PRIMITIVES if PRIMITIVES[c] is not None and ":" not in c)
     return (f"{category}: {why} (supported: {', '.join(supported)}, and the library's nodes defined as nodegraphs "
             "of them)")

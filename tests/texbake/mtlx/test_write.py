@@ -98,3 +98,15 @@ def test_usd_binds_every_map(baked):
         assert (out / bound[name]).is_file(), name
     assert bound["metallic"].endswith("metallic.png") and bound["emissiveColor"].endswith("emissive.png")
     assert surface.GetInput("diffuseColor").GetConnectedSources()[0][0].source.GetPrim().GetName() == "Albedo"
+
+
+def test_normalmap_scale():
+    """A normalmap's scale scales the tangent-space xy before it is normalised (mx_normalmap)."""
+    scaled = GLTF.replace('<normalmap name="nm" type="vector3"><input name="in" type="vector3" nodename="n" />',
+                          '<normalmap name="nm" type="vector3"><input name="in" type="vector3" nodename="n" />'
+                          '<input name="scale" type="float" value="2" />')
+    p = np.random.default_rng(4).uniform(-1, 1, (200, 3))
+    plain = 2.0 * evaluate_material(material_from_mtlx(GLTF), p, channels=["normal"])["normal"] - 1.0
+    twice = 2.0 * evaluate_material(material_from_mtlx(scaled), p, channels=["normal"])["normal"] - 1.0
+    expected = plain * [2.0, 2.0, 1.0]
+    np.testing.assert_allclose(twice, expected / np.linalg.norm(expected, axis=1, keepdims=True), atol=1e-12)
