@@ -77,7 +77,7 @@ def _leaf(node, mapping: TextureMapping, q, dqdx, dqdy, normals, values: dict, m
         from ..mtlx.material import channel_values
 
         scaled = [None if d is None else d / mapping.scale for d in (dqdx, dqdy)]  # the footprint in object space
-        return channel_values(node.params, q / mapping.scale + mapping.origin, normals, *scaled), None
+        return channel_values(node.params, q / mapping.scale + mapping.origin, normals, *scaled, batch=q), None
     if node.op == "warp":
         p = node.params
         q, dqdx, dqdy = leaves.warped_points(q, dqdx, dqdy, values[node.inputs["by"]], p.amount, p.axis)

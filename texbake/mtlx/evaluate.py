@@ -8,6 +8,7 @@ normals. Values are float64; a string input (``space``) is passed as it is.
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -18,18 +19,19 @@ from .footprint import differentials, footprint_width
 from .nodes import PRIMITIVES, Context, Unavailable, unsupported
 
 
-def evaluate_ops(document: Document, wanted: list, ctx: Context) -> dict[str, np.ndarray]:
-    """``op id -> (n, width)`` float64 for the ops ``wanted`` (:class:`Ref` s or constants) need."""
+def evaluate_ops(document: Document, wanted: list, ctx: Context, done: Evaluated | None = None) -> dict[str, np.ndarray]:
+    """``op id -> (n, width)`` float64 for the ops ``wanted`` (:class:`Ref` s or constants)
+    need; ``done``: what earlier calls at the same points evaluated (kept, added to)."""
+    done = Evaluated() if done is None else done
+    values, grads = done.values, done.grads
     needed: set[str] = set()
     stack = [w.op for w in wanted if isinstance(w, Ref)]
     while stack:
         op_id = stack.pop()
-        if op_id not in needed:
+        if op_id not in needed and op_id not in values:
             needed.add(op_id)
             stack.extend(v.op for v in document.ops[op_id].inputs.values() if isinstance(v, Ref))
     n = len(ctx.position)
-    values: dict[str, np.ndarray] = {}
-    grads: dict[str, Any] = {}  # op id -> its output's differentials (footprint.py), None where unknown
     filtering = ctx.dpdx is not None and ctx.dpdy is not None
     for op_id, op in document.ops.items():
         if op_id not in needed:
@@ -56,6 +58,15 @@ def evaluate_ops(document: Document, wanted: list, ctx: Context) -> dict[str, np
 FILTERED = ("noise3d", "fractal3d")  # the nodes that read the footprint's width (in "_width")
 
 
+@dataclass
+class Evaluated:
+    """The ops evaluated at one batch of points: ``values`` (op id -> ``(n, width)``) and
+    ``grads`` (op id -> its differentials, ``footprint.py``; None where unknown)."""
+
+    values: dict[str, np.ndarray] = field(default_factory=dict)
+    grads: dict[str, Any] = field(default_factory=dict)
+
+
 def _value(v, values: dict, n: int):
     if isinstance(v, Ref):
         return values[v.op]
@@ -64,9 +75,12 @@ def _value(v, values: dict, n: int):
     return np.broadcast_to(np.asarray(v, dtype=np.float64)[None, :], (n, len(v)))
 
 
-def evaluate_channel(document: Document, channel: str, ctx: Context) -> np.ndarray:
-    """``(n, k)`` float64: one channel of ``document`` (k its value's width)."""
-    return evaluate_document(document, ctx, [channel])[channel]
+def evaluate_channel(document: Document, channel: str, ctx: Context, done: Evaluated | None = None) -> np.ndarray:
+    """``(n, k)`` float64: one channel of ``document`` (k its value's width); ``done``: the
+    ops already evaluated at these points (by another channel: a shared node once)."""
+    value = document.channels[channel]
+    values = evaluate_ops(document, [value], ctx, done)
+    return np.array(_value(value, values, len(ctx.position)), dtype=np.float64)
 
 
 def evaluate_document(document: Document, ctx: Context, channels: list[str] | None = None) -> dict[str, np.ndarray]:

@@ -10,6 +10,7 @@ evaluation (``texbake.materials.evaluate``), the document read once per process.
 from __future__ import annotations
 
 import functools
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -88,12 +89,24 @@ def _fit(values: np.ndarray, width: int) -> np.ndarray:
     return np.repeat(values[:, :1], 3, axis=1) if k == 1 else values[:, :3] if k >= 3 else np.pad(values, ((0, 0), (0, 3 - k)))
 
 
+_BATCH = threading.local()  # per thread: the batch last evaluated (its points' array) and the ops done at it
+
+
 def channel_values(params, points: np.ndarray, normals: np.ndarray | None, dpdx: np.ndarray | None = None,
-                   dpdy: np.ndarray | None = None) -> np.ndarray:
+                   dpdy: np.ndarray | None = None, *, batch: object = None) -> np.ndarray:
     """The ``mtlx`` node's ``(n, 1)`` or ``(n, 3)`` float64 values at ``(n, 3)`` object-space
-    points, filtered over their footprints ``dpdx``, ``dpdy`` (None: point-sampled)."""
-    from .evaluate import evaluate_channel
+    points, filtered over their footprints ``dpdx``, ``dpdy`` (None: point-sampled).
+    ``batch``: the object that stands for these points (the bake's own array of them: the
+    same object for every channel of one batch), so a node several channels read is
+    evaluated once a batch (None: nothing shared)."""
+    from .evaluate import Evaluated, evaluate_channel
 
     document = _document(params.document, params.path)
-    values = evaluate_channel(document, params.channel, Context(points, normals, None, dpdx, dpdy))
+    done = None
+    if batch is not None:
+        key = (id(batch), id(document), dpdx is None)
+        if getattr(_BATCH, "key", None) != key or getattr(_BATCH, "batch", None) is not batch:
+            _BATCH.key, _BATCH.batch, _BATCH.done = key, batch, Evaluated()
+        done = _BATCH.done
+    values = evaluate_channel(document, params.channel, Context(points, normals, None, dpdx, dpdy), done)
     return np.ascontiguousarray(_fit(values, 1 if params.kind == "scalar" else 3))

@@ -111,3 +111,24 @@ def test_marble_on_more_shared_meshes(meshes, tmp_path, mesh):
     assert_valid_glb(written["glb"]["path"])
     validated(Path(written["mtlx"]["path"]))
     assert result.report["material"]["nodes"]["base_color"]["evaluations"] > 0
+
+
+def test_a_node_two_channels_read_is_evaluated_once_a_batch(monkeypatch):
+    """base_color and roughness from the marble's one fractal3d: its three Perlin octaves
+    evaluated once for the batch (not once per channel), the values those of each channel alone."""
+    from texbake.mtlx import noise
+
+    text = MARBLE.read_text().replace('<input name="specular_roughness" type="float" value="0.1" />',
+                                      '<input name="specular_roughness" type="float" nodegraph="NG_marble1" output="rough" />')
+    text = text.replace('<output name="out" type="color3" nodename="color_mix" />',
+                        '<output name="out" type="color3" nodename="color_mix" />\n    <output name="rough" type="float" nodename="noise" />')
+    m = material_from_mtlx(text)
+    calls = []
+    perlin = noise.perlin_float
+    monkeypatch.setattr(noise, "perlin_float", lambda p: calls.append(len(p)) or perlin(p))
+    p = np.random.default_rng(8).uniform(-1, 1, (300, 3))
+    both = evaluate_material(m, p, bounds=[[-1] * 3, [1] * 3])
+    assert len(calls) == 3, calls  # three octaves, once
+    alone = evaluate_material(m, p, bounds=[[-1] * 3, [1] * 3], channels=["roughness"])
+    assert len(calls) == 6
+    np.testing.assert_array_equal(both["roughness"], alone["roughness"])
