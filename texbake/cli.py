@@ -85,10 +85,14 @@ def read_spec(value):
 
 
 def read_material(value):
-    """A material argument as the command line takes it: a built-in's name, JSON, or a
-    ``.json``/``.yaml`` material file (only the command line reads files)."""
+    """A material argument as the command line takes it: a built-in's name, JSON, a
+    ``.json``/``.yaml`` material file or a MaterialX ``.mtlx`` (only the command line reads files)."""
     from .errors import ParameterError
 
+    if isinstance(value, str) and Path(value).suffix.lower() == ".mtlx" and not value.lstrip().startswith(("{", "<")):
+        from .mtlx.material import material_from_mtlx
+
+        return material_from_mtlx(Path(value))
     if not isinstance(value, str) or value.lstrip().startswith("{") or Path(value).suffix.lower() not in SPEC_SUFFIXES:
         return value
     try:
@@ -224,7 +228,7 @@ def _cache_folder(cache: Path | None, no_cache: bool) -> str | None:
 _SHORT = {"texture": "-t", "size": "-s", "quality": "-q", "format": "-f"}
 _LISTS = {"size": "N, or W,H", "light": "X,Y,Z", "frames": "T0,T1,... or START:STOP:COUNT",
           "texture": "a name, JSON, or a .json/.yaml spec file", "bump": "a name, JSON, or a .json/.yaml spec file",
-          "material": "a built-in's name, JSON, or a .json/.yaml material file",
+          "material": "a built-in's name, JSON, a .json/.yaml material file or a MaterialX .mtlx",
           "packing": "names or templates, comma-separated: orm,hdrp-mask; JSON; or a .json/.yaml file"}
 
 

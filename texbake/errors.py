@@ -116,3 +116,28 @@ class MaterialError(BakeError, ValueError):
 
     def __reduce__(self):
         return (type(self), (self.node, self.problem))
+
+
+class MtlxError(BakeError, ValueError):
+    """A MaterialX document texbake cannot bake: unreadable or invalid, no surface shader,
+    or a node it does not evaluate (an image without its file, a shading node).
+
+    Parameters
+    ----------
+    path : str
+        The ``.mtlx`` file (or ``"<mtlx>"`` for a document given as text); kept in ``path``.
+    node : str
+        The node's name path in the document, or ``""`` for the document as a whole.
+    problem : str
+        What is wrong, in one line (for a node: its category and what is supported).
+
+    The message is ``"{path}: node {node!r}: {problem}"`` (or ``"{path}: {problem}"``).
+    A ``ValueError`` too; picklable.
+    """
+
+    def __init__(self, path: str, node: str, problem: str):
+        self.path, self.node, self.problem = str(path), node, problem
+        super().__init__(f"{self.path}: node {node!r}: {problem}" if node else f"{self.path}: {problem}")
+
+    def __reduce__(self):
+        return (type(self), (self.path, self.node, self.problem))

@@ -43,7 +43,7 @@ from pydantic import (
     model_validator,
 )
 
-from .errors import MaterialError, ParameterError, TextureError
+from .errors import MaterialError, MtlxError, ParameterError, TextureError
 from .formats import bits_problem, format_name
 from .materials.builtins import BUILTINS
 from .materials.model import Material, parse_material
@@ -66,7 +66,7 @@ def _material(value: Any):
         return None
     try:
         return parse_material(value)
-    except MaterialError as exc:
+    except (MaterialError, MtlxError) as exc:
         raise ValueError(str(exc)) from None
 
 

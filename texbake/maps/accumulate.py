@@ -60,7 +60,7 @@ class Maps:
 
     @property
     def needs_normals(self) -> bool:
-        uses_normal = self.material is not None and any(n.op == "normal" for n in self.material.material.graph.nodes.values())
+        uses_normal = self.material is not None and any(n.op in ("normal", "mtlx") for n in self.material.material.graph.nodes.values())
         return self.settings.shading != "decal" or self.settings.normal_map or uses_normal
 
     @property

@@ -73,6 +73,11 @@ def _leaf(node, mapping: TextureMapping, q, dqdx, dqdy, normals, values: dict, m
         if normals is None:
             raise ValueError(f"node {node.id!r}: the samples have no normals")
         return np.asarray(normals, dtype=np.float64), None
+    if node.op == "mtlx":
+        from ..mtlx.material import channel_values
+
+        scaled = [None if d is None else d / mapping.scale for d in (dqdx, dqdy)]  # the footprint in object space
+        return channel_values(node.params, q / mapping.scale + mapping.origin, normals, *scaled, batch=q), None
     if node.op == "warp":
         p = node.params
         q, dqdx, dqdy = leaves.warped_points(q, dqdx, dqdy, values[node.inputs["by"]], p.amount, p.axis)
@@ -94,7 +99,7 @@ class Evaluator:
 
     @functools.cached_property
     def height_uses_normals(self) -> bool:
-        return any(self.material.graph.nodes[n].op == "normal" for n in self.height_program.nodes)
+        return any(self.material.graph.nodes[n].op in ("normal", "mtlx") for n in self.height_program.nodes)
 
     @functools.cached_property
     def height_program(self) -> Program:

@@ -202,6 +202,8 @@ class _Builder:
             return COLOUR if params.colormap is not None else SCALAR  # type: ignore[attr-defined]
         if gives == "input":
             return self.nodes[inputs["input"]].kind
+        if gives == "kind":
+            return params.kind  # type: ignore[attr-defined]
         if gives == "widest":
             return COLOUR if any(self.nodes[inputs[n]].kind == COLOUR for n in OPS[op].widest_of) else SCALAR
         return gives

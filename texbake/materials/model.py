@@ -81,7 +81,8 @@ class Material(BaseModel):
 
 
 def parse_material(value) -> Material:
-    """A material from a :class:`Material`, a dict, a built-in material's name or JSON text.
+    """A material from a :class:`Material`, a dict, a built-in material's name, JSON text
+    or a MaterialX document's XML text (``texbake.mtlx``).
 
     Pure: a string is a name or JSON, never a path (only the command line reads material
     files: ``texbake.cli.read_material``). Raises :class:`MaterialError` naming the node
@@ -89,6 +90,10 @@ def parse_material(value) -> Material:
     """
     if isinstance(value, Material):
         return value
+    if isinstance(value, str) and value.lstrip().startswith("<"):  # a MaterialX document's XML (texbake.mtlx)
+        from ..mtlx.material import material_from_mtlx
+
+        return material_from_mtlx(value)
     if isinstance(value, str):
         value = _from_text(value)
     if not isinstance(value, dict):

@@ -111,6 +111,16 @@ class BlendParams(_Params):
     mode: Literal["overlay", "screen", "multiply"] = Field(..., description="the layer b over the base a")
 
 
+class MtlxParams(_Params):
+    """A channel of a MaterialX document (``texbake.mtlx``): the document's XML text, its
+    ``path`` (for messages), the ``channel`` and the ``kind`` it gives."""
+
+    document: str = Field(..., max_length=4_000_000)
+    channel: str
+    kind: Literal["scalar", "colour"]
+    path: str = "<mtlx>"
+
+
 @dataclass(frozen=True)
 class Op:
     """An op: its inputs (name -> kind taken), its parameters, and what it gives: a kind,
@@ -149,8 +159,9 @@ OPS: dict[str, Op] = {
     "blend": Op({"a": ANY, "b": ANY}, BlendParams, summary="the layer b over the base a: overlay, screen or multiply",
                 **_widest("a", "b")),
     "warp": Op({"by": ANY}, WarpParams, "texture", "a texture at the points moved by amount * by (domain warp)"),
+    "mtlx": Op({}, MtlxParams, "kind", "a channel of a MaterialX document's surface shader (--material FILE.mtlx)"),
 }
 
 # textures whose scalar before the colour map a "value" output gives
 VALUED = ("noise", "turbulence", "fbm", "marble", "wood", "checker")
-LEAVES = ("texture", "constant", "position", "normal", "warp")  # evaluated outside the program (but warp's input)
+LEAVES = ("texture", "constant", "position", "normal", "warp", "mtlx")  # evaluated outside the program (but warp's input)

@@ -77,6 +77,7 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
         obj_parts.append((b, slots["baseColor"]))
     m = result.sets[0].mesh
     written["glb"] = write_glb_parts(folder / f"{m.name}.glb", glb_parts, name=m.name)
+    written.update(_mtlx(result, folder, fmt, name_of))
     if any(b.tile is not None for b in result.sets):
         from .udim import USD_MISSING, write_udim
 
@@ -92,6 +93,37 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
     result.report = _report(result.report, written, owner, time.perf_counter() - start)
     write_json(folder / "report.json", result.report)
     return written
+
+
+def _mtlx(result, folder: Path, fmt: str, name_of) -> dict:
+    """A baked MaterialX document per set whose material came from one (``texbake.mtlx.write``):
+    ``<mesh>.mtlx`` (one set), or the set's ``material.mtlx`` by the names template; and
+    ``<mesh>.usda``, the mesh of those sets with a ``UsdPreviewSurface`` bound to their maps."""
+    out: dict = {}
+    usd: list[tuple] = []
+    for b in result.sets:
+        material = b.settings.material
+        origin = None if material is None or b.tile is not None else next(
+            (n.params for n in material.graph.nodes.values() if n.op == "mtlx"), None)
+        if origin is None:
+            continue
+        from ..mtlx.write import write_mtlx
+
+        name = f"{b.mesh.name}.mtlx" if len(result.sets) == 1 else name_of(b, "material", "mtlx")
+        maps = {c: name_of(b, c, fmt) for c in b.images if c in material.graph.channels or c == "normal"}
+        out["mtlx" if len(result.sets) == 1 else _key(name)] = write_mtlx(origin.document, origin.path, maps, folder / name)
+        usd.append((b.name, b.mesh.vertices, b.mesh.faces, b.mesh.uv, b.mesh.normals,
+                    {USD_INPUTS[c]: file for c, file in maps.items() if c in USD_INPUTS}))
+    from .udim import _write_usd, usd_available
+
+    if usd and usd_available():  # the mesh with a UsdPreviewSurface on the maps (usd-core: texbake[usd])
+        out["usd"] = _write_usd(folder / f"{result.sets[0].mesh.name}.usda", result.sets[0].mesh.name, usd)
+    return out
+
+
+# a material's maps as UsdPreviewSurface's inputs (the USD beside a baked .mtlx)
+USD_INPUTS = {"base_color": "diffuseColor", "roughness": "roughness", "metallic": "metallic", "occlusion": "occlusion",
+              "opacity": "opacity", "emissive": "emissiveColor", "normal": "normal", "height": "displacement"}
 
 
 def _report(report: dict, written: dict, owner: dict[str, str], seconds: float) -> dict:

@@ -134,20 +134,24 @@ def _material(stage, where: str, name: str, maps: dict[str, str]):
     reader = UsdShade.Shader.Define(stage, f"{where}/TexCoords")
     reader.CreateIdAttr("UsdPrimvarReader_float2")
     reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("st")
-    if "emissiveColor" in maps:  # the flame: its colour is light, not paint
+    if "emissiveColor" in maps and "diffuseColor" not in maps:  # the flame: its colour is light, not paint
         surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0, 0, 0))
     for slot, image in maps.items():
-        normal = slot == "normal"
-        texture = UsdShade.Shader.Define(stage, f"{where}/{_SHADER_NAMES[slot]}")
+        normal, scalar = slot == "normal", slot in _SCALAR_SLOTS
+        shader_name = "Emissive" if slot == "emissiveColor" and "diffuseColor" in maps else _SHADER_NAMES[slot]
+        texture = UsdShade.Shader.Define(stage, f"{where}/{shader_name}")
         texture.CreateIdAttr("UsdUVTexture")
         texture.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(f"./{image}")
-        texture.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set("raw" if normal else "auto")  # a normal map is data
+        texture.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set("raw" if normal or scalar else "auto")  # data maps
         texture.CreateInput("wrapS", Sdf.ValueTypeNames.Token).Set("clamp")
         texture.CreateInput("wrapT", Sdf.ValueTypeNames.Token).Set("clamp")
         texture.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(), "result")
         if normal:  # 0.5 + 0.5 n in the file: n = 2 x - 1
             texture.CreateInput("scale", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(2, 2, 2, 1))
             texture.CreateInput("bias", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(-1, -1, -1, 0))
+        if scalar:  # a material's one-channel map (texbake.mtlx): its red
+            surface.CreateInput(slot, Sdf.ValueTypeNames.Float).ConnectToSource(texture.CreateOutput("r", Sdf.ValueTypeNames.Float))
+            continue
         rgb = texture.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
         kind = Sdf.ValueTypeNames.Normal3f if normal else Sdf.ValueTypeNames.Color3f
         surface.CreateInput(slot, kind).ConnectToSource(rgb)
@@ -155,7 +159,9 @@ def _material(stage, where: str, name: str, maps: dict[str, str]):
     return material
 
 
-_SHADER_NAMES = {"diffuseColor": "Albedo", "emissiveColor": "Albedo", "normal": "Normal"}
+_SHADER_NAMES = {"diffuseColor": "Albedo", "emissiveColor": "Albedo", "normal": "Normal", "roughness": "Roughness",
+                 "metallic": "Metallic", "occlusion": "Occlusion", "opacity": "Opacity", "displacement": "Height"}
+_SCALAR_SLOTS = ("roughness", "metallic", "occlusion", "opacity", "displacement")
 
 
 def _prim(name: str) -> str:

@@ -468,7 +468,7 @@ def test_a_material_is_a_setting_resolved_before_queueing(client, meshes):
      "settings.material: node 'a': a cycle: a -> b -> a"),
     ({"base_color": {"op": "blur", "input": 1}}, "settings.material: node 'base_color': unknown op 'blur' (the ops are: texture, "
      "constant, position, normal, channel, combine, mix, add, subtract, multiply, divide, power, invert, clamp, threshold, smoothstep, "
-     "remap, blend, warp)"),
+     "remap, blend, warp, mtlx)"),
     ({"base_color": {"op": "mix", "a": 0, "b": 1, "mask": [1, 0, 0]}},
      "settings.material: node 'base_color': input 'mask' takes a scalar, got a colour"),
 ])
@@ -476,6 +476,21 @@ def test_a_graph_error_is_a_422_naming_the_node(client, meshes, material, detail
     r = post(client, meshes / "suzanne.ply", {"material": material})
     assert r.status_code == 422 and r.json()["detail"] == detail, r.text
     assert "\n" not in r.json()["detail"] and client.get("/v1/jobs").json()["total"] == 0
+
+
+def test_a_materialx_document_is_a_material(client, meshes):
+    """A MaterialX document's XML text as the material (texbake.mtlx); a node it cannot bake is a 422 naming it."""
+    from conftest import ROOT
+
+    text = (ROOT / "tests" / "data" / "mtlx" / "standard_surface_marble_solid.mtlx").read_text()
+    r = post(client, meshes / "suzanne.ply", {"material": text, "size": 64})
+    assert r.status_code == 202, r.text
+    material = r.json()["settings"]["material"]
+    assert material["name"] == "Marble_3D" and material["base_color"]["op"] == "mtlx"
+    bad = text.replace('<position name="obj_pos" type="vector3" />', '<viewdirection name="obj_pos" type="vector3" />')
+    r = post(client, meshes / "suzanne.ply", {"material": bad})
+    assert r.status_code == 422 and r.json()["detail"].startswith("settings.material: <mtlx>: node 'NG_marble1/obj_pos': "
+                                                                  "viewdirection: a shading node"), r.text
 
 
 def test_a_material_naming_a_server_path_is_an_unknown_name(client, meshes, tmp_path):
