@@ -267,7 +267,11 @@ def filtered_colours(colormap: ColourMap, t: np.ndarray, width: np.ndarray, para
     spread = octave_spread(width, max_octaves=max_octaves, **args) / norm
     whole = np.sqrt(sum(params.gain ** (2 * k) for k in range(params.octaves)) * octave_variance(params.basis, params.interpolation,
                                                                                                   params.seed)) / norm
-    return spread_colours(colormap.knots, colormap.colours, t, spread, whole)
+    out = spread_colours(colormap.knots, colormap.colours, t, spread, whole)
+    point = spread == 0  # a zero footprint: the point-sampled colour exactly
+    if point.any():
+        out[point] = colormap(t[point])
+    return out
 
 
 class FBm(_Texture, TurbulenceParams):
