@@ -285,6 +285,181 @@ void grid_locate(In<double, shape<-1, 2>> points, In<double, shape<-1, 2>> uv, I
   }
 }
 
+
+
+// Sorted texel indices (row * width + col) that a chart's border touches: the UV edges with no
+// face across them (across -1) of the usable faces, each tested against the texels of its box
+// (the segment's line within half the square's extent along its normal). A texel none touches
+// lies wholly in its chart, or wholly outside.
+nb::ndarray<nb::numpy, int64_t> border_texels(In<double, shape<-1, 2>> uv, In<int64_t, shape<-1, 3>> faces,
+                                              In<int64_t, shape<-1, 3>> across, In<bool, nb::ndim<1>> usable, int64_t width,
+                                              int64_t height) {
+  const Atlas atlas(uv, faces);
+  if (int64_t(across.shape(0)) != atlas.m || int64_t(usable.shape(0)) != atlas.m)
+    throw std::invalid_argument("border_texels: across, usable of m");
+  std::vector<int64_t> found;
+  {
+    nb::gil_scoped_release release;
+    const double w = double(width), h = double(height);
+    for (int64_t f = 0; f < atlas.m; ++f) {
+      if (!usable.data()[f]) continue;
+      for (int c = 0; c < 3; ++c) {
+        if (across.data()[3 * f + c] >= 0) continue;
+        const double *a = atlas.corner(f, (c + 1) % 3), *b = atlas.corner(f, (c + 2) % 3);
+        const double ax = a[0] * w, ay = (1.0 - a[1]) * h, bx = b[0] * w, by = (1.0 - b[1]) * h;
+        if (!std::isfinite(ax + ay + bx + by)) continue;
+        const double ex = bx - ax, ey = by - ay, reach = 0.5 * (std::abs(ex) + std::abs(ey)) * (1.0 + 1e-9) + 1e-12;
+        const int64_t c0 = int64_t(std::max(std::floor(std::min(ax, bx) - 1e-9), 0.0));
+        const int64_t c1 = int64_t(std::min(std::floor(std::max(ax, bx) + 1e-9), w - 1.0));
+        const int64_t r0 = int64_t(std::max(std::floor(std::min(ay, by) - 1e-9), 0.0));
+        const int64_t r1 = int64_t(std::min(std::floor(std::max(ay, by) + 1e-9), h - 1.0));
+        for (int64_t r = r0; r <= r1; ++r)
+          for (int64_t q = c0; q <= c1; ++q)
+            if (std::abs(ex * (r + 0.5 - ay) - ey * (q + 0.5 - ax)) <= reach) found.push_back(r * width + q);
+      }
+    }
+    std::sort(found.begin(), found.end());
+    found.erase(std::unique(found.begin(), found.end()), found.end());
+  }
+  const size_t n = found.size();
+  return owned(std::move(found), {n});
+}
+
+// ---- the part of a texel its chart covers (the filter's footprint at a chart's edge) --------
+// Texel-local coordinates: x = u * width - (col + 1/2) right, y = (1 - v) * height - (row + 1/2)
+// down, the texel the square [-1/2, 1/2]^2 (dpdx, dpdy are the surface's steps along x, y).
+struct Moments {
+  double a = 0, x = 0, y = 0, xx = 0, yy = 0, xy = 0;
+};
+
+// keep the part of polygon in (n points) with sign * coordinate axis <= 1/2 (Sutherland-Hodgman)
+inline int clip_side(const double* in, int n, double* out, int axis, double sign) {
+  int m = 0;
+  for (int i = 0; i < n; ++i) {
+    const double *p = in + 2 * i, *q = in + 2 * ((i + 1) % n);
+    const double dp = sign * p[axis] - 0.5, dq = sign * q[axis] - 0.5;
+    if (dp <= 0) {
+      out[2 * m] = p[0];
+      out[2 * m + 1] = p[1];
+      ++m;
+    }
+    if ((dp < 0 && dq > 0) || (dp > 0 && dq < 0)) {
+      const double t = dp / (dp - dq);
+      out[2 * m] = p[0] + t * (q[0] - p[0]);
+      out[2 * m + 1] = p[1] + t * (q[1] - p[1]);
+      ++m;
+    }
+  }
+  return m;
+}
+
+// area, first and second moments of triangle tri (3 points, local coordinates) cut to the texel
+inline void add_clipped(const double* tri, Moments& sum) {
+  double a[32], b[32];
+  std::copy_n(tri, 6, a);
+  int n = 3;
+  n = clip_side(a, n, b, 0, 1.0);
+  n = clip_side(b, n, a, 0, -1.0);
+  n = clip_side(a, n, b, 1, 1.0);
+  n = clip_side(b, n, a, 1, -1.0);
+  if (n < 3) return;
+  Moments m;
+  for (int i = 0; i < n; ++i) {
+    const double x0 = a[2 * i], y0 = a[2 * i + 1], x1 = a[2 * ((i + 1) % n)], y1 = a[2 * ((i + 1) % n) + 1];
+    const double c = x0 * y1 - x1 * y0;
+    m.a += c / 2;
+    m.x += (x0 + x1) * c / 6;
+    m.y += (y0 + y1) * c / 6;
+    m.xx += (x0 * x0 + x0 * x1 + x1 * x1) * c / 12;
+    m.yy += (y0 * y0 + y0 * y1 + y1 * y1) * c / 12;
+    m.xy += (x0 * y1 + 2 * x0 * y0 + 2 * x1 * y1 + x1 * y0) * c / 24;
+  }
+  const double s = m.a < 0 ? -1.0 : 1.0;  // either winding
+  sum.a += s * m.a, sum.x += s * m.x, sum.y += s * m.y, sum.xx += s * m.xx, sum.yy += s * m.yy, sum.xy += s * m.xy;
+}
+
+constexpr int CLIP_FACES = 64;  // faces of one chart a texel's cut visits at most
+
+// Per sample (face, bary) of one sample a texel: the part of its texel that its chart covers
+// (only texels in border, border_texels' sorted list, can be partly covered)
+// (the faces reached from its face across UV edges whose triangles overlap the texel), as the
+// box of the same mean and covariance: shift (n, 2) its centre, edges (n, 4) the matrix E
+// (row-major) whose columns are its edges in texel units (the whole texel: 0 and the identity),
+// area (n,) the covered share. Returns the number of partly covered samples.
+int64_t footprint_clip(In<int32_t, nb::ndim<1>> face, In<double, shape<-1, 3>> bary, In<double, shape<-1, 2>> uv,
+                       In<int64_t, shape<-1, 3>> faces, In<int64_t, shape<-1, 3>> across, In<int64_t, nb::ndim<1>> border,
+                       int64_t width, int64_t height, Out<double, shape<-1, 2>> shift, Out<double, shape<-1, 4>> edges, Out<double, nb::ndim<1>> area) {
+  const int64_t n = face.shape(0);
+  const Atlas atlas(uv, faces);
+  if (int64_t(bary.shape(0)) != n || int64_t(shift.shape(0)) != n || int64_t(edges.shape(0)) != n ||
+      int64_t(area.shape(0)) != n || int64_t(across.shape(0)) != atlas.m)
+    throw std::invalid_argument("footprint_clip: face, bary, shift, edges, area of n rows; across of m");
+  const double w = double(width), h = double(height);
+  int64_t partial = 0;
+  for (int64_t i = 0; i < n; ++i) {
+    const int64_t f = face.data()[i];
+    double* sh = shift.data() + 2 * i;
+    double* e = edges.data() + 4 * i;
+    sh[0] = sh[1] = 0.0;
+    e[0] = 1.0, e[1] = 0.0, e[2] = 0.0, e[3] = 1.0;
+    area.data()[i] = 1.0;
+    if (f < 0) continue;
+    if (f >= atlas.m) throw std::invalid_argument("footprint_clip: a face outside the atlas");
+    const double* b = bary.data() + 3 * i;
+    double pu = 0, pv = 0;
+    for (int c = 0; c < 3; ++c) pu += b[c] * atlas.corner(f, c)[0], pv += b[c] * atlas.corner(f, c)[1];
+    const double col = std::floor(pu * w), row = std::floor((1.0 - pv) * h);
+    const int64_t texel = int64_t(row) * width + int64_t(col);
+    if (!std::binary_search(border.data(), border.data() + border.shape(0), texel)) continue;  // no border crosses it
+    auto local = [&](int64_t g, double* tri) {
+      for (int c = 0; c < 3; ++c) {
+        tri[2 * c] = atlas.corner(g, c)[0] * w - (col + 0.5);
+        tri[2 * c + 1] = (1.0 - atlas.corner(g, c)[1]) * h - (row + 0.5);
+      }
+    };
+    double tri[6];
+    local(f, tri);
+    // the whole texel inside the sample's face: nothing to cut (most texels)
+    const double orient = (tri[2] - tri[0]) * (tri[5] - tri[1]) - (tri[3] - tri[1]) * (tri[4] - tri[0]);
+    bool whole = orient != 0;
+    for (int k = 0; k < 4 && whole; ++k) {
+      const double x = (k & 1) ? 0.5 : -0.5, y = (k & 2) ? 0.5 : -0.5;
+      for (int c = 0; c < 3 && whole; ++c) {
+        const double *p = tri + 2 * c, *q = tri + 2 * ((c + 1) % 3);
+        whole = orient * ((q[0] - p[0]) * (y - p[1]) - (q[1] - p[1]) * (x - p[0])) >= 0;
+      }
+    }
+    if (whole) continue;
+    int64_t seen[CLIP_FACES];
+    int count = 0, next = 0;
+    seen[count++] = f;
+    Moments sum;
+    while (next < count) {
+      const int64_t g = seen[next++];
+      local(g, tri);
+      const double before = sum.a;
+      add_clipped(tri, sum);
+      if (sum.a <= before && g != f) continue;  // off the texel: not crossed further
+      for (int c = 0; c < 3; ++c) {
+        const int64_t o = across.data()[3 * g + c];
+        if (o < 0 || o >= atlas.m || std::find(seen, seen + count, o) != seen + count || count == CLIP_FACES) continue;
+        seen[count++] = o;
+      }
+    }
+    if (!(sum.a < 1.0 - 1e-9) || !(sum.a > 1e-12)) continue;  // covered (or a cut too small to trust)
+    const double mx = sum.x / sum.a, my = sum.y / sum.a;
+    // 12 x the covariance: the identity for the whole texel; its square root is the box's edges
+    const double cxx = 12.0 * (sum.xx / sum.a - mx * mx), cyy = 12.0 * (sum.yy / sum.a - my * my),
+                 cxy = 12.0 * (sum.xy / sum.a - mx * my);
+    const double s = std::sqrt(std::max(cxx * cyy - cxy * cxy, 0.0)), t = std::sqrt(std::max(cxx + cyy + 2.0 * s, 1e-300));
+    sh[0] = mx, sh[1] = my;
+    e[0] = (cxx + s) / t, e[1] = cxy / t, e[2] = cxy / t, e[3] = (cyy + s) / t;
+    area.data()[i] = sum.a;
+    ++partial;
+  }
+  return partial;
+}
+
 }  // namespace
 
 void bind_lookup(nb::module_& m) {
@@ -314,6 +489,13 @@ void bind_lookup(nb::module_& m) {
   m.def("barycentric", &barycentric, nb::arg("points"), nb::arg("face"), nb::arg("uv"), nb::arg("faces"),
         nb::arg("bary").noconvert(), nb::arg("inside").noconvert(), Release(),
         "Each point's barycentrics in its face (clamped, renormalised) and whether it lies inside; face -1 rows left.");
+  m.def("border_texels", &border_texels, nb::arg("uv"), nb::arg("faces"), nb::arg("across"), nb::arg("usable"),
+        nb::arg("width"), nb::arg("height"), "Sorted (k,) int64 texels (row * width + col) that a chart's border edge touches.");
+  m.def("footprint_clip", &footprint_clip, nb::arg("face"), nb::arg("bary"), nb::arg("uv"), nb::arg("faces"), nb::arg("across"),
+        nb::arg("border"), nb::arg("width"), nb::arg("height"), nb::arg("shift").noconvert(), nb::arg("edges").noconvert(),
+        nb::arg("area").noconvert(), Release(),
+        "The part of each sample's texel its chart covers, as a box of its mean and covariance: shift (n, 2), edges "
+        "(n, 4: columns its edges, texel units), area (n,); returns the number of partly covered samples.");
 }
 
 }  // namespace texbake

@@ -35,7 +35,7 @@ from .maps import margin as margin_stage
 from .memory import check_fits
 from .mesh import LoadedMesh, load_mesh, mesh_from_trimesh, split_normals, vertex_tangents
 from .output import BakeTally, bake_report
-from .sampling import Sampler, sample_offsets, sample_uv, tiles
+from .sampling import Sampler, adaptive, sample_offsets, sample_uv, tiles
 from .sets import TextureSet, Tile, images_of, texture_sets
 from .sets import tiles as set_tiles
 from .settings import BakeSettings
@@ -482,13 +482,17 @@ def _bake_tiles(sampler: Sampler, maps: Maps, settings: BakeSettings, timer: Tim
                         made = None  # too large to keep: not held meanwhile either
                     else:
                         made[i] = texels, located
-        s = sampler.at_located(located, timer)
+        s = sampler.at_located(located, timer, cut=settings.filtering and samples == 1)
         values = maps.values(s, timer)
         texel = texels[s.index // samples]
+        refined = 0
+        if settings.adaptive and settings.filtering and samples == 1:
+            with timer.stage("adaptive"):
+                refined = adaptive.refine(sampler, maps.values, tile_list[i], texel, values, maps.colour_name, settings.adaptive)
         with timer.stage("accumulate"):
             maps.accumulate(tile_list[i], texel, values)
         progress(next(finished) / len(tile_list))
-        return np.array([located.count, 0 if known is not None else located.rays, s.transfer_missed])
+        return np.array([located.count + refined, 0 if known is not None else located.rays, s.transfer_missed])
 
     with timer.stage("tiles (wall)"), ThreadPoolExecutor(max(1, workers)) as pool:
         counts = sum(pool.map(bake_tile, range(len(tile_list))), np.zeros(3))

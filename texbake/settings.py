@@ -193,6 +193,7 @@ class BakeSettings(BaseModel):
     filtering: StrictBool = Field(True, description="antialias by the texel footprint (default: the preset's; off when samples > 1 is given without it)")
     precision: Literal["float64", "float32"] = Field("float64", description="texture-space points as float64 or rounded to float32 (default: the preset's)")
     max_octaves: int | None = Field(None, ge=1, le=30, description="cap on the octaves of noise-based textures; none: the spec's own (default: the preset's)")
+    adaptive: float = Field(0.0, ge=0.0, le=1.0, description="with one filtered sample: the share of texels given 2x2 filtered sub-samples, those whose sample differs most from its neighbours' (1 + 4 x share samples a texel); 0: off")
     margin: int = Field(16, ge=0, le=4096, description="texels of margin filled around charts")
     uv: Literal["auto", "unwrap", "keep"] = Field("auto", description="keep the mesh's UVs when usable (auto), always unwrap, or require them")
     charting: Literal["auto", "planar", "xatlas"] = Field(

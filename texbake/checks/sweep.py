@@ -59,6 +59,7 @@ class Setting:
     precision: str = "float64"
     max_octaves: int | None = None
     size: int = 512
+    adaptive: float = 0.0
 
     @property
     def name(self) -> str:
@@ -66,6 +67,8 @@ class Setting:
         parts = [f"{self.samples}spp", "filter" if self.filtering else "point", "f32" if self.precision == "float32" else "f64"]
         if self.max_octaves is not None:
             parts.append(f"oct{self.max_octaves}")
+        if self.adaptive:
+            parts.append(f"adaptive{self.adaptive:g}")
         return " ".join(parts + [str(self.size)])
 
     def kwargs(self) -> dict:
@@ -85,6 +88,7 @@ class Row:
     estimate: float  # the bake's own error estimate (report.json "error_estimate")
     method: str  # how it was estimated ("probe")
     pareto: bool = False  # no other setting is both faster and more accurate
+    mean_samples: float = 0.0  # samples looked up (and evaluated) a covered texel
 
     @property
     def ratio(self) -> float:
@@ -179,24 +183,26 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
     baked = {}
     for setting in settings:
         result = bake(**setting.kwargs())
-        baked[setting] = (result.images[next(iter(result.images))], result.coverage, result.report["error_estimate"])
+        figures = result.report["sets"][0]
+        spent = figures["rays"]["cast"] / max(1, figures["texels"]["covered"])
+        baked[setting] = (result.images[next(iter(result.images))], result.coverage, result.report["error_estimate"], spent)
     # every setting of a size is scored on the same texels: those all its bakes cover
     scored = {sz: np.logical_and.reduce([ref_cov, *(baked[s][1] for s in settings if s.size == sz)])
               for sz, (_, ref_cov) in references.items()}
     results = {}
     for setting in settings:
-        image, coverage, est = baked.pop(setting)
+        image, coverage, est, spent = baked.pop(setting)
         rmse, max_abs = compare(image, coverage, *references[setting.size], scored[setting.size])
-        results[setting] = (rmse, max_abs, est)
+        results[setting] = (rmse, max_abs, est, spent)
     for sz, mask in scored.items():
         info[sz]["texels"] = int(mask.sum())
         info[sz]["check_rmse"] = compare(*checks[sz], *references[sz], mask)[0]
     times, tile_times = _timed(bake, settings, repeats)
     rows = []
     for setting in settings:
-        rmse, max_abs, est = results[setting]
+        rmse, max_abs, est, spent = results[setting]
         rows.append(Row(setting, statistics.median(times[setting]), statistics.median(tile_times[setting]), rmse, max_abs,
-                        est["rmse"], est["method"]))
+                        est["rmse"], est["method"], mean_samples=spent))
         say(f"{setting.name}: {rows[-1].seconds:.3f} s, RMSE {rmse:.2e}, estimate {est['rmse']:.2e} ({est['method']})")
     pareto_front(rows)
     return rows, info

@@ -101,6 +101,7 @@ class UVLookup:
         self._across = uv_neighbours(self._uv, self._faces, ok)  # (m, 3): the face across each edge
         self._grid = UVGrid(self._uv, self._faces, ok)
         self._row_ranges: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._borders: dict[tuple[int, int], np.ndarray] = {}
         self._lock = threading.Lock()
 
     def candidates(self, tile: Tile, width: int, height: int) -> np.ndarray:
@@ -130,6 +131,17 @@ class UVLookup:
                 found = (np.empty(len(self._faces)), np.empty(len(self._faces)))
                 _native.row_range(self._uv, self._faces, height, TOUCH_MARGIN, *found)
                 self._row_ranges[height] = found
+            return found
+
+    def _border(self, width: int, height: int) -> np.ndarray:
+        """``(k,)`` int64 sorted: the texels (row-major) of a ``width x height`` image that a
+        chart's border (a UV edge with no face across it) touches; made once a size."""
+        with self._lock:
+            found = self._borders.get((width, height))
+            if found is None:
+                usable = ~self.degenerate
+                found = _native.border_texels(self._uv, self._faces, self._across, usable, width, height)
+                self._borders[(width, height)] = found
             return found
 
     def faces_at(self, uv: np.ndarray) -> np.ndarray:
@@ -167,6 +179,26 @@ class UVLookup:
             face[redo] = again
             bary[redo] = self.barycentric(uv[redo], again)
         return face, bary, len(first) + len(redo)
+
+    def footprint_clip(self, face: np.ndarray, bary: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+        """The part of each sample's texel that its chart covers, for samples one a texel.
+
+        ``face`` ``(n,)`` int32 and ``bary`` ``(n, 3)`` float64 (:meth:`locate`'s, found
+        faces only); ``width``, ``height``: the image. The faces reached from a sample's face
+        across UV edges (its chart) are cut to the texel's square; their union is replaced
+        by the box of the same centre and covariance (exact for a rectangle, as where a
+        chart's straight edge crosses the texel). Returns ``(shift (n, 2), edges (n, 2, 2),
+        area (n,), partial)``, in texel units, x right and y down: the box's centre from the
+        texel's centre, its edges as columns (the identity for a whole texel), the covered
+        share (1 for a whole texel), and how many are partly covered (``native/lookup.cpp``
+        ``footprint_clip``).
+        """
+        n = len(face)
+        shift, edges, area = np.empty((n, 2)), np.empty((n, 4)), np.empty(n)
+        partial = _native.footprint_clip(np.ascontiguousarray(face, dtype=np.int32), np.ascontiguousarray(bary, dtype=np.float64),
+                                         self._uv, self._faces, self._across, self._border(width, height), width, height,
+                                         shift, edges, area)
+        return shift, edges.reshape(n, 2, 2), area, int(partial)
 
     def barycentric(self, uv: np.ndarray, face: np.ndarray) -> np.ndarray:
         """``(n, 3)`` float64 barycentric coordinates of UV points in their faces.

@@ -30,7 +30,9 @@ class Samples:
     ``normals``: ``(n, 3)`` float64 unit normals of the target surface, or None when the
     sampler was made without them; ``rays``: lookup rays cast for the batch;
     ``transfer_missed``: UV points whose transfer rays found no source; ``frame``: ``(n, 3, 3)`` float64 tangent frames (rows T, B, N) of the
-    output mesh, or None when the sampler was made without one.
+    output mesh, or None when the sampler was made without one; ``coverage``: ``(n,)``
+    float64 share of each sample's texel that its chart covers, where the footprints were
+    cut to it (:meth:`Sampler.at_located`), else None.
     """
 
     index: np.ndarray
@@ -41,6 +43,7 @@ class Samples:
     rays: int = 0
     transfer_missed: int = 0
     frame: np.ndarray | None = None
+    coverage: np.ndarray | None = None
 
 
 @dataclass
@@ -108,13 +111,20 @@ class Sampler:
             located = self.locate(uvs, samples)
         return self.at_located(located, timer)
 
-    def at_located(self, located: Located, timer=None) -> Samples:
-        """Surface samples (and, with a source, transferred ones) where ``located`` says."""
+    def at_located(self, located: Located, timer=None, cut: bool = False) -> Samples:
+        """Surface samples (and, with a source, transferred ones) where ``located`` says.
+
+        ``cut`` (one sample a texel, with footprints): each footprint is the part of its
+        texel that its chart covers (:meth:`UVLookup.footprint_clip`: the point moves to
+        that part's centre, ``dpdx``, ``dpdy`` shrink to its extent), so that a filter at
+        a chart's edge averages only where the surface is.
+        """
         stage = timer.stage if timer is not None else (lambda name: nullcontext())
         index, rays = located.index, located.rays
         with stage("surface"):
             s = self.surface.samples(located.face, located.bary, self.footprints)
-        found = Samples(index, s.points, s.normals, s.dpdx, s.dpdy, rays=rays, frame=s.frame)
+            coverage = self._cut(located, s) if cut and s.dpdx is not None else None
+        found = Samples(index, s.points, s.normals, s.dpdx, s.dpdy, rays=rays, frame=s.frame, coverage=coverage)
         if self.caster is None:
             return found
         with stage("transfer"):
@@ -122,4 +132,17 @@ class Sampler:
             points, hit = self.caster.project(s.points, s.normals, self.reach)
             return Samples(index[hit], points[hit], s.normals[hit], None if s.dpdx is None else s.dpdx[hit],
                            None if s.dpdy is None else s.dpdy[hit], rays=rays,
-                           transfer_missed=int((~hit).sum()), frame=None if s.frame is None else s.frame[hit])
+                           transfer_missed=int((~hit).sum()), frame=None if s.frame is None else s.frame[hit],
+                           coverage=None if coverage is None else coverage[hit])
+
+    def _cut(self, located: Located, s) -> np.ndarray:
+        """Cut the footprints of ``s`` (surface samples of ``located``, one a texel) to the
+        part of each texel its chart covers, in place; returns ``(n,)`` the covered shares."""
+        shift, edges, area, partial = self.lookup.footprint_clip(located.face, located.bary, self.width, self.height)
+        if partial:
+            part = np.flatnonzero(area < 1.0)
+            dx, dy, e, d = s.dpdx[part], s.dpdy[part], edges[part], shift[part]
+            s.points[part] += d[:, :1] * dx + d[:, 1:] * dy
+            s.dpdx[part] = e[:, 0, :1] * dx + e[:, 1, :1] * dy
+            s.dpdy[part] = e[:, 0, 1:] * dx + e[:, 1, 1:] * dy
+        return area

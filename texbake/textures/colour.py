@@ -87,6 +87,51 @@ def wave_colours(knots, colour_list, phase: np.ndarray, spread: np.ndarray) -> n
     return out
 
 
+SPREAD_VALUES = 8192  # samples of a colour map's value range (padded) in its spread table: linear interpolation errs < 1e-4 at a knot's kink
+SPREAD_ROWS = 64  # spreads from 0 to the table's largest
+
+
+@functools.lru_cache(maxsize=16)
+def spread_table(knots: tuple[float, ...], colours: tuple[tuple[float, float, float], ...],
+                 max_spread: float) -> tuple[np.ndarray, float, float]:
+    """``(table (SPREAD_ROWS, SPREAD_VALUES, 3), lo, hi)``: the mean colour of ``t + s Z`` (Z
+    standard normal) through the colour map (clamped to its knots), at values ``t = lo + (hi
+    - lo) j / SPREAD_VALUES`` and spreads ``s = max_spread i / (SPREAD_ROWS - 1)``; the knots'
+    range padded by ``4 max_spread`` each side (the Gaussian's reach). Each row is the curve
+    convolved with its Gaussian on the table's own grid (by FFT, every row at once)."""
+    k = np.asarray(knots, dtype=np.float64)
+    pad = 4.0 * max_spread + 1e-9
+    lo, hi = float(k[0]) - pad, float(k[-1]) + pad
+    step = (hi - lo) / SPREAD_VALUES
+    reach = int(np.ceil(5.0 * max_spread / step)) + 1
+    t = lo + step * np.arange(-reach, SPREAD_VALUES + reach)  # the curve, clamped past the knots, beyond the table
+    curve = spline(t, k, np.asarray(colours, dtype=np.float64))
+    x = np.arange(-reach, reach + 1) * step
+    spreads = max_spread * np.arange(SPREAD_ROWS) / (SPREAD_ROWS - 1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        kernel = np.exp(-0.5 * (x[None] / spreads[:, None]) ** 2)
+    kernel[0] = (x == 0)  # spread 0: the curve itself
+    kernel /= kernel.sum(axis=1, keepdims=True)
+    n = len(t) + len(x) - 1
+    full = np.fft.irfft(np.fft.rfft(curve, n, axis=0)[None] * np.fft.rfft(kernel, n, axis=1)[:, :, None], n, axis=1)
+    out = full[:, 2 * reach : 2 * reach + SPREAD_VALUES]  # the rows at the table's values
+    out[0] = curve[reach : reach + SPREAD_VALUES]
+    return np.ascontiguousarray(out), lo, hi
+
+
+def spread_colours(knots, colour_list, values: np.ndarray, spread: np.ndarray, max_spread: float) -> np.ndarray:
+    """``(n, 3)`` mean colours of ``(n,)`` values spread as Gaussians of standard deviation
+    ``spread`` ``(n,)`` (at most ``max_spread``) about them, through the colour map: a
+    filtered scalar's mean colour, not the colour of its mean (:func:`spread_table`; looked
+    up by the compiled wave lookup, its value range one period that no lookup wraps)."""
+    table_, lo, hi = spread_table(tuple(knots), tuple(tuple(c) for c in colour_list), float(max_spread))
+    v = np.clip(np.ascontiguousarray(values, dtype=np.float64).reshape(-1), lo, hi - (hi - lo) / SPREAD_VALUES)
+    phase = 2.0 * np.pi * (v - lo) / (hi - lo)
+    out = np.empty((len(v), 3))
+    _native.wave_colours(phase, np.ascontiguousarray(spread, dtype=np.float64).reshape(-1), table_, float(max_spread), out)
+    return out
+
+
 def marble_colours(points, width, knots, colour_list, *, axis=0, frequency=6.0, amplitude=4.0, scale=1.0, offset=0.0,
                    octaves=8, lacunarity=2.0, gain=0.5, basis="value", interpolation="linear", seed=0,
                    max_octaves=None) -> np.ndarray:

@@ -237,7 +237,9 @@ class Turbulence(_Texture, TurbulenceParams):
 
     Each octave is shrunk towards its mean by the share a box filter over the footprint
     keeps of it; octaves finer than 1/8 of the footprint are skipped (their mean added;
-    see ``noise.octave_sum``).
+    see ``noise.octave_sum``). Filtered, the colour is the colour map's mean over the
+    value's spread inside the footprint (:func:`filtered_colours`), not the colour of the
+    filtered value.
     """
 
     name: Literal["turbulence"] = "turbulence"
@@ -246,7 +248,30 @@ class Turbulence(_Texture, TurbulenceParams):
     def evaluate(self, points, ctx):
         from .solid import turbulence
 
-        return self.colormap(turbulence(points, ctx.width, max_octaves=ctx.max_octaves, **turbulence_args(self)))
+        t = turbulence(points, ctx.width, max_octaves=ctx.max_octaves, **turbulence_args(self))
+        return self.colormap(t) if ctx.width is None else filtered_colours(self.colormap, t, ctx.width, self, ctx.max_octaves)
+
+
+def filtered_colours(colormap: ColourMap, t: np.ndarray, width: np.ndarray, params: TurbulenceParams,
+                     max_octaves: int | None) -> np.ndarray:
+    """``(n, 3)`` mean colours of a filtered octave sum ``t`` ``(n,)`` in [0, 1] (turbulence,
+    or fBm as ``0.5 + 0.5 fBm``: the same spread) at footprints ``width`` ``(n,)``: the value
+    taken as Gaussian about ``t`` with the spread the filter took out of it
+    (``noise.octave_spread``, over the octaves' normalisation), through the colour map
+    (``colour.spread_colours``)."""
+    from .colour import spread_colours
+    from .noise import octave_count, octave_spread, octave_variance
+
+    args = {k: v for k, v in turbulence_args(params).items() if k != "offset"}
+    norm = octave_count(params.octaves, params.gain).norm
+    spread = octave_spread(width, max_octaves=max_octaves, **args) / norm
+    whole = np.sqrt(sum(params.gain ** (2 * k) for k in range(params.octaves)) * octave_variance(params.basis, params.interpolation,
+                                                                                                  params.seed)) / norm
+    out = spread_colours(colormap.knots, colormap.colours, t, spread, whole)
+    point = spread == 0  # a zero footprint: the point-sampled colour exactly
+    if point.any():
+        out[point] = colormap(t[point])
+    return out
 
 
 class FBm(_Texture, TurbulenceParams):
@@ -259,7 +284,9 @@ class FBm(_Texture, TurbulenceParams):
         from .solid import turbulence
 
         t = turbulence(points, ctx.width, signed=True, max_octaves=ctx.max_octaves, **turbulence_args(self))
-        return self.colormap(0.5 + 0.5 * t)
+        if ctx.width is None:
+            return self.colormap(0.5 + 0.5 * t)
+        return filtered_colours(self.colormap, 0.5 + 0.5 * t, ctx.width, self, ctx.max_octaves)
 
 
 MARBLE_COLOURS = ColourMap(

@@ -140,3 +140,16 @@ def test_octave_cap_replaces_the_capped_octaves_by_their_mean():
     signed = octave_sum(p, None, octaves=8, max_octaves=3, signed=True)
     assert np.allclose(signed, octave_sum(p, None, octaves=3, signed=True), rtol=0, atol=1e-14)  # signed octaves have mean 0
     assert np.array_equal(octave_sum(p, None, octaves=4, max_octaves=9), octave_sum(p, None, octaves=4))
+
+
+def test_box_share_is_the_compiled_fade_factor():
+    s = np.concatenate([[0.0, 1e-9, 2.0, 4.0, 7.999, 8.0, 50.0], np.random.default_rng(2).random(200) * 10])
+    assert N.box_share(s).tolist() == pytest.approx([N.fade_factor(float(x)) for x in s], rel=1e-12, abs=1e-15)
+
+
+def test_octave_spread_is_none_at_a_point_and_all_of_the_octaves_when_every_one_is_dropped():
+    v = N.octave_variance()
+    assert 0.01 < v < 0.05  # linear value noise: about (2/3)^3 of its table's variance
+    whole = np.sqrt(v * sum(0.25**k for k in range(8)))
+    spread = N.octave_spread(np.array([0.0, 1e-12, 1e3]), octaves=8, scale=4.0)
+    assert spread[:2].tolist() == pytest.approx([0.0, 0.0], abs=1e-6) and spread[2] == pytest.approx(whole, rel=1e-12)

@@ -1,0 +1,68 @@
+"""Adaptive sampling: after one filtered sample a texel, more samples only where that
+sample's error is likely high.
+
+A texel's first sample is scored by how far its value lies from its neighbours' in the
+tile (the largest difference, over the four neighbours and the channels): a filtered
+sample is close to the texel's mean where the texture varies slowly, and errs where
+detail near the texel's size varies inside it (veins, the finest kept octaves, checks'
+corners). The ``share`` of a tile's texels that score highest get 2x2 filtered
+sub-samples, each with half the footprint, and their mean replaces the first sample:
+four more samples on ``share`` of the texels, a mean of ``1 + 4 share`` a texel.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from .lookup import Tile, sample_uv
+from .sampler import Sampler, Samples
+
+SUB_OFFSETS = np.array([[0.25, 0.25], [0.75, 0.25], [0.25, 0.75], [0.75, 0.75]])  # 2x2 sub-texels' centres
+
+
+def hardest(texel: np.ndarray, values: np.ndarray, rows: int, width: int, share: float) -> np.ndarray:
+    """``(k,)`` int64 positions into ``texel`` ``(n,)`` (indices within a tile of ``rows x
+    width``, distinct) of the ``ceil(share * n)`` samples whose ``(n, c)`` ``values`` differ
+    most from a neighbour's (4-neighbours in the tile that have a sample)."""
+    n = len(texel)
+    k = min(n, int(np.ceil(share * n)))
+    if k == 0:
+        return np.zeros(0, dtype=np.int64)
+    grid = np.full((rows + 2, width + 2, values.shape[1]), np.nan)
+    r, c = np.divmod(np.asarray(texel, dtype=np.int64), width)
+    grid[r + 1, c + 1] = values
+    score = np.zeros(n)
+    for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1)):
+        d = np.abs(grid[r + 1 + dr, c + 1 + dc] - values).max(axis=1)
+        score = np.fmax(score, d)  # a missing neighbour (NaN) counts for nothing
+    return np.argpartition(-score, k - 1)[:k] if k < n else np.arange(n)
+
+
+def refine(sampler: Sampler, values_of: Callable[[Samples], dict[str, np.ndarray]], tile: Tile, texel: np.ndarray,
+           values: dict[str, np.ndarray], score_map: str, share: float) -> int:
+    """Replace, in place, the values of the ``share`` of a tile's samples :func:`hardest`
+    picks (by ``values[score_map]``) with the mean of their 2x2 filtered sub-samples.
+
+    ``texel``: ``(n,)`` each first sample's texel within the tile (distinct); ``values``: map name -> ``(n, c)``;
+    ``values_of``: the maps' values at surface samples. Returns the sub-samples looked up.
+    """
+    rows, width, height = tile.stop - tile.start, sampler.width, sampler.height
+    pick = hardest(texel, values[score_map], rows, width, share)
+    if not len(pick):
+        return 0
+    located = sampler.locate(sample_uv(tile, texel[pick], width, height, SUB_OFFSETS), len(SUB_OFFSETS))
+    s = sampler.at_located(located)
+    if s.dpdx is not None and s.dpdy is not None:
+        s.dpdx *= 0.5
+        s.dpdy *= 0.5
+    found = values_of(s)
+    group = s.index // len(SUB_OFFSETS)  # the picked sample each sub-sample refines
+    count = np.bincount(group, minlength=len(pick))
+    held = count > 0  # a texel whose sub-samples all missed (off its chart) keeps its first sample
+    for name, v in found.items():
+        total = np.zeros((len(pick), v.shape[1]))
+        np.add.at(total, group, v)
+        values[name][pick[held]] = total[held] / count[held][:, None]
+    return located.count
