@@ -57,6 +57,14 @@ def _slice(size: int):
     return np.ones((size, size), bool), 1.0, points, dpdx, dpdy, None
 
 
+def _check(size, view) -> None:
+    """A swatch's size and view, or the ParameterError naming the bad one."""
+    if not isinstance(size, int) or not MIN_SIZE <= size <= MAX_SIZE:
+        raise ParameterError("size", f"expected an integer from {MIN_SIZE} to {MAX_SIZE}, got {size!r}")
+    if view not in VIEWS:
+        raise ParameterError("view", f"expected one of {', '.join(VIEWS)}, got {view!r}")
+
+
 def swatch(spec, size: int = 256, view: str = "sphere", *, light=(0.3, 0.5, 0.8)) -> np.ndarray:
     """``(size, size, 4)`` float32 image of a texture: linear RGB and alpha (0 off the sphere).
 
@@ -65,10 +73,7 @@ def swatch(spec, size: int = 256, view: str = "sphere", *, light=(0.3, 0.5, 0.8)
     :class:`~texbake.errors.TextureError` for a bad spec and :class:`~texbake.errors.ParameterError`
     for a bad size or view.
     """
-    if not isinstance(size, int) or not MIN_SIZE <= size <= MAX_SIZE:
-        raise ParameterError("size", f"expected an integer from {MIN_SIZE} to {MAX_SIZE}, got {size!r}")
-    if view not in VIEWS:
-        raise ParameterError("view", f"expected one of {', '.join(VIEWS)}, got {view!r}")
+    _check(size, view)
     spec = parse_spec(spec)
     inside, coverage, points, dpdx, dpdy, normals = (_sphere if view == "sphere" else _slice)(size)
     mapping = TextureMapping.for_mesh(np.zeros(3), np.ones(3), "unit")
@@ -96,10 +101,7 @@ def material_swatch(material, channel: str, size: int = 256, view: str = "sphere
 
     if channel not in CHANNELS:
         raise ParameterError("channel", f"expected one of {', '.join(CHANNELS)}, got {channel!r}")
-    if not isinstance(size, int) or not MIN_SIZE <= size <= MAX_SIZE:
-        raise ParameterError("size", f"expected an integer from {MIN_SIZE} to {MAX_SIZE}, got {size!r}")
-    if view not in VIEWS:
-        raise ParameterError("view", f"expected one of {', '.join(VIEWS)}, got {view!r}")
+    _check(size, view)
     material = parse_material(material)
     inside, coverage, points, dpdx, dpdy, normals = (_sphere if view == "sphere" else _slice)(size)
     if channel in material.graph.channels:
