@@ -183,6 +183,15 @@ def _bake_one(mesh: str, out: str, given: dict, source: str | None = None, worke
     return result.report
 
 
+def _batch_process(parent: int) -> None:
+    """A batch's bake process ends with the batch (killed, it left them baking and their
+    warm packing workers waiting): the workers' own mechanism, with the batch as parent."""
+    from .workers import PARENT_ENV, die_with_parent
+
+    os.environ[PARENT_ENV] = str(parent)
+    die_with_parent()
+
+
 def _batch_item(mesh: str, out: str, given: dict, cache: str | None) -> tuple[str, float, dict | str]:
     """One batch item in its worker process: ``(status, seconds of the bake and its save,
     report or the error)``; a user error is a failed item, not an exception."""
@@ -431,7 +440,8 @@ def batch(
     used: set[str] = set()
     jobs_list = [(mesh, str(_unique_folder(out, Path(mesh).stem, used)), {**base, **extra}) for mesh, extra in items]
     rows = []
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as pool, Progress(
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn"), initializer=_batch_process,
+                             initargs=(os.getpid(),)) as pool, Progress(
         "[progress.description]{task.description}", BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
         console=Console(stderr=True),
     ) as progress:

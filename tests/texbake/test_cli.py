@@ -79,6 +79,35 @@ def test_batch_summary_as_json_with_atlas_warnings_and_whole_paths(meshes, tmp_p
     assert rows["capsule.obj"]["atlas"] in table.stdout
 
 
+def test_a_killed_batch_takes_its_bake_processes_and_their_workers_with_it(meshes, tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    import psutil
+
+    for k in range(6):  # enough unwrapped bakes that the batch is still at work when killed
+        shutil.copy(meshes / "bunny.ply", tmp_path / f"bunny{k}.ply")
+    batch = subprocess.Popen([sys.executable, "-m", "texbake.cli", "batch", str(tmp_path / "*.ply"), "--out", str(tmp_path / "o"),
+                              "--jobs", "2", "--no-cache", "--size", "1024"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 120
+        children: list = []
+        while len(children) < 4 and time.monotonic() < deadline:  # two bake processes, each with its packing workers
+            children = psutil.Process(batch.pid).children(recursive=True)
+            time.sleep(0.2)
+        assert len(children) >= 4, children
+        batch.send_signal(signal.SIGKILL)
+        batch.wait()
+        gone, alive = psutil.wait_procs(children, timeout=15)
+        assert not alive, [p.cmdline()[-1:] for p in alive]
+    finally:
+        batch.kill()
+        for p in psutil.Process().children(recursive=True):
+            p.kill()
+
+
 WALL_STAGES = ("load", "atlas", "normals", "prepare", "tiles (wall)", "estimate", "margin")  # one after another: the bake
 
 

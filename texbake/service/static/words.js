@@ -28,6 +28,8 @@ export const SETTING_WORDS = {
     hint: "The points the texture is evaluated at (the preset's unless changed)." },
   max_octaves: { label: "Octave cap (noise textures)", placeholder: "all",
     hint: "Fewer octaves of noise: less fine detail. Empty: every octave the texture has." },
+  adaptive: { label: "Extra samples where needed (share of texels)",
+    hint: "With one filtered sample: this share of the texels, those that differ most from their neighbours, get four more (0: off)." },
   margin: { label: "Margin", hint: "Texels filled around each chart, so filtering and mipmaps do not show the seams." },
   uv: { label: "UV layout", options: { auto: "Automatic", unwrap: "Always unwrap", keep: "Keep the mesh's UVs" },
     hint: "Automatic keeps the mesh's own UVs when they are usable, else unwraps; Keep fails on a mesh without UVs." },
