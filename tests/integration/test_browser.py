@@ -68,14 +68,17 @@ class _QuietHandler(http.server.SimpleHTTPRequestHandler):
         pass
 
 
-def render(server, glb: Path, name: str, tmp_path: Path, ids: list[str] | None = None, *, environment: bool = False) -> np.ndarray:
+def render(server, glb: Path, name: str, tmp_path: Path, ids: list[str] | None = None, *, environment: bool = False,
+           cover: np.ndarray | None = None) -> np.ndarray:
     """``(SIZE, SIZE, 3)`` float32 linear screenshot of ``glb`` in three.js (lit by a
     directional and an ambient light, or ``environment``: by an environment light only);
     kept as an artefact. ``ids``: material names, each drawn flat in its colour of
     :data:`IDS` instead (the same view).
 
-    Headless screenshots have come out blank (all background) now and then: retried up to
-    three times.
+    Headless screenshots have come out blank (all background) now and then, or, once in a
+    CI run, with one primitive of two not drawn: retried up to three times, also while over
+    5 % of the pixels ``cover`` ((SIZE, SIZE) bool: where another render of the same view
+    drew the model) show the background.
     """
     site, base = server
     shutil.copy(glb, site / glb.name)
@@ -92,7 +95,8 @@ def render(server, glb: Path, name: str, tmp_path: Path, ids: list[str] | None =
             capture_output=True, timeout=120, check=False)
         if shot.is_file():
             image = read_image(shot)[..., :3]
-            if not (np.abs(image - MAGENTA).max(axis=2) < 0.05).all():
+            background = np.abs(image - MAGENTA).max(axis=2) < 0.05
+            if not background.all() and (cover is None or background[cover].mean() <= 0.05):
                 break
     assert shot.is_file(), f"chromium wrote no screenshot of {name}"
     keep_artefact(shot)
@@ -229,8 +233,8 @@ def test_every_material_of_a_multi_material_bake_renders_with_its_own_texture(se
     names = [s.name for s in result.sets]
     assert sorted(names) == ["body", "wheels"]
     glb = tmp_path / "bake" / "pair.glb"
-    textured = render(server, glb, "pair", tmp_path)
     masks = material_masks(render(server, glb, "pair-ids", tmp_path, ids=names), names)
+    textured = render(server, glb, "pair", tmp_path, cover=np.logical_or.reduce(list(masks.values())))
     channel = {"body": 0, "wheels": 2}  # red, blue
     luma = lambda image, mask: image[mask] @ np.array([0.2126, 0.7152, 0.0722])
     for name, mask in masks.items():
