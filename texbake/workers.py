@@ -353,14 +353,22 @@ class Pool:
         self.idle.clear()
         shutil.rmtree(self.folder, ignore_errors=True)
 
-    def run(self, jobs: list[tuple[str, tuple]]) -> list[tuple[bool, object]]:
+    def run(self, jobs: list[tuple[str, tuple]], *, job_seconds: float | None = None,
+            retries: int = 0) -> list[tuple[bool, object]]:
         """Run ``(kind, args)`` jobs; per job ``(True, result)`` or ``(False, why)``.
 
         ``why`` is "timeout" for jobs not done by the deadline (then every busy worker is
         ended), "exit code N" for a worker that died, or the job's exception message.
+
+        ``job_seconds``: what one job may take, for jobs far smaller than the deadline (the
+        patches of a parallel unwrap). A job that has run that long and either used that
+        much CPU time or sits idle (a livelock or a deadlock in native code; both were seen
+        once in hundreds of unwraps and do not come back on a fresh process) is ended and
+        sent to a fresh worker, up to ``retries`` times; then it is "timeout".
         """
         results: list = [None] * len(jobs)
         pending = list(range(len(jobs)))[::-1]
+        tries = [0] * len(jobs)
         busy: dict[Worker, tuple[int, float, float]] = {}  # worker -> (job, its wall start, its CPU start)
         while pending or busy:
             while pending and (self.idle or len(self._alive()) < self.n):
@@ -387,8 +395,33 @@ class Pool:
                 results[busy.pop(w)[0]] = reply
                 if w.process.poll() is None:  # alive: ready for the next job
                     self.idle.append(w)
+            if job_seconds is not None and not ready:
+                for w in self._stuck(busy, job_seconds):
+                    i = busy.pop(w)[0]
+                    w.end()
+                    if tries[i] < retries:
+                        tries[i] += 1
+                        pending.append(i)
+                    else:
+                        results[i] = (False, "timeout")
+                self._forget_dead()
         self._forget_dead()
         return results
+
+    def _stuck(self, busy: dict, job_seconds: float) -> list[Worker]:
+        """The workers of ``busy`` whose job has run ``job_seconds`` of wall time and used as
+        much CPU time, or under ``STALL_SHARE`` of it with no thread runnable."""
+        stuck = []
+        for w, (_, started, cpu) in busy.items():
+            job_wall = time.monotonic() - started
+            if job_wall < job_seconds:
+                continue
+            used = cpu_seconds(w.pid)
+            if used is None:
+                continue  # gone: its read reports the exit
+            if used - cpu >= job_seconds or (used - cpu < self.STALL_SHARE * job_wall and not runnable(w.pid)):
+                stuck.append(w)
+        return stuck
 
     def _late(self, busy: dict) -> bool:
         """Whether the jobs ``busy`` runs are past the deadline (see the class)."""

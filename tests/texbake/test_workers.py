@@ -35,7 +35,18 @@ def spin(seconds):
     return "spun"
 
 
-serve({"add": lambda a, b: a + b, "fail": lambda: 1 / 0, "crash": crash, "sleep": time.sleep,
+def once(marker, how):
+    # stuck the first time (asleep, or spinning), answers the next
+    if not os.path.exists(marker):
+        open(marker, "w").close()
+        if how == "sleep":
+            time.sleep(600)
+        while True:
+            pass
+    return "again"
+
+
+serve({"once": once, "add": lambda a, b: a + b, "fail": lambda: 1 / 0, "crash": crash, "sleep": time.sleep,
        "print": lambda: print("not a reply") or "ok", "spin": spin, "hold": hold})
 """
 
@@ -100,6 +111,22 @@ def test_a_pools_deadline_is_its_workers_cpu_time(command):
         assert (pool.spent() >= 1.0 and pool.left() <= 0) or took >= Pool.WALL_FACTOR * 1.0
         pool.restart(5.0)
         assert pool.run([("add", (1, 2))]) == [(True, 3)]  # a fresh worker in place of the ended one
+
+
+@pytest.mark.parametrize("how", ["sleep", "spin"])
+def test_a_pool_sends_a_stuck_job_to_a_fresh_worker(command, tmp_path, how):
+    """A job past ``job_seconds`` that sleeps (a deadlock) or spins (a livelock) is ended
+    and run again once, long before the pool's deadline; the others are not touched."""
+    with Pool(command(), 2, 60) as pool:
+        began = time.monotonic()
+        jobs = [("once", (str(tmp_path / "first"), how)), ("add", (1, 1))]
+        assert pool.run(jobs, job_seconds=1.0, retries=1) == [(True, "again"), (True, 2)]
+        assert time.monotonic() - began < 15  # not the 60 s deadline, nor its wall backstop
+        began = time.monotonic()
+        jobs = [("once", (str(tmp_path / "second"), how)), ("add", (2, 2))]
+        assert pool.run(jobs, job_seconds=1.0) == [(False, "timeout"), (True, 4)]  # no retry asked for
+        assert time.monotonic() - began < 15
+        assert pool.run([("add", (3, 3))]) == [(True, 6)]  # the pool works on
 
 
 def test_a_pool_ends_the_idle_workers_that_hold_much_memory(command):

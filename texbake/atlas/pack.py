@@ -51,6 +51,10 @@ BRUTE_TRIANGLES = 200  # ... proxy triangles place each chart by brute force (lo
 PACKINGS = 3  # packing passes at most: the first, and again for what it distorted or collapsed
 WARM_BYTES = 256 << 20  # a worker holding more memory after an unwrap is ended, not kept warm
 PATCH_FACES = 2000  # faces per patch of the parallel unwrap
+# What charting one patch may take before it is ended and charted again by a fresh worker
+# (once): a patch of PATCH_FACES faces takes xatlas about 0.05 s of CPU time, and one
+# patch in a CI run sat 120 s without an answer (it charted at once in every other run).
+PATCH_JOB_SECONDS = 20.0
 CHART_ITERATIONS = 1  # xatlas ChartOptions.max_iterations: more iterations take longer for no better atlas on the meshes here
 
 
@@ -221,7 +225,7 @@ def _chart_xatlas(pos, faces, good, pool, deadline, patch_faces):
         used, local = np.unique(faces[p], return_inverse=True)
         used_of.append(used)
         jobs.append(("chart", (pos32[used], local.reshape(-1, 3).astype(np.uint32), CHART_ITERATIONS)))
-    done = pool.run(jobs)
+    done = pool.run(jobs, job_seconds=PATCH_JOB_SECONDS, retries=1) if len(jobs) > 1 else pool.run(jobs)
     for (ok, value), p in zip(done, patches, strict=True):
         if not ok:
             what = _describe(value, deadline)
