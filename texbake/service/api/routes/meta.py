@@ -12,8 +12,8 @@ from texbake.textures.spec import catalogue, json_schema
 from ...health import ready
 from ..deps import SettingsDep
 from ..schemas import BakeSettings, ServerConfig, ServerLimits
-from .mtlx import MAX_BYTES as MTLX_MAX_BYTES
 from ..uploads import COMPANION_FORMATS, MAX_COMPANIONS, UPLOAD_FORMATS
+from .mtlx import MAX_BYTES as MTLX_MAX_BYTES
 
 router = APIRouter(tags=["meta"])
 
