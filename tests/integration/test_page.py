@@ -505,6 +505,7 @@ def test_a_materialx_document_in_the_editor(api, page, meshes, tmp_path):
     expect(base.get_by_label("Base colour", exact=True)).to_have_value("mtlx")
     expect(base).to_contain_text("From the document: its shader's base_color × base, a graph evaluated at each point of the mesh.")
     expect(rough.get_by_label("Roughness", exact=True)).to_have_value("constant")
+    expect(rough.get_by_label("Roughness: value", exact=True)).to_have_value("0.1")  # MaterialX's float32, shown as written
     expect(channel("metallic").get_by_label("Metallic", exact=True)).to_have_value("none")
     for c in ("base_color", "roughness"):
         expect(channel(c).locator("img.channel-swatch[data-ready='1']")).to_be_attached(timeout=30000)

@@ -464,7 +464,8 @@ function constantInput(label, value, colour, fallback) {
   const id = `m${++ids}`;
   const start = value ?? fallback;
   const input = colour ? el("input", { id, type: "color", value: hex([start].flat().length === 3 ? start : [start, start, start]) })
-    : el("input", { id, type: "number", step: "any", value: start });
+    // a number shown to a float32's digits (a MaterialX value's 0.1, not 0.10000000149), sent as given until edited
+    : el("input", { id, type: "number", step: "any", value: typeof start === "number" ? Number(start.toPrecision(7)) : start });
   const read = colour ? () => linear(input.value) : () => (Number.isFinite(input.valueAsNumber) ? input.valueAsNumber : input.value);
   let touched = false;
   input.addEventListener("input", () => { touched = true; materialChanged(); });
