@@ -464,6 +464,76 @@ def test_a_built_in_material_in_the_editor(api, page):
     page.shot("33-built-in-bad-json")
 
 
+MARBLE_MTLX = ROOT / "tests" / "data" / "mtlx" / "standard_surface_marble_solid.mtlx"  # MaterialX's own example
+WOOD_MTLX = """<?xml version="1.0"?>
+<materialx version="1.39">
+  <image name="wood_image" type="color3"><input name="file" type="filename" value="wood.png"/></image>
+  <standard_surface name="SR" type="surfaceshader"><input name="base_color" type="color3" nodename="wood_image"/></standard_surface>
+  <surfacematerial name="M" type="material"><input name="surfaceshader" type="surfaceshader" nodename="SR"/></surfacematerial>
+</materialx>
+"""
+
+
+def test_a_materialx_document_in_the_editor(api, page, meshes, tmp_path):
+    """A .mtlx loaded into the material editor: one that cannot be baked is said beside the
+    field (its node and category), the editor left as it was; MaterialX's marble becomes the
+    editor's material (its base colour the document's graph, its roughness a constant, its
+    warning listed), its base colour's swatch shows the veins, the lit sphere renders, and a
+    bake with it sends the document's material and names it in the result."""
+    p = page.page
+    p.goto(api + "/")
+    swatch(page, "40-mtlx-start")
+    expect(p.get_by_label("Or load a MaterialX document (.mtlx)", exact=True)).to_have_attribute("type", "file")
+    (tmp_path / "wood.mtlx").write_text(WOOD_MTLX)
+    p.set_input_files("#mtlx", tmp_path / "wood.mtlx")
+    expect(p.locator("#mtlx-error")).to_contain_text("wood.mtlx: node 'wood_image': image: an image node reads a file", timeout=20000)
+    expect(p.get_by_label("PBR material", exact=True)).to_have_value("")
+    page.shot("41-mtlx-unsupported")
+
+    p.set_input_files("#mtlx", MARBLE_MTLX)
+    material = p.get_by_label("PBR material", exact=True)
+    expect(material).to_have_value("mtlx", timeout=20000)
+    assert material.locator("option:checked").text_content() == f"Marble_3D (from {MARBLE_MTLX.name})"
+    expect(p.locator("#mtlx-error")).to_be_empty()
+    expect(p.locator("#mtlx-hint")).to_have_text(f"{MARBLE_MTLX.name}: the material Marble_3D, its standard_surface SR_marble1.")
+    expect(p.locator("#mtlx-warnings li")).to_have_count(1)
+    expect(p.locator("#mtlx-warnings")).to_contain_text("subsurface, subsurface_color")
+    expect(p.locator("#material-about")).to_contain_text(f"MaterialX standard_surface 'SR_marble1' from {MARBLE_MTLX.name}")
+    expect(p.get_by_label("Material name", exact=True)).to_have_value("Marble_3D")
+    channel = lambda name: p.locator(f"#material-card fieldset.channel[data-channel='{name}']")
+    base, rough = channel("base_color"), channel("roughness")
+    expect(base.get_by_label("Base colour", exact=True)).to_have_value("mtlx")
+    expect(base).to_contain_text("From the document: its shader's base_color × base, a graph evaluated at each point of the mesh.")
+    expect(rough.get_by_label("Roughness", exact=True)).to_have_value("constant")
+    expect(rough.get_by_label("Roughness: value", exact=True)).to_have_value("0.1")  # MaterialX's float32, shown as written
+    expect(channel("metallic").get_by_label("Metallic", exact=True)).to_have_value("none")
+    for c in ("base_color", "roughness"):
+        expect(channel(c).locator("img.channel-swatch[data-ready='1']")).to_be_attached(timeout=30000)
+    veins = page.shot("42-mtlx-base-colour", base.locator("img.channel-swatch"))[40:88, 40:88]
+    assert np.ptp(veins.reshape(-1, 3), axis=0).max() > 0.2, np.ptp(veins.reshape(-1, 3), axis=0)  # the marble, not one colour
+    expect(p.locator("#material-sphere[data-ready='1']")).to_be_attached(timeout=30000)
+    lit = page.shot("43-mtlx-sphere", p.locator("#material-sphere"))
+    h, w = lit.shape[:2]
+    middle = lit[h // 4 : h * 3 // 4, w // 4 : w * 3 // 4]
+    assert (np.abs(middle - BACKGROUND).max(axis=2) > 0.05).mean() > 0.95 and middle.std() > 0.03, middle.std()
+
+    # the bake: the document's material sent as the bake's material, named in the result
+    p.set_input_files("#mesh", meshes / "bunny.ply")
+    p.get_by_label("Image size", exact=True).fill("64")
+    with p.expect_request(lambda r: r.method == "POST" and urlsplit(r.url).path == "/v1/jobs") as request:
+        p.get_by_role("button", name="Bake", exact=True).click()
+    sent = sent_settings(request.value)["material"]
+    assert sent["base_color"]["op"] == "mtlx" and sent["base_color"]["path"] == MARBLE_MTLX.name, sent["base_color"].keys()
+    assert sent["base_color"]["document"] == MARBLE_MTLX.read_text()
+    expect(p.locator("#status")).to_contain_text("Done: bunny.ply", timeout=120000)
+    expect(p.locator("#figures")).to_contain_text("Marble_3D", timeout=20000)
+    expect(p.locator("#viewer[data-ready='1']")).to_be_attached(timeout=20000)
+    page.shot("44-mtlx-baked")
+    job = httpx.get(f"{api}/v1/jobs", params={"limit": 1}, timeout=10).json()["jobs"][0]
+    report = httpx.get(f"{api}/v1/jobs/{job['id']}", timeout=10).json()["report"]
+    assert report["material"]["name"] == "Marble_3D" and "base_color" in report["material"]["maps"], report["material"]
+
+
 def test_the_page_at_phone_width(api, browser, tmp_path, meshes):
     # two jobs for the list: one done under a long name (not ASCII), one failed with its reason
     long_name = "suzanne-с-длинным-именем-из-сканера-2024-05-17.ply"

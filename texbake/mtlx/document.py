@@ -20,6 +20,7 @@ inputs first) and, per channel, the op and output it reads (or a constant).
 from __future__ import annotations
 
 import functools
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -99,13 +100,21 @@ def standard_library():
     return lib
 
 
+_INCLUDE = re.compile(r"<\s*[\w.-]+:include\b[^>]*>?", re.I)  # an XInclude element (xi:include, whatever its prefix)
+
+
 def load(source: str | Path, path: str = "<mtlx>"):
     """A MaterialX ``Document`` of a ``.mtlx`` file (a Path) or its XML text, with the
-    standard library as its data library, validated. Raises :class:`MtlxError`."""
+    standard library as its data library, validated. Raises :class:`MtlxError`; for XML
+    text that includes another file (``xi:include``, which MaterialX would read from this
+    machine's disk, whatever the path: the service's documents are given as text)."""
     try:
         import MaterialX as mx
     except ImportError:  # pragma: no cover - the extra is part of [test]
         raise MtlxError(path, "", "reading MaterialX needs the materialx package: pip install texbake[mtlx]") from None
+    if isinstance(source, str) and (include := _INCLUDE.search(source)):  # MaterialX would read it from this machine's disk
+        raise MtlxError(path, "", f"includes another file ({include.group(0)[:120]}): a document given as text reads no "
+                        "other file; put what it includes into the document")
     doc = mx.createDocument()
     try:
         if isinstance(source, Path):

@@ -110,3 +110,39 @@ def channel_values(params, points: np.ndarray, normals: np.ndarray | None, dpdx:
         done = _BATCH.done
     values = evaluate_channel(document, params.channel, Context(points, normals, None, dpdx, dpdy), done)
     return np.ascontiguousarray(_fit(values, 1 if params.kind == "scalar" else 3))
+
+
+def describe_mtlx(text: str, *, path: str = "<mtlx>") -> dict:
+    """What an editor shows of a ``.mtlx`` document's XML ``text`` (``path``: its name in
+    messages and in the material's nodes), before any bake:
+
+    - ``material``: the :class:`texbake.materials.Material` as its JSON object (what the
+      bake's ``material`` setting takes; each graph-driven channel an ``mtlx`` node);
+    - ``shader``: ``{"category", "name"}`` of the surface shader read;
+    - ``channels``: channel -> ``{"inputs": [the shader's inputs it is the product of],
+      "graph": whether it is evaluated at each point (else a constant)}``;
+    - ``warnings``: one line each: the document's other materials, the shader's inputs
+      given but not baked, a base colour left to its default.
+
+    Raises :class:`MtlxError` as :func:`material_from_mtlx` does."""
+    from .document import SHADERS, load
+
+    material = material_from_mtlx(text, path=path)
+    document = _document(text, path)
+    channels = {c: {"inputs": list(document.inputs[c]), "graph": isinstance(v, Ref)} for c, v in document.channels.items()}
+    warnings = []
+    doc = load(text, path)
+    others = [m.getName() for m in doc.getMaterialNodes() if m.getName() != document.material_name]
+    if others:
+        warnings.append(f"the document has {len(others) + 1} materials: texbake reads {document.material_name!r}, "
+                        f"not {', '.join(map(repr, others[:5]))}{' ...' if len(others) > 5 else ''}")
+    shader = doc.getNode(document.shader_name)
+    read = {name for names in SHADERS[document.shader_category].values() for name in names}
+    unbaked = [i.getName() for i in (shader.getInputs() if shader is not None else []) if i.getName() not in read]
+    if unbaked:
+        warnings.append(f"{document.shader_category} inputs not baked (texbake bakes {', '.join(sorted(read))}): "
+                        f"{', '.join(unbaked)}; the .mtlx a bake writes keeps them as they are")
+    if "base_color" not in document.channels:
+        warnings.append("the shader gives no base colour: the material's is 0.8 grey")
+    return {"material": material.model_dump(mode="json"), "shader": {"category": document.shader_category,
+            "name": document.shader_name}, "channels": channels, "warnings": warnings}

@@ -21,7 +21,7 @@ from texbake.version import __version__
 
 from .api import jsondepth
 from .api.problems import request_problems
-from .api.routes import inspect, jobs, meta, swatch
+from .api.routes import inspect, jobs, meta, mtlx, swatch
 from .api.routes.page import add_page
 from .api.schemas import Problem
 from .core.config import get_settings
@@ -198,6 +198,7 @@ def create_app() -> FastAPI:
     app.include_router(inspect.router)
     app.include_router(meta.router)
     app.include_router(swatch.router)
+    app.include_router(mtlx.router)
     add_page(app)  # the web page at /
 
     @app.exception_handler(BakeError)

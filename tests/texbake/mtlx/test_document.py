@@ -176,3 +176,19 @@ def test_colour_constants_through_their_colour_space(space, expected):
 def test_unknown_colour_space():
     with pytest.raises(MtlxError, match=r"node 'SR': colour space 'bogus' has no transform to lin_rec709 .*\(it has: acescg, "):
         read_document(document("", '<input name="base_color" type="color3" value="0.5, 0.2, 0.02" colorspace="bogus" />'))
+
+
+def test_an_include_in_text_is_refused_before_materialx_reads_it(tmp_path):
+    """MaterialX follows an xi:include in XML text to any path on this machine (the service's
+    documents are text): refused, naming it, even where the file it names is a document."""
+    included = tmp_path / "red.mtlx"
+    included.write_text(document("", '<input name="base_color" type="color3" value="1, 0, 0" />'))
+    text = f'<?xml version="1.0"?>\n<materialx version="1.39">\n  <xi:include href="{included}" />\n</materialx>'
+    with pytest.raises(MtlxError, match=r"^doc.mtlx: includes another file \(<xi:include href=.*red.mtlx\" />\): a document given as "
+                                         "text reads no other file"):
+        read_document(text, path="doc.mtlx")
+    import MaterialX as mx
+
+    doc = mx.createDocument()
+    mx.readFromXmlString(doc, text)  # what it would have read: the included shader
+    assert [n.getName() for n in doc.getNodes()] == ["SR", "M"]

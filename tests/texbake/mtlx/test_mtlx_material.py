@@ -132,3 +132,30 @@ def test_a_node_two_channels_read_is_evaluated_once_a_batch(monkeypatch):
     alone = evaluate_material(m, p, bounds=[[-1] * 3, [1] * 3], channels=["roughness"])
     assert len(calls) == 6
     np.testing.assert_array_equal(both["roughness"], alone["roughness"])
+
+
+def test_describe_mtlx_is_what_an_editor_shows():
+    """The marble: its material (the one material_from_mtlx makes), shader, each channel's
+    inputs (graph or constant), the subsurface inputs it gives but texbake does not bake;
+    a document of two materials and no base colour warns of both."""
+    from texbake.mtlx.material import describe_mtlx
+
+    text = MARBLE.read_text()
+    got = describe_mtlx(text, path="marble.mtlx")
+    assert got["material"] == material_from_mtlx(text, path="marble.mtlx").model_dump(mode="json")
+    assert got["shader"] == {"category": "standard_surface", "name": "SR_marble1"}
+    assert got["channels"] == {"base_color": {"inputs": ["base_color", "base"], "graph": True},
+                               "roughness": {"inputs": ["specular_roughness"], "graph": False}}
+    assert len(got["warnings"]) == 1 and got["warnings"][0].endswith(
+        ": subsurface, subsurface_color; the .mtlx a bake writes keeps them as they are"), got["warnings"]
+    two = """<?xml version="1.0"?>
+<materialx version="1.39">
+  <gltf_pbr name="A" type="surfaceshader"><input name="roughness" type="float" value="0.3" /></gltf_pbr>
+  <gltf_pbr name="B" type="surfaceshader"><input name="metallic" type="float" value="1" /></gltf_pbr>
+  <surfacematerial name="MA" type="material"><input name="surfaceshader" type="surfaceshader" nodename="A" /></surfacematerial>
+  <surfacematerial name="MB" type="material"><input name="surfaceshader" type="surfaceshader" nodename="B" /></surfacematerial>
+</materialx>"""
+    got = describe_mtlx(two, path="two.mtlx")
+    assert got["material"]["name"] == "MA" and got["material"]["roughness"] == pytest.approx(0.3)
+    assert got["warnings"] == ["the document has 2 materials: texbake reads 'MA', not 'MB'",
+                               "the shader gives no base colour: the material's is 0.8 grey"]

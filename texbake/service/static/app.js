@@ -5,7 +5,7 @@ import * as THREE from "three";
 import { GLTFLoader } from "three/addons/loaders/GLTFLoader.js";
 import { OrbitControls } from "three/addons/controls/OrbitControls.js";
 import { RoomEnvironment } from "three/addons/environments/RoomEnvironment.js";
-import { MATERIAL_WORDS, SETTING_WORDS, TEXTURE_NAMES, TEXTURE_WORDS, wordsFor } from "./words.js";
+import { MATERIAL_WORDS, MTLX_WORDS, SETTING_WORDS, TEXTURE_NAMES, TEXTURE_WORDS, wordsFor } from "./words.js";
 
 const $ = (id) => document.getElementById(id);
 function el(tag, props = {}, ...children) { // an element with properties and children (false and null left out)
@@ -429,8 +429,10 @@ const isMask = (v) => isMaskSource(v) || (isPlain(v) && v.op === "invert" && onl
 const isInput = (v, colour) => isConstant(v) || isTexture(v, colour);
 const isLayers = (v, colour) => isPlain(v) && v.op === "mix" && onlyKeys(v, ["op", "a", "b", "mask"]) && isInput(v.b, colour) && isMask(v.mask)
   && (isInput(v.a, colour) || isLayers(v.a, colour));
+const isMtlx = (v) => isPlain(v) && v.op === "mtlx"; // a channel of a MaterialX document (its graph, evaluated by the server)
 function kindOf(value, colour) {
   if (value == null) return "none";
+  if (isMtlx(value)) return "mtlx";
   return isConstant(value) ? "constant" : isTexture(value, colour) ? "texture" : isLayers(value, colour) ? "layers" : "json";
 }
 
@@ -462,7 +464,8 @@ function constantInput(label, value, colour, fallback) {
   const id = `m${++ids}`;
   const start = value ?? fallback;
   const input = colour ? el("input", { id, type: "color", value: hex([start].flat().length === 3 ? start : [start, start, start]) })
-    : el("input", { id, type: "number", step: "any", value: start });
+    // a number shown to a float32's digits (a MaterialX value's 0.1, not 0.10000000149), sent as given until edited
+    : el("input", { id, type: "number", step: "any", value: typeof start === "number" ? Number(start.toPrecision(7)) : start });
   const read = colour ? () => linear(input.value) : () => (Number.isFinite(input.valueAsNumber) ? input.valueAsNumber : input.value);
   let touched = false;
   input.addEventListener("input", () => { touched = true; materialChanged(); });
@@ -578,7 +581,8 @@ function readJson(text, what) {
 const CHANNEL_KINDS = { none: "Not given (the default)", constant: "A constant", texture: "A texture", layers: "Layers through masks", json: "An expression (JSON)" };
 function channelEditor(channel, value) {
   const colour = isColourChannel(channel), words = MATERIAL_WORDS.channels[channel];
-  const kinds = channel === "base_color" ? Object.fromEntries(Object.entries(CHANNEL_KINDS).filter(([k]) => k !== "none")) : CHANNEL_KINDS;
+  const all = isMtlx(value) ? { mtlx: MTLX_WORDS.kind, ...CHANNEL_KINDS } : CHANNEL_KINDS; // the document's graph, while chosen
+  const kinds = channel === "base_color" ? Object.fromEntries(Object.entries(all).filter(([k]) => k !== "none")) : all;
   const img = el("img", { className: "channel-swatch", width: 128, height: 128, alt: `the ${words} on a sphere` });
   img.dataset.channel = channel;
   const error = el("p", { className: "error", role: "alert" });
@@ -587,6 +591,7 @@ function channelEditor(channel, value) {
     if (kind === "constant") return constantInput(`${words}: value`, v, colour, materialCatalogue.defaults[channel]);
     if (kind === "texture") return textureInput(`${words}: texture`, ["material", channel, "texture"], v, colour);
     if (kind === "layers") return layersInput(channel, v, colour);
+    if (kind === "mtlx") return mtlxInput(channel, value);
     return jsonInput(`${words}: expression`, v ?? materialCatalogue.defaults[channel]);
   });
   fields.set(`material.${channel}`, { input: editor.select, error });
@@ -596,12 +601,19 @@ function channelEditor(channel, value) {
   return { element, get: editor.get, img };
 }
 
+// A channel of the MaterialX document loaded: what of its shader it is (nothing to edit: the graph is the document's)
+function mtlxInput(channel, value) {
+  const { inputs = [value.channel], graph = true } = mtlxLoaded?.channels[channel] ?? {};
+  return { element: el("p", { className: "hint", textContent: MTLX_WORDS.channel(inputs, graph) }), get: () => value };
+}
+
 function chooseMaterial(choice) {
   for (const path of [...fields.keys()]) if (path.startsWith("material.")) fields.delete(path);
   clearErrors("material");
   channelEditors = {};
   $("material-channels").replaceChildren();
-  const given = choice === "" ? null : choice === "new" ? { name: "my_material", base_color: [0.8, 0.8, 0.8] } : materialCatalogue.materials.find((m) => m.name === choice);
+  const given = choice === "" ? null : choice === "new" ? { name: "my_material", base_color: [0.8, 0.8, 0.8] }
+    : choice === "mtlx" ? mtlxLoaded.material : materialCatalogue.materials.find((m) => m.name === choice);
   $("material-editor").hidden = !given;
   $("material-about").textContent = given ? `${given.description || "A material of your own: give each channel a constant, a texture or layers."} The bake takes it in place of the texture (2. Texture).` : "Bake the texture (2. Texture) into an albedo map.";
   if (!given) { mapsSummary(); return; }
@@ -618,6 +630,36 @@ function chooseMaterial(choice) {
   }
   materialChanged(0);
 }
+
+// ---- a MaterialX document in the editor ------------------------------------------------
+// POST /v1/materials/mtlx reads it (nothing kept): its material, as the bake's `material`
+// takes it, is the editor's choice "Name (from file.mtlx)"; its graph-driven channels are
+// `mtlx` nodes the server evaluates, for the swatches and the bake alike.
+let mtlxLoaded = null; // the server's answer for the document last read
+async function loadMtlx(file) {
+  clearErrors("mtlx");
+  $("mtlx-warnings").replaceChildren();
+  if (!file) return;
+  const limit = materialCatalogue.mtlx_max_bytes;
+  if (file.size > limit) {
+    $("mtlx-hint").textContent = "";
+    return showError({ body: { detail: `mtlx: ${MTLX_WORDS.tooLarge(file.name, kilobytes(file.size), kilobytes(limit))}` } }, "mtlx");
+  }
+  $("mtlx-hint").textContent = MTLX_WORDS.reading(file.name);
+  const body = new FormData();
+  body.append("mtlx", file);
+  try { mtlxLoaded = await json("/v1/materials/mtlx", { method: "POST", body }); } catch (error) {
+    $("mtlx-hint").textContent = MTLX_WORDS.hint(kilobytes(limit));
+    return showError(error, "mtlx");
+  }
+  $("mtlx-hint").textContent = MTLX_WORDS.read(mtlxLoaded);
+  $("mtlx-warnings").replaceChildren(...mtlxLoaded.warnings.map((w) => el("li", { textContent: w })));
+  const option = $("material").querySelector("option[value='mtlx']") ?? $("material").appendChild(el("option", { value: "mtlx" }));
+  option.textContent = MTLX_WORDS.option(mtlxLoaded);
+  $("material").value = "mtlx";
+  chooseMaterial("mtlx");
+}
+const kilobytes = (n) => `${Math.ceil(n / 1024)} kB`;
 
 // The material object the editor shows (null: none chosen). Throws {body: {detail}} (as
 // showError takes) for JSON that does not read, naming the channel
@@ -1162,6 +1204,7 @@ async function start() {
   fields.set("jobs", { input: null, error: $("jobs-error") });
   fields.set("material", { input: $("material"), error: $("material-error") });
   fields.set("material.nodes", { input: $("material-nodes"), error: $("material-nodes-error") });
+  fields.set("mtlx", { input: $("mtlx"), error: $("mtlx-error") });
   let textures;
   [config, textures, materialCatalogue] = await Promise.all([json("/v1/config"), json("/v1/textures"), json("/v1/materials")]);
   catalogue = textures.textures;
@@ -1197,6 +1240,9 @@ async function start() {
     ...materialCatalogue.materials.map((m) => el("option", { value: m.name, textContent: SETTING_WORDS.material.options[m.name] ?? m.name })),
     el("option", { value: "new", textContent: MATERIAL_WORDS.new }));
   $("material").addEventListener("change", () => chooseMaterial($("material").value));
+  $("mtlx-label").textContent = MTLX_WORDS.label;
+  $("mtlx-hint").textContent = MTLX_WORDS.hint(kilobytes(materialCatalogue.mtlx_max_bytes));
+  $("mtlx").addEventListener("change", () => loadMtlx($("mtlx").files[0]));
   for (const id of ["material-name", "material-height-scale", "material-nodes"]) $(id).addEventListener("input", () => materialChanged(400));
   chooseMaterial("");
   $("texture").addEventListener("change", () => buildTexture($("texture").value));

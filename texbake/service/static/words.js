@@ -68,6 +68,19 @@ export const MATERIAL_WORDS = {
     height: "Height", occlusion: "Ambient occlusion", emissive: "Emission", opacity: "Opacity" },
 };
 
+// A MaterialX document loaded into the material editor (POST /v1/materials/mtlx)
+export const MTLX_WORDS = {
+  label: "Or load a MaterialX document (.mtlx)",
+  hint: (limit) => `A .mtlx whose surface shader is a standard_surface, gltf_pbr, open_pbr_surface or UsdPreviewSurface, up to ${limit}: `
+    + "its procedural graphs (noise, fractal, cell and Worley noise, math) are baked onto the mesh, at each point of its surface.",
+  reading: (name) => `Reading ${name}…`,
+  read: (answer) => `${answer.file}: the material ${answer.name}, its ${answer.shader.category} ${answer.shader.name}.`,
+  option: (answer) => `${answer.name} (from ${answer.file})`,
+  tooLarge: (name, size, limit) => `${name} is ${size}: larger than this server's limit of ${limit} for a MaterialX document`,
+  kind: "The document's graph",
+  channel: (inputs, graph) => `From the document: its shader's ${inputs.join(" × ")}, ${graph ? "a graph evaluated at each point of the mesh" : "a value"}.`,
+};
+
 const OCTAVES = {
   basis: { label: "Noise basis", options: { value: "Value noise", perlin: "Perlin (gradient) noise" } },
   interpolation: { label: "Interpolation", options: { linear: "Linear", cubic: "Cubic", "catmull-rom": "Catmull-Rom" }, hint: "Value noise only." },

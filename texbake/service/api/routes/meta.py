@@ -13,6 +13,7 @@ from ...health import ready
 from ..deps import SettingsDep
 from ..schemas import BakeSettings, ServerConfig, ServerLimits
 from ..uploads import COMPANION_FORMATS, MAX_COMPANIONS, UPLOAD_FORMATS
+from .mtlx import MAX_BYTES as MTLX_MAX_BYTES
 
 router = APIRouter(tags=["meta"])
 
@@ -27,8 +28,10 @@ def materials():
     """The built-in materials, each as its JSON object (what the bake's ``material`` takes,
     by name or as the object); the channels, each ``scalar`` or ``colour``, and the value
     of one a material does not give; the textures that have a value (a scalar) as well as a
-    colour: what the page's material editor starts from."""
-    return {"materials": list(BUILTINS.values()), "channels": CHANNELS, "defaults": DEFAULTS, "valued": list(VALUED)}
+    colour: what the page's material editor starts from; the largest MaterialX document
+    ``POST /v1/materials/mtlx`` reads (``mtlx_max_bytes``)."""
+    return {"materials": list(BUILTINS.values()), "channels": CHANNELS, "defaults": DEFAULTS, "valued": list(VALUED),
+            "mtlx_max_bytes": MTLX_MAX_BYTES}
 
 
 @router.get("/v1/config", response_model=ServerConfig)
