@@ -180,8 +180,8 @@ def _simplified_reference(points, tolerance):
         i, j = stack.pop()
         if j - i < 2:
             continue
-        a, b = points[i], points[j % n]
-        inner, d = points[i + 1:j], points[j % n] - points[i]
+        a = points[i]
+        inner, d = points[i + 1:j], points[j % n] - a
         length = np.hypot(*d)
         dist = (np.abs(d[0] * (inner[:, 1] - a[1]) - d[1] * (inner[:, 0] - a[0])) / length if length > 0
                 else np.linalg.norm(inner - a, axis=1))
