@@ -13,6 +13,7 @@ void bind_materials(nb::module_&);
 namespace texbake {
 void bind_accumulate(nb::module_&);
 void bind_build_info(nb::module_&);
+void bind_charts(nb::module_&);
 void bind_components(nb::module_&);
 void bind_embree(nb::module_&);
 void bind_frames(nb::module_&);
@@ -33,6 +34,7 @@ NB_MODULE(_native, m) {
   bind_textures(m);
   texbake::materials::bind_materials(m);
   texbake::bind_build_info(m);
+  texbake::bind_charts(m);
   texbake::bind_components(m);
   texbake::bind_embree(m);
   texbake::bind_geometry(m);

@@ -7,7 +7,8 @@ whose texel density falls off with the cosine of the angle to its projection dir
 at most ``ANGLE_LIMIT``. The charts are laid out side by side, apart, one UV mesh for
 xatlas' packer (``texbake.atlas.packworker.pack``), which places them all at one density.
 
-numpy and the compiled kernels (:mod:`texbake.mesh.components`, :mod:`texbake.atlas.uvcheck`).
+numpy and the compiled kernels (:mod:`texbake.mesh.components`, :mod:`texbake.atlas.uvcheck`, and
+``native/charts.cpp``: the faces sharing an edge, a chart's outline and its simplification).
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import _native
 from ..mesh import DisjointSets, areas, connected_components
 
 ANGLE_LIMIT = 66.0  # degrees between a face's normal and its chart's direction, at most (Blender's default)
@@ -140,21 +142,17 @@ def _face_normals(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, 
 
 
 def _edge_pairs(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(a, b)``: pairs of faces that share an edge (a non-manifold edge gives a chain)."""
-    m = len(faces)
-    e = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1).astype(np.int64)  # (3m, 2)
-    key = e[:, 0] * (int(faces.max()) + 1) + e[:, 1]
-    owner = np.repeat(np.arange(m), 3)
-    order = np.argsort(key, kind="stable")
-    same = key[order][1:] == key[order][:-1]  # consecutive half-edges on one edge
-    return owner[order][:-1][same], owner[order][1:][same]
+    """``(a, b)`` (e,) int64: pairs of faces that share an edge (a non-manifold edge gives a
+    chain), ordered by the edge's ends, then the half-edge (``native/charts.cpp``)."""
+    return _native.edge_pairs(np.ascontiguousarray(faces, dtype=np.int64))
 
 
-def _islands(faces: np.ndarray, labels: np.ndarray) -> np.ndarray:
-    """``(m,)`` island id of each face: faces of one label joined across shared edges."""
-    a, b = _edge_pairs(faces)
+def _islands(pairs: tuple[np.ndarray, np.ndarray], labels: np.ndarray) -> np.ndarray:
+    """``(m,)`` island id of each face: faces of one label joined across shared edges
+    (``pairs``: :func:`_edge_pairs` of the faces, made once for every round)."""
+    a, b = pairs
     keep = labels[a] == labels[b]
-    return connected_components(len(faces), a[keep], b[keep])
+    return connected_components(len(labels), a[keep], b[keep])
 
 
 def _basis(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -184,17 +182,16 @@ def _assign(normals: np.ndarray, weights: np.ndarray, dirs: np.ndarray, cos_limi
     return dirs, label
 
 
-def _absorb_crumbs(faces, normals, weights, dirs, group, rounds: int = 3):
+def _absorb_crumbs(pairs, normals, weights, dirs, group, rounds: int = 3):
     """``group`` with the faces of crumbs (charts of under ``CRUMB_FACES`` faces, which a
     noisy scan scatters along every border between directions) moved to a neighbouring
     chart's direction, the one nearest their normal if within ``CRUMB_LIMIT`` degrees.
     Fewer, larger charts: far less padding, so far more texels, at low resolutions. Only
     for smooth meshes: a CAD part's small charts are its facets."""
-    a, b = _edge_pairs(faces)
-    a, b = np.concatenate([a, b]), np.concatenate([b, a])  # both ways: a takes from b
+    a, b = np.concatenate(pairs), np.concatenate(pairs[::-1])  # both ways: a takes from b
     cos_limit = np.cos(np.radians(CRUMB_LIMIT))
     for _ in range(rounds):
-        island = _islands(faces, group)
+        island = _islands(pairs, group)
         small = np.bincount(island)[island] < CRUMB_FACES
         take = small[a] & (group[a] != group[b])
         if not take.any():
@@ -232,13 +229,15 @@ def planar_charts(vertices: np.ndarray, faces: np.ndarray, angle_limit: float = 
 
     dirs = directions(normals, weights, angle_limit)
     dirs, group = _assign(normals, weights, dirs, np.cos(np.radians(angle_limit)))  # each face's direction
+    pairs = _edge_pairs(faces)
     total = weights.sum()
     if total > 0 and weights[np.einsum("ij,ij->i", normals, dirs[group]) > FLAT_COS].sum() < CRUMB_FLAT * total:
-        group = _absorb_crumbs(faces, normals, weights, dirs, group)
+        group = _absorb_crumbs(pairs, normals, weights, dirs, group)
     centroids = vertices[faces].mean(axis=1)
+    bases = np.array([np.stack(_basis(d)) for d in dirs])  # (d, 2, 3): each direction's plane, kept beside dirs
     for attempt in range(SPLITS + 1):
-        island = _islands(faces, group)
-        vmapping, chart_faces, uv = _project(vertices, faces, island, group, dirs)
+        island = _islands(pairs, group)
+        vmapping, chart_faces, uv = _project(vertices, faces, island, group, bases)
         if attempt == SPLITS:
             break
         lo, hi = uv.min(axis=0), uv.max(axis=0)
@@ -254,26 +253,28 @@ def planar_charts(vertices: np.ndarray, faces: np.ndarray, angle_limit: float = 
                 axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
                 part = members[c[:, axis] > np.median(c[:, axis])]
             dirs = np.concatenate([dirs, dirs[group[part[:1]]]])
+            bases = np.concatenate([bases, bases[group[part[:1]]]])
             group[part] = len(dirs) - 1
     if attempt:  # something was cut: join the pieces that need not be apart
         lo, hi = uv.min(axis=0), uv.max(axis=0)
-        island = _merge_cuts(vertices, faces, island, group, dirs, float((hi - lo).max()), grid)
-        vmapping, chart_faces, uv = _project(vertices, faces, island, group, dirs)
+        island = _merge_cuts(vertices, faces, pairs, island, group, (dirs, bases), float((hi - lo).max()), grid)
+        vmapping, chart_faces, uv = _project(vertices, faces, island, group, bases)
     best = np.einsum("ij,ij->i", normals, dirs[group])
     flat = float(weights[best > FLAT_COS].sum() / total) if total > 0 else 0.0
     return Charts(vmapping, chart_faces, uv, island, dirs, flat)
 
 
-def _merge_cuts(vertices, faces, island, group, dirs, scale, grid):
+def _merge_cuts(vertices, faces, pairs, island, group, planes, scale, grid):
     """``island`` with neighbouring islands of one direction (pieces that cutting made)
     joined again wherever their union does not overlap itself on the texel raster
     (``scale`` mesh units to ``grid`` texels), the smallest pairs first. Bisection cuts
     where the overlap is not, so without this a part keeps a fifth more charts than it
     needs (featuretype.STL: 146 against 103). The faces rasterised are bounded by
-    ``MERGE_WORK`` times the mesh's."""
+    ``MERGE_WORK`` times the mesh's. ``planes``: the directions and their :func:`_basis`."""
     from .uvcheck import overlapping_faces
 
-    a, b = _edge_pairs(faces)
+    dirs, bases = planes
+    a, b = pairs
     same = (island[a] != island[b]) & (dirs[group[a]] == dirs[group[b]]).all(axis=1)
     pairs = np.unique(np.sort(np.column_stack([island[a][same], island[b][same]]), axis=1), axis=0)
     n = int(island.max()) + 1
@@ -290,7 +291,7 @@ def _merge_cuts(vertices, faces, island, group, dirs, scale, grid):
         if rx == ry or len(union) > budget:
             continue
         budget -= len(union)
-        p = vertices[faces[union]].reshape(-1, 3) @ np.stack(_basis(dirs[direction[rx]])).T
+        p = vertices[faces[union]].reshape(-1, 3) @ bases[direction[rx]].T
         p = (p - p.min(axis=0)) * (grid / scale)  # in texels
         side = int(np.ceil(p.max())) + 2
         if overlapping_faces(p / side, np.arange(len(p)).reshape(-1, 3), side).any():
@@ -299,16 +300,15 @@ def _merge_cuts(vertices, faces, island, group, dirs, scale, grid):
     return sets.labels()[island]
 
 
-def _project(vertices, faces, island, group, dirs):
+def _project(vertices, faces, island, group, bases):
     """``(vmapping, chart faces, uv)``: each island projected on the plane of its direction
-    and moved apart from the others (:func:`_apart`)."""
+    (``bases`` (d, 2, 3): :func:`_basis` of each) and moved apart from the others (:func:`_apart`)."""
     n = len(vertices)
     keys, inverse = np.unique(island[:, None] * n + faces, return_inverse=True)
     vmapping = keys % n
     vertex_island = keys // n
     island_dir = np.zeros(int(island.max()) + 1, dtype=np.int64)
     island_dir[island] = group
-    bases = np.array([np.stack(_basis(d)) for d in dirs])  # (d, 2, 3)
     b = bases[island_dir[vertex_island]]  # (k, 2, 3)
     uv = np.einsum("kij,kj->ki", b, vertices[vmapping])
     return vmapping, inverse.reshape(-1, 3), _apart(uv, vertex_island)
@@ -395,29 +395,9 @@ def prefer_planar(vertices: np.ndarray, faces: np.ndarray) -> tuple[bool, str]:
 
 
 def _simplified(points: np.ndarray, tolerance: float) -> np.ndarray:
-    """Indices of a closed loop's ``(n, 2)`` points kept by Douglas-Peucker at ``tolerance``
-    (at least three)."""
-    n = len(points)
-    far = int(np.argmax(np.linalg.norm(points - points[0], axis=1)))
-    keep = np.zeros(n, dtype=bool)
-    keep[[0, far]] = True
-    stack = [(0, far), (far, n)]  # chains i..j (j == n: back to 0)
-    while stack:
-        i, j = stack.pop()
-        if j - i < 2:
-            continue
-        a, b = points[i], points[j % n]
-        inner = points[i + 1:j]
-        d = b - a
-        length = np.hypot(*d)
-        dist = np.abs(d[0] * (inner[:, 1] - a[1]) - d[1] * (inner[:, 0] - a[0])) / length if length > 0 else np.linalg.norm(inner - a, axis=1)
-        worst = int(np.argmax(dist))
-        if dist[worst] > tolerance:
-            keep[i + 1 + worst] = True
-            stack += [(i, i + 1 + worst), (i + 1 + worst, j)]
-    if keep.sum() < 3:
-        keep[np.linspace(0, n - 1, 3).astype(int)] = True
-    return np.flatnonzero(keep)
+    """``(j,)`` int64 indices of a closed loop's ``(n, 2)`` points (n >= 3) kept by
+    Douglas-Peucker at ``tolerance``, ascending (at least three; ``native/charts.cpp``)."""
+    return _native.simplified(np.ascontiguousarray(points, dtype=np.float64), float(tolerance))
 
 
 def outline_triangles(uv: np.ndarray, faces: np.ndarray, tolerance: float = 0.0) -> np.ndarray | None:
@@ -429,27 +409,12 @@ def outline_triangles(uv: np.ndarray, faces: np.ndarray, tolerance: float = 0.0)
     more than the simplification allows (the chart overlaps itself)."""
     import mapbox_earcut
 
-    directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    n = int(faces.max()) + 1
-    key = directed[:, 0] * n + directed[:, 1]
-    border = directed[~np.isin(key, directed[:, 1] * n + directed[:, 0])]  # edges no neighbour shares
-    if len(border) == 0 or len(np.unique(border[:, 0])) != len(border):
+    found = _native.outline_loops(np.ascontiguousarray(faces, dtype=np.int64))  # edges no neighbour shares, walked
+    if found is None:
         return None
-    after = dict(zip(border[:, 0].tolist(), border[:, 1].tolist(), strict=True))
-    loops, seen = [], set()
-    for start in after:
-        if start in seen:
-            continue
-        loop, v = [], start
-        while v not in seen:
-            seen.add(v)
-            loop.append(v)
-            v = after.get(v, -1)
-            if v < 0:
-                return None
-        if v != start:
-            return None
-        loops.append(np.array(loop))
+    ring, lengths = found
+    loops = np.split(ring, np.cumsum(lengths)[:-1])
+
     def signed(loop):
         p = uv[loop]
         return 0.5 * float(np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1]))

@@ -154,3 +154,79 @@ def test_a_double_sided_mesh_gets_one_chart_per_surface():
     assert np.allclose(two.uv[two.faces[12:]], two.uv[two.faces[:12]][:, ::-1])
     assert two.stats["double_sided_faces"] == 12 and "12 back faces" in two.reason
     assert two.stats["charts"] == 6 and two.stats["utilisation"] == pytest.approx(one.stats["utilisation"], rel=0.01)
+
+
+# -- the compiled loops (native/charts.cpp) against the numpy they replaced ----------
+
+
+def _edge_pairs_reference(faces):
+    """The numpy of texbake before native/charts.cpp: a stable argsort of the edges' keys."""
+    e = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1).astype(np.int64)
+    key = e[:, 0] * (int(faces.max()) + 1) + e[:, 1]
+    owner = np.repeat(np.arange(len(faces)), 3)
+    order = np.argsort(key, kind="stable")
+    same = key[order][1:] == key[order][:-1]
+    return owner[order][:-1][same], owner[order][1:][same]
+
+
+def _simplified_reference(points, tolerance):
+    """Douglas-Peucker as texbake's numpy did it, the chains in a Python loop."""
+    n = len(points)
+    far = int(np.argmax(np.linalg.norm(points - points[0], axis=1)))
+    keep = np.zeros(n, dtype=bool)
+    keep[[0, far]] = True
+    stack = [(0, far), (far, n)]
+    while stack:
+        i, j = stack.pop()
+        if j - i < 2:
+            continue
+        a = points[i]
+        inner, d = points[i + 1:j], points[j % n] - a
+        length = np.hypot(*d)
+        dist = (np.abs(d[0] * (inner[:, 1] - a[1]) - d[1] * (inner[:, 0] - a[0])) / length if length > 0
+                else np.linalg.norm(inner - a, axis=1))
+        worst = int(np.argmax(dist))
+        if dist[worst] > tolerance:
+            keep[i + 1 + worst] = True
+            stack += [(i, i + 1 + worst), (i + 1 + worst, j)]
+    if keep.sum() < 3:
+        keep[np.linspace(0, n - 1, 3).astype(int)] = True
+    return np.flatnonzero(keep)
+
+
+def test_edge_pairs_are_the_sorted_half_edges_pairs_in_their_order():
+    from texbake.atlas.charts import _edge_pairs
+
+    rng = np.random.default_rng(5)
+    for _ in range(100):  # soups with repeated, non-manifold and degenerate edges
+        faces = rng.integers(0, rng.integers(3, 50), size=(rng.integers(1, 200), 3))
+        got, want = _edge_pairs(faces), _edge_pairs_reference(faces)
+        assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+    faces = trimesh.creation.icosphere(2).faces
+    a, b = _edge_pairs(faces)
+    assert len(a) == 3 * len(faces) // 2  # closed manifold: one pair an edge
+
+
+def test_simplified_keeps_the_points_douglas_peucker_keeps():
+    from texbake.atlas.charts import _simplified
+
+    rng = np.random.default_rng(6)
+    for trial in range(100):
+        points = rng.normal(size=(rng.integers(3, 120), 2))
+        if trial % 3 == 0:
+            points = np.round(points, 1)  # repeated points: chords of no length
+        for tolerance in (0.0, 0.05, 0.5, 5.0):
+            assert np.array_equal(_simplified(points, tolerance), _simplified_reference(points, tolerance))
+    square = np.array([[0, 0], [0.5, 1e-9], [1, 0], [1, 1], [0, 1]], dtype=float)
+    assert _simplified(square, 1e-6).tolist() == [0, 2, 3, 4]  # the point on an edge goes
+
+
+def test_an_outline_that_touches_itself_is_refused():
+    from texbake.atlas.charts import outline_triangles
+
+    uv = np.array([[0, 0], [1, 0], [0, 1], [-1, 0], [0, -1]], dtype=float)
+    bowtie = np.array([[0, 1, 2], [0, 3, 4]])  # two triangles meeting at vertex 0
+    assert outline_triangles(uv, bowtie) is None
+    square = np.array([[0, 1, 2], [1, 3, 2]])
+    tri = outline_triangles(np.array([[0, 0], [1, 0], [0, 1], [1, 1]], dtype=float), square)
+    assert tri is not None and len(tri) == 2
