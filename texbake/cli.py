@@ -238,7 +238,8 @@ _SHORT = {"texture": "-t", "size": "-s", "quality": "-q", "format": "-f"}
 _LISTS = {"size": "N, or W,H", "light": "X,Y,Z", "frames": "T0,T1,... or START:STOP:COUNT",
           "texture": "a name, JSON, or a .json/.yaml spec file", "bump": "a name, JSON, or a .json/.yaml spec file",
           "material": "a built-in's name, JSON, a .json/.yaml material file or a MaterialX .mtlx",
-          "packing": "names or templates, comma-separated: orm,hdrp-mask; JSON; or a .json/.yaml file"}
+          "packing": "names or templates, comma-separated: orm,hdrp-mask; JSON; or a .json/.yaml file",
+          "maps": "comma-separated: ao,curvature,..."}
 
 
 def _option_type(annotation) -> tuple[type, list[str]]:
@@ -291,6 +292,8 @@ def _given(options: dict) -> dict:
     for name in ("light", "frames"):
         if name in given:
             given[name] = _floats(given[name], name)
+    if "maps" in given:  # a list, comma-separated; each name is checked by the settings
+        given["maps"] = [m.strip() for m in given["maps"].split(",") if m.strip()]
     return given
 
 

@@ -32,7 +32,9 @@ from .errors import ParameterError
 from .maps import Maps
 from .maps import estimate as estimate_stage
 from .maps import margin as margin_stage
+from . import meshmaps
 from .memory import check_fits
+from .meshmaps import Scenes
 from .mesh import LoadedMesh, load_mesh, mesh_from_trimesh, split_normals, vertex_tangents
 from .output import BakeTally, bake_report
 from .sampling import Sampler, adaptive, sample_offsets, sample_uv, tiles
@@ -303,17 +305,19 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
     say(0.05)
     store = None if cache is None else cache if isinstance(cache, AtlasCache) else AtlasCache(cache)
     baked: list[BakedSet] = []
+    scenes = Scenes()  # the mesh maps' ray scenes, built once a bake
     for i, texture_set in enumerate(sets):  # set i's share of the progress after loading
-        baked += _bake_set(texture_set, _bounds(mesh), src, timer, workers, tile_samples, store, _share(say, i, len(sets)))
+        baked += _bake_set(texture_set, (mesh, scenes), src, timer, workers, tile_samples, store, _share(say, i, len(sets)))
     report = bake_report(settings, mesh, baked, source=src, cage=_reach(mesh, settings), seconds=timer.seconds)
     say(1.0)
     return BakeResult(baked, report, settings)
 
 
-def _bake_set(texture_set: TextureSet, bounds: tuple[np.ndarray, np.ndarray], src: LoadedMesh | None, timer: Timer, workers: int,
+def _bake_set(texture_set: TextureSet, whole: tuple[LoadedMesh, Scenes], src: LoadedMesh | None, timer: Timer, workers: int,
               tile_samples: int, store: AtlasCache | None, say: Callable[[float], None]) -> list[BakedSet]:
-    """One texture set's bake: its atlas, its output mesh, and each of its tiles' maps."""
-    mesh, settings = texture_set.mesh, texture_set.settings
+    """One texture set's bake: its atlas, its output mesh, and each of its tiles' maps
+    (``whole``: the bake's mesh and its mesh maps' ray scenes)."""
+    mesh, settings, bounds = texture_set.mesh, texture_set.settings, _bounds(whole[0])
     with timer.stage("atlas"):
         atlas, key = _atlas(mesh, settings, workers, store)
     mapping = TextureMapping.for_mesh(*bounds, settings.texture_space, settings.precision)  # the whole mesh's: one field
@@ -322,27 +326,32 @@ def _bake_set(texture_set: TextureSet, bounds: tuple[np.ndarray, np.ndarray], sr
     out = []
     parts = set_tiles(mesh, atlas, baked)
     for i, tile in enumerate(parts):
-        images, covered, filled, tally = _bake_tile(tile, bounds, mapping, src, settings, timer, workers, tile_samples,
+        images, covered, filled, tally = _bake_tile(tile, whole, mapping, src, settings, timer, workers, tile_samples,
                                                     None if store is None else (store, key), _share(say, i, len(parts)))
         out.append(BakedSet(texture_set.name, tile.number, images, covered, filled, tile.baked, settings,  # type: ignore[arg-type]
                             texture_set.materials, atlas, tally, texture_set.warnings))
     return out
 
 
-def _bake_tile(tile: Tile, bounds: tuple[np.ndarray, np.ndarray], mapping: TextureMapping, src: LoadedMesh | None,
+def _bake_tile(tile: Tile, whole: tuple[LoadedMesh, Scenes], mapping: TextureMapping, src: LoadedMesh | None,
                settings: BakeSettings, timer: Timer, workers: int, tile_samples: int, store: tuple[AtlasCache, str] | None,
                say: Callable[[float], None]) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, BakeTally]:
     """One image's bake (a set's, or one UDIM tile's): ``(images, covered, margin, tally)``."""
-    mesh, atlas, baked = tile.mesh, tile.atlas, tile.baked
+    mesh, atlas, baked, bounds = tile.mesh, tile.atlas, tile.baked, _bounds(whole[0])
     assert isinstance(baked, BakedMesh)
     with timer.stage("prepare"):
         maps = Maps(settings, mapping)
-        sampler = _sampler(mesh, atlas, baked, src, settings, maps.needs_normals, _reach(None, settings, bounds))
+        sampler = _sampler(mesh, atlas, baked, src, settings, maps.needs_normals or bool(settings.maps), _reach(None, settings, bounds))
     say(0.3)
     lookups = None if store is None else (store[0], (store[1], *settings.width_height, settings.samples, settings.seed, tile_samples,
                                                      *([] if tile.number is None else [tile.number])))
     (cast, rays, missed), reused = _bake_tiles(sampler, maps, settings, timer, workers, tile_samples,
                                                lambda done: say(0.3 + 0.6 * done), lookups)
+    mesh_maps = None
+    if settings.maps:
+        with timer.stage("mesh maps"):
+            made, mesh_maps = meshmaps.bake_maps(meshmaps.MeshMapContext.for_image(settings, whole[0], mesh, atlas, whole[1]), sampler)
+        maps.images.update(made)  # the margin fills them with the rest
     covered, hits = _coverage(maps)
     with timer.stage("estimate"):
         error_estimate = _estimate(sampler, maps, covered, settings)
@@ -351,7 +360,7 @@ def _bake_tile(tile: Tile, bounds: tuple[np.ndarray, np.ndarray], mapping: Textu
     say(0.95)
     tally = BakeTally(covered, filled, cast=int(cast), rays=int(rays), transfer_missed=int(missed), hits=hits, lookup_reused=reused,
                       error_estimate=error_estimate, seconds=timer.seconds, faces=len(mesh.faces),
-                      material=None if maps.material is None else maps.material.report())
+                      material=None if maps.material is None else maps.material.report(), mesh_maps=mesh_maps)
     return _images(maps, settings), covered, filled, tally
 
 
