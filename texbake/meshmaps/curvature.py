@@ -1,5 +1,5 @@
 """Curvature: the mean curvature ``H`` at each vertex (cotangent Laplacian over the
-barycentric area, Meyer et al. 2003), interpolated to the texels and written as the bakers
+mixed Voronoi area, Meyer et al. 2003), interpolated to the texels and written as the bakers
 write it: ``0.5 + 0.5 clip(H * scale, -1, 1)``, 0.5 flat, above convex, below concave.
 
 ``scale`` is a length: a sphere of radius ``r`` gets ``0.5 + 0.5 scale / r``. Vertices are
@@ -26,19 +26,30 @@ def vertex_curvature(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     double_area = np.linalg.norm(cross, axis=1)
     laplacian, area, normal = np.zeros((count, 3)), np.zeros(count), np.zeros((count, 3))
+    cot = np.empty((len(f), 3))  # at each corner
+    for c in range(3):
+        a, b = tri[:, (c + 1) % 3] - tri[:, c], tri[:, (c + 2) % 3] - tri[:, c]
+        cot[:, c] = np.divide(np.einsum("ij,ij->i", a, b), double_area, out=np.zeros(len(f)), where=double_area > 0)
     for c in range(3):
         i, j, k = c, (c + 1) % 3, (c + 2) % 3
-        a, b = tri[:, i] - tri[:, k], tri[:, j] - tri[:, k]
-        cot = np.divide(np.einsum("ij,ij->i", a, b), double_area, out=np.zeros(len(f)), where=double_area > 0)
-        edge = 0.5 * cot[:, None] * (tri[:, j] - tri[:, i])
+        edge = 0.5 * cot[:, k, None] * (tri[:, j] - tri[:, i])  # the edge i-j, opposite corner k
         for axis in range(3):
             laplacian[:, axis] += np.bincount(f[:, i], edge[:, axis], count) - np.bincount(f[:, j], edge[:, axis], count)
             normal[:, axis] += np.bincount(f[:, c], cross[:, axis], count)
-        area += np.bincount(f[:, c], double_area / 6.0, count)
+        area += np.bincount(f[:, i], _mixed_area(tri, cot, double_area, i), count)
     length = np.linalg.norm(normal, axis=1, keepdims=True)
     normal = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
     mean = -0.5 * np.einsum("ij,ij->i", laplacian, normal)
     return np.divide(mean, area, out=np.zeros(count), where=area > 0)[key]
+
+
+def _mixed_area(tri: np.ndarray, cot: np.ndarray, double_area: np.ndarray, i: int) -> np.ndarray:
+    """``(m,)`` corner ``i``'s share of each face's area: its Voronoi region where the face
+    has no obtuse angle, else half the face (obtuse at ``i``) or a quarter (Meyer et al.)."""
+    j, k = (i + 1) % 3, (i + 2) % 3
+    voronoi = 0.125 * (np.sum((tri[:, k] - tri[:, i]) ** 2, axis=1) * cot[:, j] + np.sum((tri[:, j] - tri[:, i]) ** 2, axis=1) * cot[:, k])
+    obtuse = (cot < 0).any(axis=1)
+    return np.where(~obtuse, voronoi, np.where(cot[:, i] < 0, 0.25, 0.125) * double_area)
 
 
 def curvature_values(curvature: np.ndarray, faces: np.ndarray, face: np.ndarray, bary: np.ndarray, scale: float) -> np.ndarray:
