@@ -342,16 +342,16 @@ def _bake_tile(tile: Tile, whole: tuple[LoadedMesh, Scenes], mapping: TextureMap
     with timer.stage("prepare"):
         maps = Maps(settings, mapping)
         sampler = _sampler(mesh, atlas, baked, src, settings, maps.needs_normals or bool(settings.maps), _reach(None, settings, bounds))
+    mesh_maps = None
+    if settings.maps:  # before the tiles: a material may read them (mesh_map nodes)
+        with timer.stage("mesh maps"):
+            made, mesh_maps = meshmaps.bake_maps(meshmaps.MeshMapContext.for_image(settings, whole[0], mesh, atlas, whole[1]), sampler)
+        maps.add_mesh_maps(made)
     say(0.3)
     lookups = None if store is None else (store[0], (store[1], *settings.width_height, settings.samples, settings.seed, tile_samples,
                                                      *([] if tile.number is None else [tile.number])))
     (cast, rays, missed), reused = _bake_tiles(sampler, maps, settings, timer, workers, tile_samples,
                                                lambda done: say(0.3 + 0.6 * done), lookups)
-    mesh_maps = None
-    if settings.maps:
-        with timer.stage("mesh maps"):
-            made, mesh_maps = meshmaps.bake_maps(meshmaps.MeshMapContext.for_image(settings, whole[0], mesh, atlas, whole[1]), sampler)
-        maps.images.update(made)  # the margin fills them with the rest
     covered, hits = _coverage(maps)
     with timer.stage("estimate"):
         error_estimate = _estimate(sampler, maps, covered, settings)

@@ -284,6 +284,10 @@ class BakeSettings(BaseModel):
             raise ValueError("frames: a material bakes one set of maps, not frames")
         if self.material is not None and self.bump is not None:
             raise ValueError("bump: a material's normal map comes from its height (or normal) channel")
+        if self.material is not None:
+            read = {n.params.map for n in self.material.graph.nodes.values() if n.op == "mesh_map"}
+            if missing := sorted(read - set(self.maps or ())):
+                raise ValueError(f"maps: the material reads mesh maps {', '.join(missing)}: list them in maps")
         if self.material is None and self.packing is not None:
             raise ValueError("packing: packs a material's channels; give a material")
         if self.materials and self.texture_set == "single":
