@@ -158,7 +158,7 @@ def read_materials(value):
 
 
 def _bake_one(mesh: str, out: str, given: dict, source: str | None = None, workers: int = 2, cache: str | None = None,
-              progress=None) -> dict:
+              progress=None, cage_mesh: str | None = None) -> dict:
     """Bake and save one mesh with the settings ``given`` (as the command line or a manifest
     line has them), atlases kept in ``cache``, ``progress`` called with the fraction done;
     returns the report (runs in batch worker processes too)."""
@@ -178,7 +178,8 @@ def _bake_one(mesh: str, out: str, given: dict, source: str | None = None, worke
         given["packing"] = read_packing(given["packing"])
     if given.get("materials") is not None:
         given["materials"] = read_materials(given["materials"])
-    result = bake_mesh(mesh, BakeSettings.build(given), source=source, workers=workers, cache=cache, progress=progress)
+    result = bake_mesh(mesh, BakeSettings.build(given), source=source, workers=workers, cache=cache, progress=progress,
+                       cage_mesh=cage_mesh)
     result.save(out)
     return result.report
 
@@ -342,7 +343,10 @@ def bake(
     mesh: str = typer.Argument(..., help="mesh file: OBJ, PLY, STL, OFF, glTF, GLB"),
     out: Path = typer.Option(..., "--out", "-o", help="output folder"),
     set_: list[str] | None = _SET,
-    source: str | None = typer.Option(None, "--source", help="mesh to transfer the texture from (high poly)"),
+    source: str | None = typer.Option(None, "--source", help="mesh to transfer the texture from (high poly), and the "
+                                      "source_* mesh maps' (normal, height, misses)"),
+    cage_mesh: str | None = typer.Option(None, "--cage-mesh", help="the cage of the source_* maps: the mesh's topology, "
+                                         "moved out (default: rays from --front-distance along the normal)"),
     cache: Path | None = _CACHE,
     no_cache: bool = _NO_CACHE,
     quiet: bool = typer.Option(False, "--quiet", help="no progress and no summary line (warnings and errors still on stderr); "
@@ -354,7 +358,7 @@ def bake(
     try:
         with _progress(Path(mesh).name, quiet) as progress:
             report = _bake_one(mesh, str(out), {**_given(options), "set": set_ or []}, source=source,
-                               cache=_cache_folder(cache, no_cache), progress=progress)
+                               cache=_cache_folder(cache, no_cache), progress=progress, cage_mesh=cage_mesh)
     except BakeError as exc:
         _fail(str(exc))
     t = report["texels"]

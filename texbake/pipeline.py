@@ -248,7 +248,7 @@ def as_mesh(mesh_or_path, max_faces: int, what: str) -> LoadedMesh:
 @_reusing_heap()
 def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *, source=None, workers: int = 2,
               progress: Callable[[float], None] | None = None, tile_samples: int = 1 << 20,
-              cache: str | Path | AtlasCache | None = None, memory_limit: int | None = None, **options) -> BakeResult:
+              cache: str | Path | AtlasCache | None = None, memory_limit: int | None = None, cage_mesh=None, **options) -> BakeResult:
     """Bake a solid texture into the UV atlas of a mesh.
 
     Parameters
@@ -274,6 +274,9 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
         (``uv``, size, ``charting``) then skips the unwrap (``report["atlas"]["cached"]``).
         An ``AtlasCache`` also keeps its latest lookups in memory: the next bake of the
         atlas at the same size, samples and seed casts no ray (``report["rays"]["lookup_reused"]``).
+    cage_mesh : str, pathlib.Path or mesh, optional
+        The cage of a high-to-low bake (the ``source_*`` mesh maps): the target's topology
+        (the same faces), its vertices moved out; rays go from it inward onto ``source``.
     memory_limit : int, optional
         Bytes the bake may take at most (a server's limit a bake); None: the memory
         available. Checked against the estimate of every texture set and tile before the
@@ -305,7 +308,7 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
     say(0.05)
     store = None if cache is None else cache if isinstance(cache, AtlasCache) else AtlasCache(cache)
     baked: list[BakedSet] = []
-    scenes = Scenes()  # the mesh maps' ray scenes, built once a bake
+    scenes = _scenes(mesh, src, None if cage_mesh is None else as_mesh(cage_mesh, settings.max_faces, "cage_mesh"))
     for i, texture_set in enumerate(sets):  # set i's share of the progress after loading
         baked += _bake_set(texture_set, (mesh, scenes), src, timer, workers, tile_samples, store, _share(say, i, len(sets)))
     report = bake_report(settings, mesh, baked, source=src, cage=_reach(mesh, settings), seconds=timer.seconds)
@@ -322,7 +325,7 @@ def _bake_set(texture_set: TextureSet, whole: tuple[LoadedMesh, Scenes], src: Lo
         atlas, key = _atlas(mesh, settings, workers, store)
     mapping = TextureMapping.for_mesh(*bounds, settings.texture_space, settings.precision)  # the whole mesh's: one field
     with timer.stage("normals"):  # of the output mesh; a normal map is baked in its tangent frame
-        baked = _output_mesh(mesh, atlas, tangents=settings.normal_map)
+        baked = _output_mesh(mesh, atlas, tangents=settings.tangents)
     out = []
     parts = set_tiles(mesh, atlas, baked)
     for i, tile in enumerate(parts):
@@ -362,6 +365,15 @@ def _bake_tile(tile: Tile, whole: tuple[LoadedMesh, Scenes], mapping: TextureMap
                       error_estimate=error_estimate, seconds=timer.seconds, faces=len(mesh.faces),
                       material=None if maps.material is None else maps.material.report(), mesh_maps=mesh_maps)
     return _images(maps, settings), covered, filled, tally
+
+
+def _scenes(mesh: LoadedMesh, src: LoadedMesh | None, cage: LoadedMesh | None) -> Scenes:
+    """The mesh maps' ray scenes (built once a bake) and a high-to-low bake's source and cage."""
+    if cage is not None and not np.array_equal(cage.faces, mesh.faces):
+        raise ParameterError("cage_mesh", f"{cage.path}: expected the mesh's topology ({len(mesh.faces)} faces, the same corners), "
+                             f"got {len(cage.faces)} faces" + (" with other corners" if len(cage.faces) == len(mesh.faces) else ""))
+    source = None if src is None else meshmaps.Source(src.vertices, src.faces, src.part, list(src.part_names))
+    return Scenes(source, None if cage is None else cage.vertices, (mesh.vertices, mesh.faces))
 
 
 def _share(say: Callable[[float], None], i: int, n: int) -> Callable[[float], None]:

@@ -238,6 +238,10 @@ class BakeSettings(BaseModel):
                                         "(default: the bounding-box diagonal)")
     curvature_scale: Finite | None = Field(None, gt=0, description="the curvature map's scale, a length: a sphere of radius r "
                                            "gets 0.5 + 0.5 scale / r (default: 2% of the bounding-box diagonal)")
+    front_distance: Finite | None = Field(None, gt=0, description="high to low without a cage mesh: how far out along the "
+                                          "normal the source_* maps' rays start (default: cage, else 5% of the bounding-box diagonal)")
+    back_distance: Finite | None = Field(None, gt=0, description="how far past the target surface (or the cage's) they reach "
+                                         "(default: as front_distance)")
     occluders: Literal["all", "set"] = Field("all", description="what the ao and bent_normal rays hit: every face of the mesh "
                                              "(all) or only the texture set's")
     names: str = Field(DEFAULT_NAMES, description="the maps' file names: a template of {mesh}, {set}, {map}, {tile} and {ext}; "
@@ -323,6 +327,11 @@ class BakeSettings(BaseModel):
         if self.material is not None:
             return bool({"height", "normal"} & set(self.material.channels))
         return self.bump is not None
+
+    @property
+    def tangents(self) -> bool:
+        """Whether the output mesh gets tangents: a normal map, or a source_normal mesh map, is baked in their frame."""
+        return self.normal_map or "source_normal" in (self.maps or ())
 
     @property
     def width_height(self) -> tuple[int, int]:

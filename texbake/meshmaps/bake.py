@@ -16,10 +16,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..sampling import Sampler, Scene, tiles
+from ..sampling import Sampler, Scene, tiles, vertex_normals
 from .curvature import curvature_values, vertex_curvature
 from .ids import charts, id_values
-from .kinds import CHANNELS, RAY_KINDS
+from ..errors import ParameterError
+from .highpoly import Rays, Source, match_parts, project, tangent_space
+from .kinds import CHANNELS, RAY_KINDS, SOURCE_KINDS
 from .normals import encoded_normals
 from .occlusion import ambient_occlusion
 from .position import position
@@ -30,11 +32,15 @@ BIAS = 1e-4  # the rays' offset off the surface, a share of the bounding-box dia
 
 
 class Scenes:
-    """Ray scenes of a bake, each built on first use and kept for its other images."""
+    """Ray scenes of a bake, each built on first use and kept for its other images; and a
+    high-to-low bake's ``source`` (:class:`highpoly.Source`) and ``cage`` (``(n, 3)`` float64
+    vertices, in the order of ``mesh``'s: the bake's mesh, ``(vertices, faces)``)."""
 
-    def __init__(self) -> None:
+    def __init__(self, source: Source | None = None, cage: np.ndarray | None = None,
+                 mesh: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         self._made: dict[tuple[int, int], Scene] = {}
         self._lock = threading.Lock()
+        self.source, self.cage, self.mesh = source, cage, mesh
 
     def get(self, vertices: np.ndarray, faces: np.ndarray) -> Callable[[], Scene]:
         """A callable giving the scene of ``vertices`` ``(n, 3)`` and ``faces`` ``(m, 3)``."""
@@ -47,6 +53,36 @@ class Scenes:
                 return self._made[key]
 
         return scene
+
+
+@dataclass
+class HighContext:
+    """A high-to-low image's: the ``source``, the ``rays`` (front, back, the image mesh's cage
+    vertices or None), the image mesh's smooth vertex ``normals`` ``(n, 3)``, target part ->
+    source parts ``matches`` and whether the normal map's green is DirectX's."""
+
+    source: Source
+    rays: Rays
+    normals: np.ndarray
+    matches: dict[int, np.ndarray]
+    directx: bool = False
+
+    @classmethod
+    def for_image(cls, settings, tile_mesh, faces: np.ndarray, scenes: Scenes, diagonal: float) -> HighContext:
+        if scenes.source is None:
+            raise ParameterError("maps", "source_normal, source_height and source_missed need a source mesh (--source)")
+        cage = None
+        if scenes.cage is not None:
+            assert scenes.mesh is not None
+            if len(tile_mesh.vertices) != len(scenes.mesh[0]) or not np.array_equal(tile_mesh.faces, scenes.mesh[1]):
+                raise ParameterError("cage_mesh", "a cage mesh needs one texture set of every face and no UDIM tiles "
+                                     "(texture_set='single')")
+            cage = scenes.cage
+        front = settings.front_distance or settings.cage or 0.05 * diagonal
+        back = settings.back_distance or front
+        matches = match_parts(tile_mesh.part_names, scenes.source.part_names) if tile_mesh.part is not None else {}
+        return cls(scenes.source, Rays(front, back, cage), vertex_normals(tile_mesh.vertices, faces), matches,
+                   settings.normal_convention == "directx")
 
 
 @dataclass
@@ -74,6 +110,7 @@ class MeshMapContext:
     part: np.ndarray
     chart: np.ndarray
     seed: int = 0
+    high: HighContext | None = None
     _curvature: np.ndarray | None = field(default=None, repr=False)
 
     @classmethod
@@ -89,10 +126,14 @@ class MeshMapContext:
         diagonal = float(np.linalg.norm(hi - lo)) or 1.0
         occluders = whole if settings.occluders == "all" else tile_mesh
         zeros = np.zeros(len(front), dtype=np.int64)
-        return cls(tuple(settings.maps or ()), settings.map_rays, settings.map_distance or diagonal,
+        kinds = tuple(settings.maps or ())
+        faces = tile_mesh.faces[front]
+        high = HighContext.for_image(settings, tile_mesh, faces, scenes, diagonal) if set(kinds) & set(SOURCE_KINDS) else None
+        return cls(kinds, settings.map_rays, settings.map_distance or diagonal,
                    settings.curvature_scale or 0.02 * diagonal, lo, hi, scenes.get(occluders.vertices, occluders.faces),
-                   tile_mesh.vertices, tile_mesh.faces[front], zeros if tile_mesh.material is None else tile_mesh.material[front],
-                   zeros if tile_mesh.part is None else tile_mesh.part[front], charts(atlas.faces[front], len(atlas.uv)), settings.seed)
+                   tile_mesh.vertices, faces, zeros if tile_mesh.material is None else tile_mesh.material[front],
+                   zeros if tile_mesh.part is None else tile_mesh.part[front], charts(atlas.faces[front], len(atlas.uv)), settings.seed,
+                   high)
 
     @property
     def bias(self) -> float:
@@ -109,7 +150,7 @@ def bake_maps(context: MeshMapContext, sampler: Sampler, tile_texels: int = 1 <<
     ``{"maps", "texels", "rays", "ray_seconds", "rays_per_second"}`` for the report."""
     width, height = sampler.width, sampler.height
     images = {kind: np.zeros((height, width, CHANNELS[kind]), dtype=np.float32) for kind in context.kinds}
-    texels = rays = 0
+    texels = rays = missed = 0
     ray_seconds = 0.0
     for tile in tiles(height, width, 1, tile_texels):
         t = texel_points(sampler, tile)
@@ -119,16 +160,38 @@ def bake_maps(context: MeshMapContext, sampler: Sampler, tile_texels: int = 1 <<
             ray_seconds += time.perf_counter() - start
             rays += len(t.texel) * context.rays * (("ao" in context.kinds or "bent_normal" in context.kinds) + ("thickness" in context.kinds))
         texels += len(t.texel)
+        if context.high is not None:
+            missed += int(values["source_missed"].sum())
+        values = {k: v for k, v in values.items() if k in context.kinds and v is not None}
         for kind, v in values.items():
             image = images[kind].reshape(height * width, CHANNELS[kind])
             image[t.texel] = v
     tally = {"maps": list(context.kinds), "texels": texels, "rays": rays, "ray_seconds": round(ray_seconds, 4),
-             "rays_per_second": round(rays / ray_seconds) if ray_seconds > 0 else None}
+             "rays_per_second": round(rays / ray_seconds) if ray_seconds > 0 else None,
+             **({} if context.high is None else {"source_rays": texels, "source_missed": missed, "cage": context.high.rays.cage is not None,
+                                                 "front_distance": context.high.rays.front, "back_distance": context.high.rays.back})}
     return images, tally
 
 
+def _high_values(c: MeshMapContext, h: HighContext, t: TexelPoints) -> dict[str, np.ndarray]:
+    """The source_* maps at the texels ``t`` (``highpoly.project``)."""
+    corners = c.faces[t.face]
+    smooth = np.einsum("ni,nij->nj", t.bary, h.normals[corners])
+    smooth /= np.maximum(np.linalg.norm(smooth, axis=1, keepdims=True), 1e-300)
+    cage = None if h.rays.cage is None else np.einsum("ni,nij->nj", t.bary, h.rays.cage[corners])
+    hit, depth, normal = project(h.source, h.rays, t.points, smooth, cage, c.part[t.face] if h.matches else None, h.matches)
+    out = {"source_missed": (~hit).astype(np.float64)[:, None],
+           "source_height": np.where(hit, np.clip(0.5 + 0.5 * depth / max(h.rays.front, h.rays.back), 0.0, 1.0), 0.5)[:, None]}
+    if "source_normal" in c.kinds:
+        if t.frame is None:
+            raise ValueError("source_normal: the sampler has no tangent frames (BakeSettings.tangents)")
+        flat = np.tile([0.5, 0.5, 1.0], (len(hit), 1))
+        out["source_normal"] = np.where(hit[:, None], tangent_space(np.where(hit[:, None], normal, t.frame[:, 2]), t.frame, h.directx), flat)
+    return out
+
+
 def _values(c: MeshMapContext, t: TexelPoints) -> dict[str, np.ndarray]:
-    """``kind -> (n, channels)`` float64 at the texels ``t``."""
+    """``kind -> (n, channels)`` float64 at the texels ``t``: those asked for, and what came with them."""
     kinds, out = c.kinds, {}
     if "ao" in kinds or "bent_normal" in kinds:
         ao, bent = ambient_occlusion(c.scene(), t.points, t.normals, c.rays, c.distance, bias=c.bias, seed=c.seed,
@@ -146,4 +209,6 @@ def _values(c: MeshMapContext, t: TexelPoints) -> dict[str, np.ndarray]:
     for name, ids in (("material", c.material), ("part", c.part), ("chart", c.chart)):
         if f"id_{name}" in kinds:
             out[f"id_{name}"] = id_values(ids, t.face)
-    return {k: v for k, v in out.items() if k in kinds and v is not None}
+    if c.high is not None:
+        out.update(_high_values(c, c.high, t))
+    return out

@@ -18,6 +18,10 @@ CHANNELS: dict[str, int] = {
     "id_material": 3,  # a flat colour per material
     "id_part": 3,  # per part (a scene's mesh, an OBJ group)
     "id_chart": 3,  # per UV chart (faces joined by shared UV vertices)
+    "source_normal": 3,  # high to low: the source mesh's normal in the target's tangent frame (texbake.meshmaps.highpoly)
+    "source_height": 1,  # the source's height over the target, 0.5 at the target
+    "source_missed": 1,  # 1 where the ray found no source
 }
 KINDS = tuple(CHANNELS)
 RAY_KINDS = ("ao", "bent_normal", "thickness")  # the kinds that cast hemisphere rays
+SOURCE_KINDS = ("source_normal", "source_height", "source_missed")  # the kinds of a high-to-low bake (a source mesh)

@@ -19,7 +19,9 @@ class TexelPoints:
     ``texel``: ``(n,)`` int64 index of the texel in the whole image (row-major);
     ``face``: ``(n,)`` int64 face of the sampler's mesh under it; ``bary``: ``(n, 3)`` float64;
     ``points``: ``(n, 3)`` float64 object space; ``normals``: ``(n, 3)`` float64 unit
-    shading normals (interpolated from the output mesh's, as the lit map sees them).
+    shading normals (interpolated from the output mesh's, as the lit map sees them);
+    ``frame``: ``(n, 3, 3)`` float64 rows T, B, N of the output mesh's tangent frame, or None
+    (the sampler has none).
     """
 
     texel: np.ndarray
@@ -27,6 +29,7 @@ class TexelPoints:
     bary: np.ndarray
     points: np.ndarray
     normals: np.ndarray
+    frame: np.ndarray | None = None
 
 
 def texel_points(sampler: Sampler, tile: Tile) -> TexelPoints:
@@ -39,4 +42,4 @@ def texel_points(sampler: Sampler, tile: Tile) -> TexelPoints:
     if s.normals is None:
         raise ValueError("texel_points: the sampler was made without normals")
     texel = tile.start * width + np.asarray(texels, dtype=np.int64)[located.index]
-    return TexelPoints(texel, np.asarray(located.face, dtype=np.int64), located.bary, s.points, s.normals)
+    return TexelPoints(texel, np.asarray(located.face, dtype=np.int64), located.bary, s.points, s.normals, s.frame)
