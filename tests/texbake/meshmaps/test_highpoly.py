@@ -114,3 +114,18 @@ def test_part_names_match_by_their_suffixes():
     assert part_key("Bolt_HIGH") == ("bolt", "high") and part_key("body") == ("body", None)
     matches = match_parts(["bolt_low", "body", "nut_low"], ["nut_high", "bolt_high", "bolt.high", "other_high"])
     assert {k: v.tolist() for k, v in matches.items()} == {0: [1, 2], 2: [0]}
+
+
+def test_the_glb_carries_the_high_to_low_normal_map_and_its_tangents(tmp_path):
+    import json
+    import struct
+
+    result = texbake.bake_mesh(plane(), maps=["source_normal"], source=plane(0.02, 0.05), size=16, front_distance=0.1)
+    result.save(tmp_path)
+    data = next(tmp_path.glob("*.glb")).read_bytes()
+    gltf = json.loads(data[20 : 20 + struct.unpack("<I", data[12:16])[0]])
+    material = gltf["materials"][0]
+    assert "normalTexture" in material
+    image = gltf["images"][gltf["textures"][material["normalTexture"]["index"]]["source"]]
+    assert "source_normal" in image.get("uri", image.get("name", "source_normal"))
+    assert "TANGENT" in gltf["meshes"][0]["primitives"][0]["attributes"]
