@@ -27,15 +27,15 @@ from pathlib import Path
 
 import numpy as np
 
+from . import meshmaps
 from .atlas import Atlas, AtlasCache, Sides, atlas_key, make_atlas
 from .errors import ParameterError
 from .maps import Maps
 from .maps import estimate as estimate_stage
 from .maps import margin as margin_stage
-from . import meshmaps
 from .memory import check_fits
-from .meshmaps import Scenes
 from .mesh import LoadedMesh, load_mesh, mesh_from_trimesh, split_normals, vertex_tangents
+from .meshmaps import Scenes
 from .output import BakeTally, bake_report
 from .sampling import Sampler, adaptive, sample_offsets, sample_uv, tiles
 from .sets import TextureSet, Tile, images_of, texture_sets

@@ -49,9 +49,10 @@ def run_in_space(program: Program, mapping: TextureMapping, q: np.ndarray, dqdx:
             wide = spread and leaf in program.spread  # the leaf's spread is read: evaluated with it
             node = nodes[leaf]
             if node.op == "mesh_map":
+                name = node.params.map  # type: ignore[attr-defined]
                 if mesh_maps is None:
-                    raise ValueError(f"node {node.id!r}: mesh map {node.params.map!r} asked for where there are none")
-                values[leaf] = np.asarray(mesh_maps(node.params.map), dtype=np.float64), None
+                    raise ValueError(f"node {node.id!r}: mesh map {name!r} asked for where there are none")
+                values[leaf] = np.asarray(mesh_maps(name), dtype=np.float64), None
                 continue
             values[leaf] = _leaf(node, mapping, q, dqdx, dqdy, normals, values, max_octaves, wide)
         if not len(seg.code):

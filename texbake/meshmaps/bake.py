@@ -16,11 +16,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import ParameterError
 from ..sampling import Sampler, Scene, tiles, vertex_normals
 from .curvature import curvature_values, vertex_curvature
-from .ids import charts, id_values
-from ..errors import ParameterError
 from .highpoly import Rays, Source, match_parts, project, tangent_space
+from .ids import charts, id_values
 from .kinds import CHANNELS, RAY_KINDS, SOURCE_KINDS
 from .normals import encoded_normals
 from .occlusion import ambient_occlusion
@@ -161,9 +161,10 @@ def bake_maps(context: MeshMapContext, sampler: Sampler, tile_texels: int = 1 <<
             rays += len(t.texel) * context.rays * (("ao" in context.kinds or "bent_normal" in context.kinds) + ("thickness" in context.kinds))
         texels += len(t.texel)
         if context.high is not None:
-            missed += int(values["source_missed"].sum())
-        values = {k: v for k, v in values.items() if k in context.kinds and v is not None}
+            missed += int(np.sum(values["source_missed"] if values["source_missed"] is not None else 0))
         for kind, v in values.items():
+            if kind not in context.kinds or v is None:
+                continue
             image = images[kind].reshape(height * width, CHANNELS[kind])
             image[t.texel] = v
     tally = {"maps": list(context.kinds), "texels": texels, "rays": rays, "ray_seconds": round(ray_seconds, 4),
@@ -190,9 +191,11 @@ def _high_values(c: MeshMapContext, h: HighContext, t: TexelPoints) -> dict[str,
     return out
 
 
-def _values(c: MeshMapContext, t: TexelPoints) -> dict[str, np.ndarray]:
-    """``kind -> (n, channels)`` float64 at the texels ``t``: those asked for, and what came with them."""
-    kinds, out = c.kinds, {}
+def _values(c: MeshMapContext, t: TexelPoints) -> dict[str, np.ndarray | None]:
+    """``kind -> (n, channels)`` float64 at the texels ``t``: those asked for, and what came
+    with them (None: a kind not made)."""
+    kinds: tuple[str, ...] = c.kinds
+    out: dict[str, np.ndarray | None] = {}
     if "ao" in kinds or "bent_normal" in kinds:
         ao, bent = ambient_occlusion(c.scene(), t.points, t.normals, c.rays, c.distance, bias=c.bias, seed=c.seed,
                                      bent="bent_normal" in kinds)

@@ -3,8 +3,8 @@ known (a floor in a box corner), and the compiled rays against a numpy reference
 
 import numpy as np
 import pytest
-
 from hemisphere_reference import open_share
+
 from texbake.meshmaps.occlusion import ambient_occlusion
 from texbake.sampling import Scene
 
