@@ -8,6 +8,7 @@
 #include <unistd.h>
 #include <nanobind/stl/string.h>
 
+#include <cmath>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -39,6 +40,16 @@ struct RayHit {
   Ray ray;
   Hit hit;
 };
+// packets of 8 (rtcore_ray.h's RTCRay8 / RTCRayHit8, structure of arrays)
+struct alignas(32) Ray8 {
+  float org_x[8], org_y[8], org_z[8], tnear[8], dir_x[8], dir_y[8], dir_z[8], time[8], tfar[8];
+  unsigned mask[8], id[8], flags[8];
+};
+struct alignas(32) RayHit8 {
+  Ray8 ray;
+  float Ng_x[8], Ng_y[8], Ng_z[8], u[8], v[8];
+  unsigned primID[8], geomID[8], instID[8][8], instPrimID[8][8];  // room for up to 8 instance levels
+};
 
 struct Api {
   RTCDevice (*rtcNewDevice)(const char*);
@@ -54,6 +65,8 @@ struct Api {
   unsigned (*rtcAttachGeometry)(RTCScene, RTCGeometry);
   void (*rtcReleaseGeometry)(RTCGeometry);
   void (*rtcIntersect1)(RTCScene, RayHit*, void*);
+  void (*rtcIntersect8)(const int*, RTCScene, RayHit8*, void*);
+  void (*rtcOccluded8)(const int*, RTCScene, Ray8*, void*);
   RTCDevice device = nullptr;
   pid_t pid = 0;  // the process the device was made in
 };
@@ -85,6 +98,8 @@ void open_embree(const std::string& path) {
   find(library, "rtcAttachGeometry", found.rtcAttachGeometry);
   find(library, "rtcReleaseGeometry", found.rtcReleaseGeometry);
   find(library, "rtcIntersect1", found.rtcIntersect1);
+  find(library, "rtcIntersect8", found.rtcIntersect8);
+  find(library, "rtcOccluded8", found.rtcOccluded8);
   RTCDevice device = found.rtcNewDevice(nullptr);  // embreex's configuration: the defaults
   if (!device) throw std::runtime_error("embree: no device");
   const ptrdiff_t major = found.rtcGetDeviceProperty(device, PROPERTY_VERSION_MAJOR);
@@ -161,7 +176,99 @@ class Scene {
     }
   }
 
+ // Hemisphere rays (mesh maps: texbake/meshmaps/rays.py), rays a point, cosine-weighted about
+  // its normal (inward: about -normal), in packets of 8, the points cut over the cores.
+  // Outward: value (n,) the share of rays that hit nothing within distance (ambient
+  // occlusion, 1 open) and bent (n, 3) (or (0, 3): not asked) the mean unoccluded direction,
+  // unit (the normal where every ray is occluded). Inward: value (n,) the mean distance to
+  // the first hit, capped at distance (a miss counts as distance: thickness). Origins are
+  // moved bias along their ray's side of the normal first; directions come from a
+  // Hammersley set of rays points rotated per point (Cranley-Patterson, hashed from seed
+  // and the point's row), so that neighbouring texels' noise does not correlate.
+  void hemisphere(In<float, shape<-1, 3>> origins, In<float, shape<-1, 3>> normals, int rays, float distance, float bias,
+                  uint32_t seed, bool inward, Out<float, nb::ndim<1>> value, Out<float, shape<-1, 3>> bent) const {
+    const int64_t n = origins.shape(0);
+    if (int64_t(normals.shape(0)) != n || int64_t(value.shape(0)) != n || (bent.shape(0) != 0 && int64_t(bent.shape(0)) != n))
+      throw std::invalid_argument("hemisphere: normals (n, 3), value (n,), bent (n, 3) or (0, 3)");
+    if (rays < 1) throw std::invalid_argument("hemisphere: rays must be at least 1");
+    const float *o = origins.data(), *nr = normals.data();
+    float *out = value.data(), *bout = bent.shape(0) ? bent.data() : nullptr;
+    parallel_for(n, [&](int64_t begin, int64_t end) {
+      for (int64_t i = begin; i < end; ++i) point(o + 3 * i, nr + 3 * i, rays, distance, bias, mix(seed, uint32_t(i)), inward, out[i],
+                                                  bout ? bout + 3 * i : nullptr);
+    }, 64);
+  }
+
  private:
+  static uint32_t mix(uint32_t seed, uint32_t i) {  // a 32-bit hash (lowbias32)
+    uint32_t x = seed * 0x9E3779B9u ^ (i + 0x7F4A7C15u);
+    x ^= x >> 16; x *= 0x7feb352du; x ^= x >> 15; x *= 0x846ca68bu; x ^= x >> 16;
+    return x;
+  }
+  static float radical_inverse(uint32_t bits) {
+    bits = (bits << 16) | (bits >> 16);
+    bits = ((bits & 0x55555555u) << 1) | ((bits & 0xAAAAAAAAu) >> 1);
+    bits = ((bits & 0x33333333u) << 2) | ((bits & 0xCCCCCCCCu) >> 2);
+    bits = ((bits & 0x0F0F0F0Fu) << 4) | ((bits & 0xF0F0F0F0u) >> 4);
+    bits = ((bits & 0x00FF00FFu) << 8) | ((bits & 0xFF00FF00u) >> 8);
+    return float(bits) * 2.3283064365386963e-10f;
+  }
+
+  void point(const float* p, const float* normal, int rays, float distance, float bias, uint32_t hash, bool inward, float& value,
+             float* bent) const {
+    const float side = inward ? -1.0f : 1.0f;
+    const float nx = side * normal[0], ny = side * normal[1], nz = side * normal[2];
+    // an orthonormal basis about the ray side's normal (Duff et al. 2017)
+    const float sign = std::copysign(1.0f, nz), a = -1.0f / (sign + nz), b = nx * ny * a;
+    const float tx = 1.0f + sign * nx * nx * a, ty = sign * b, tz = -sign * nx;
+    const float sx = b, sy = sign + ny * ny * a, sz = -ny;
+    const float ox = p[0] + bias * nx, oy = p[1] + bias * ny, oz = p[2] + bias * nz;
+    const float r1 = float(hash & 0xFFFFu) / 65536.0f, r2 = float(hash >> 16) / 65536.0f;
+    double sum = 0.0, bx = 0.0, by = 0.0, bz = 0.0;
+    for (int first = 0; first < rays; first += 8) {
+      RayHit8 packet;
+      int valid[8];
+      for (int k = 0; k < 8; ++k) {
+        const int j = first + k;
+        valid[k] = j < rays ? -1 : 0;
+        float u = (float(j) + 0.5f) / float(rays) + r1, v = radical_inverse(uint32_t(j)) + r2;
+        u -= std::floor(u);
+        v -= std::floor(v);
+        const float radius = std::sqrt(u), phi = 6.2831853f * v, x = radius * std::cos(phi), y = radius * std::sin(phi);
+        const float z = std::sqrt(std::fmax(0.0f, 1.0f - u));
+        Ray8& r = packet.ray;
+        r.org_x[k] = ox; r.org_y[k] = oy; r.org_z[k] = oz;
+        r.dir_x[k] = x * tx + y * sx + z * nx; r.dir_y[k] = x * ty + y * sy + z * ny; r.dir_z[k] = x * tz + y * sz + z * nz;
+        r.tnear[k] = 0.0f; r.time[k] = 0.0f; r.tfar[k] = distance;
+        r.mask[k] = 0xFFFFFFFFu; r.id[k] = unsigned(k); r.flags[k] = 0u;
+        packet.primID[k] = packet.geomID[k] = INVALID_ID;
+      }
+      if (inward) {
+        api.rtcIntersect8(valid, scene_, &packet, nullptr);
+      } else {
+        api.rtcOccluded8(valid, scene_, &packet.ray, nullptr);  // tfar set to -inf where occluded
+      }
+      for (int k = 0; k < 8 && first + k < rays; ++k) {
+        const Ray8& r = packet.ray;
+        if (inward) {
+          sum += std::fmin(r.tfar[k], distance);
+        } else if (r.tfar[k] >= 0.0f) {
+          sum += 1.0;
+          bx += r.dir_x[k]; by += r.dir_y[k]; bz += r.dir_z[k];
+        }
+      }
+    }
+    value = float(sum / rays);
+    if (bent) {
+      const double length = std::sqrt(bx * bx + by * by + bz * bz);
+      if (length > 0) {
+        bent[0] = float(bx / length); bent[1] = float(by / length); bent[2] = float(bz / length);
+      } else {
+        bent[0] = normal[0]; bent[1] = normal[1]; bent[2] = normal[2];
+      }
+    }
+  }
+
   RTCScene scene_ = nullptr;
 };
 
@@ -173,7 +280,11 @@ void bind_embree(nb::module_& m) {
       .def(nb::init<In<float, shape<-1, 3>>, In<int64_t, shape<-1, 3>>>(), nb::arg("vertices"), nb::arg("faces"))
       .def("cast", &Scene::cast, nb::arg("origins"), nb::arg("directions"), nb::arg("face").noconvert(),
            nb::arg("tfar").noconvert(), Release(),
-           "Fill face (n,) int32 (-1: no hit) and tfar (n,) float32 (in: each ray's bound) of the rays' first hits.");
+           "Fill face (n,) int32 (-1: no hit) and tfar (n,) float32 (in: each ray's bound) of the rays' first hits.")
+      .def("hemisphere", &Scene::hemisphere, nb::arg("origins"), nb::arg("normals"), nb::arg("rays"), nb::arg("distance"),
+           nb::arg("bias"), nb::arg("seed"), nb::arg("inward"), nb::arg("value").noconvert(), nb::arg("bent").noconvert(), Release(),
+           "Cosine-weighted hemisphere rays about each normal (inward: about -normal): value (n,) the open share (or the "
+           "mean capped hit distance, inward), bent (n, 3) (or (0, 3)) the mean open direction.");
 }
 
 }  // namespace texbake

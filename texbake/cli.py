@@ -158,7 +158,7 @@ def read_materials(value):
 
 
 def _bake_one(mesh: str, out: str, given: dict, source: str | None = None, workers: int = 2, cache: str | None = None,
-              progress=None) -> dict:
+              progress=None, cage_mesh: str | None = None) -> dict:
     """Bake and save one mesh with the settings ``given`` (as the command line or a manifest
     line has them), atlases kept in ``cache``, ``progress`` called with the fraction done;
     returns the report (runs in batch worker processes too)."""
@@ -178,7 +178,8 @@ def _bake_one(mesh: str, out: str, given: dict, source: str | None = None, worke
         given["packing"] = read_packing(given["packing"])
     if given.get("materials") is not None:
         given["materials"] = read_materials(given["materials"])
-    result = bake_mesh(mesh, BakeSettings.build(given), source=source, workers=workers, cache=cache, progress=progress)
+    result = bake_mesh(mesh, BakeSettings.build(given), source=source, workers=workers, cache=cache, progress=progress,
+                       cage_mesh=cage_mesh)
     result.save(out)
     return result.report
 
@@ -238,7 +239,8 @@ _SHORT = {"texture": "-t", "size": "-s", "quality": "-q", "format": "-f"}
 _LISTS = {"size": "N, or W,H", "light": "X,Y,Z", "frames": "T0,T1,... or START:STOP:COUNT",
           "texture": "a name, JSON, or a .json/.yaml spec file", "bump": "a name, JSON, or a .json/.yaml spec file",
           "material": "a built-in's name, JSON, a .json/.yaml material file or a MaterialX .mtlx",
-          "packing": "names or templates, comma-separated: orm,hdrp-mask; JSON; or a .json/.yaml file"}
+          "packing": "names or templates, comma-separated: orm,hdrp-mask; JSON; or a .json/.yaml file",
+          "maps": "comma-separated: ao,curvature,..."}
 
 
 def _option_type(annotation) -> tuple[type, list[str]]:
@@ -291,6 +293,8 @@ def _given(options: dict) -> dict:
     for name in ("light", "frames"):
         if name in given:
             given[name] = _floats(given[name], name)
+    if "maps" in given:  # a list, comma-separated; each name is checked by the settings
+        given["maps"] = [m.strip() for m in given["maps"].split(",") if m.strip()]
     return given
 
 
@@ -339,7 +343,10 @@ def bake(
     mesh: str = typer.Argument(..., help="mesh file: OBJ, PLY, STL, OFF, glTF, GLB"),
     out: Path = typer.Option(..., "--out", "-o", help="output folder"),
     set_: list[str] | None = _SET,
-    source: str | None = typer.Option(None, "--source", help="mesh to transfer the texture from (high poly)"),
+    source: str | None = typer.Option(None, "--source", help="mesh to transfer the texture from (high poly), and the "
+                                      "source_* mesh maps' (normal, height, misses)"),
+    cage_mesh: str | None = typer.Option(None, "--cage-mesh", help="the cage of the source_* maps: the mesh's topology, "
+                                         "moved out (default: rays from --front-distance along the normal)"),
     cache: Path | None = _CACHE,
     no_cache: bool = _NO_CACHE,
     quiet: bool = typer.Option(False, "--quiet", help="no progress and no summary line (warnings and errors still on stderr); "
@@ -351,7 +358,7 @@ def bake(
     try:
         with _progress(Path(mesh).name, quiet) as progress:
             report = _bake_one(mesh, str(out), {**_given(options), "set": set_ or []}, source=source,
-                               cache=_cache_folder(cache, no_cache), progress=progress)
+                               cache=_cache_folder(cache, no_cache), progress=progress, cage_mesh=cage_mesh)
     except BakeError as exc:
         _fail(str(exc))
     t = report["texels"]

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import meshmaps
 from .atlas import Atlas, AtlasCache, Sides, atlas_key, make_atlas
 from .errors import ParameterError
 from .maps import Maps
@@ -34,6 +35,7 @@ from .maps import estimate as estimate_stage
 from .maps import margin as margin_stage
 from .memory import check_fits
 from .mesh import LoadedMesh, load_mesh, mesh_from_trimesh, split_normals, vertex_tangents
+from .meshmaps import Scenes
 from .output import BakeTally, bake_report
 from .sampling import Sampler, adaptive, sample_offsets, sample_uv, tiles
 from .sets import TextureSet, Tile, images_of, texture_sets
@@ -246,7 +248,7 @@ def as_mesh(mesh_or_path, max_faces: int, what: str) -> LoadedMesh:
 @_reusing_heap()
 def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *, source=None, workers: int = 2,
               progress: Callable[[float], None] | None = None, tile_samples: int = 1 << 20,
-              cache: str | Path | AtlasCache | None = None, memory_limit: int | None = None, **options) -> BakeResult:
+              cache: str | Path | AtlasCache | None = None, memory_limit: int | None = None, cage_mesh=None, **options) -> BakeResult:
     """Bake a solid texture into the UV atlas of a mesh.
 
     Parameters
@@ -272,6 +274,9 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
         (``uv``, size, ``charting``) then skips the unwrap (``report["atlas"]["cached"]``).
         An ``AtlasCache`` also keeps its latest lookups in memory: the next bake of the
         atlas at the same size, samples and seed casts no ray (``report["rays"]["lookup_reused"]``).
+    cage_mesh : str, pathlib.Path or mesh, optional
+        The cage of a high-to-low bake (the ``source_*`` mesh maps): the target's topology
+        (the same faces), its vertices moved out; rays go from it inward onto ``source``.
     memory_limit : int, optional
         Bytes the bake may take at most (a server's limit a bake); None: the memory
         available. Checked against the estimate of every texture set and tile before the
@@ -303,41 +308,48 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
     say(0.05)
     store = None if cache is None else cache if isinstance(cache, AtlasCache) else AtlasCache(cache)
     baked: list[BakedSet] = []
+    scenes = _scenes(mesh, src, None if cage_mesh is None else as_mesh(cage_mesh, settings.max_faces, "cage_mesh"))
     for i, texture_set in enumerate(sets):  # set i's share of the progress after loading
-        baked += _bake_set(texture_set, _bounds(mesh), src, timer, workers, tile_samples, store, _share(say, i, len(sets)))
+        baked += _bake_set(texture_set, (mesh, scenes), src, timer, workers, tile_samples, store, _share(say, i, len(sets)))
     report = bake_report(settings, mesh, baked, source=src, cage=_reach(mesh, settings), seconds=timer.seconds)
     say(1.0)
     return BakeResult(baked, report, settings)
 
 
-def _bake_set(texture_set: TextureSet, bounds: tuple[np.ndarray, np.ndarray], src: LoadedMesh | None, timer: Timer, workers: int,
+def _bake_set(texture_set: TextureSet, whole: tuple[LoadedMesh, Scenes], src: LoadedMesh | None, timer: Timer, workers: int,
               tile_samples: int, store: AtlasCache | None, say: Callable[[float], None]) -> list[BakedSet]:
-    """One texture set's bake: its atlas, its output mesh, and each of its tiles' maps."""
-    mesh, settings = texture_set.mesh, texture_set.settings
+    """One texture set's bake: its atlas, its output mesh, and each of its tiles' maps
+    (``whole``: the bake's mesh and its mesh maps' ray scenes)."""
+    mesh, settings, bounds = texture_set.mesh, texture_set.settings, _bounds(whole[0])
     with timer.stage("atlas"):
         atlas, key = _atlas(mesh, settings, workers, store)
     mapping = TextureMapping.for_mesh(*bounds, settings.texture_space, settings.precision)  # the whole mesh's: one field
     with timer.stage("normals"):  # of the output mesh; a normal map is baked in its tangent frame
-        baked = _output_mesh(mesh, atlas, tangents=settings.normal_map)
+        baked = _output_mesh(mesh, atlas, tangents=settings.tangents)
     out = []
     parts = set_tiles(mesh, atlas, baked)
     for i, tile in enumerate(parts):
-        images, covered, filled, tally = _bake_tile(tile, bounds, mapping, src, settings, timer, workers, tile_samples,
+        images, covered, filled, tally = _bake_tile(tile, whole, mapping, src, settings, timer, workers, tile_samples,
                                                     None if store is None else (store, key), _share(say, i, len(parts)))
         out.append(BakedSet(texture_set.name, tile.number, images, covered, filled, tile.baked, settings,  # type: ignore[arg-type]
                             texture_set.materials, atlas, tally, texture_set.warnings))
     return out
 
 
-def _bake_tile(tile: Tile, bounds: tuple[np.ndarray, np.ndarray], mapping: TextureMapping, src: LoadedMesh | None,
+def _bake_tile(tile: Tile, whole: tuple[LoadedMesh, Scenes], mapping: TextureMapping, src: LoadedMesh | None,
                settings: BakeSettings, timer: Timer, workers: int, tile_samples: int, store: tuple[AtlasCache, str] | None,
                say: Callable[[float], None]) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, BakeTally]:
     """One image's bake (a set's, or one UDIM tile's): ``(images, covered, margin, tally)``."""
-    mesh, atlas, baked = tile.mesh, tile.atlas, tile.baked
+    mesh, atlas, baked, bounds = tile.mesh, tile.atlas, tile.baked, _bounds(whole[0])
     assert isinstance(baked, BakedMesh)
     with timer.stage("prepare"):
         maps = Maps(settings, mapping)
-        sampler = _sampler(mesh, atlas, baked, src, settings, maps.needs_normals, _reach(None, settings, bounds))
+        sampler = _sampler(mesh, atlas, baked, src, settings, maps.needs_normals or bool(settings.maps), _reach(None, settings, bounds))
+    mesh_maps = None
+    if settings.maps:  # before the tiles: a material may read them (mesh_map nodes)
+        with timer.stage("mesh maps"):
+            made, mesh_maps = meshmaps.bake_maps(meshmaps.MeshMapContext.for_image(settings, whole[0], mesh, atlas, whole[1]), sampler)
+        maps.add_mesh_maps(made)
     say(0.3)
     lookups = None if store is None else (store[0], (store[1], *settings.width_height, settings.samples, settings.seed, tile_samples,
                                                      *([] if tile.number is None else [tile.number])))
@@ -351,8 +363,17 @@ def _bake_tile(tile: Tile, bounds: tuple[np.ndarray, np.ndarray], mapping: Textu
     say(0.95)
     tally = BakeTally(covered, filled, cast=int(cast), rays=int(rays), transfer_missed=int(missed), hits=hits, lookup_reused=reused,
                       error_estimate=error_estimate, seconds=timer.seconds, faces=len(mesh.faces),
-                      material=None if maps.material is None else maps.material.report())
+                      material=None if maps.material is None else maps.material.report(), mesh_maps=mesh_maps)
     return _images(maps, settings), covered, filled, tally
+
+
+def _scenes(mesh: LoadedMesh, src: LoadedMesh | None, cage: LoadedMesh | None) -> Scenes:
+    """The mesh maps' ray scenes (built once a bake) and a high-to-low bake's source and cage."""
+    if cage is not None and not np.array_equal(cage.faces, mesh.faces):
+        raise ParameterError("cage_mesh", f"{cage.path}: expected the mesh's topology ({len(mesh.faces)} faces, the same corners), "
+                             f"got {len(cage.faces)} faces" + (" with other corners" if len(cage.faces) == len(mesh.faces) else ""))
+    source = None if src is None else meshmaps.Source(src.vertices, src.faces, src.part, list(src.part_names))
+    return Scenes(source, None if cage is None else cage.vertices, (mesh.vertices, mesh.faces))
 
 
 def _share(say: Callable[[float], None], i: int, n: int) -> Callable[[float], None]:

@@ -48,6 +48,7 @@ from .formats import bits_problem, format_name
 from .materials.builtins import BUILTINS
 from .materials.model import Material, parse_material
 from .materials.packing import PackTemplate, parse_packing
+from .meshmaps.kinds import KINDS
 from .textures.spec import TEXTURES, TextureSpec, parse_spec
 from .validation import describe
 
@@ -116,6 +117,7 @@ Packing = Annotated[
     PlainSerializer(lambda ts: None if ts is None else [t.model_dump(mode="json") for t in ts], return_type=Union[list, None]),  # noqa: UP007
 ]
 Finite = Annotated[float, AfterValidator(_finite)]
+MeshMapKind = Literal[KINDS]  # type: ignore[valid-type]  # texbake.meshmaps.kinds
 MAX_TEXELS = 65536  # a side of the image
 Texels = Annotated[int, Field(ge=1, le=MAX_TEXELS)]
 
@@ -228,6 +230,20 @@ class BakeSettings(BaseModel):
         None, description="a material's texture set's own settings, by material name: JSON (or, on the command line, a "
         '.json/.yaml file) like {"body": {"texture": "marble"}, "wheels": {"texture": "checker", "size": 512}}; '
         f"each may set {', '.join(SET_FIELDS)}")
+    maps: list[MeshMapKind] | None = Field(
+        None, description="mesh maps baked beside the texture's: ao (ambient occlusion), bent_normal, thickness, "
+        "curvature, position_object, position_world, normal_object, normal_world, id_material, id_part, id_chart")
+    map_rays: int = Field(64, ge=1, le=4096, description="rays a texel of the ao, bent_normal and thickness maps")
+    map_distance: Finite | None = Field(None, gt=0, description="the longest ray of the ao, bent_normal and thickness maps "
+                                        "(default: the bounding-box diagonal)")
+    curvature_scale: Finite | None = Field(None, gt=0, description="the curvature map's scale, a length: a sphere of radius r "
+                                           "gets 0.5 + 0.5 scale / r (default: 2% of the bounding-box diagonal)")
+    front_distance: Finite | None = Field(None, gt=0, description="high to low without a cage mesh: how far out along the "
+                                          "normal the source_* maps' rays start (default: cage, else 5% of the bounding-box diagonal)")
+    back_distance: Finite | None = Field(None, gt=0, description="how far past the target surface (or the cage's) they reach "
+                                         "(default: as front_distance)")
+    occluders: Literal["all", "set"] = Field("all", description="what the ao and bent_normal rays hit: every face of the mesh "
+                                             "(all) or only the texture set's")
     names: str = Field(DEFAULT_NAMES, description="the maps' file names: a template of {mesh}, {set}, {map}, {tile} and {ext}; "
                        "a field without a value ({set} in a bake of one texture set, {tile} without UDIM tiles) is left out "
                        "with one separator beside it")
@@ -272,6 +288,10 @@ class BakeSettings(BaseModel):
             raise ValueError("frames: a material bakes one set of maps, not frames")
         if self.material is not None and self.bump is not None:
             raise ValueError("bump: a material's normal map comes from its height (or normal) channel")
+        if self.material is not None:
+            read = {n.params.map for n in self.material.graph.nodes.values() if n.op == "mesh_map"}
+            if missing := sorted(read - set(self.maps or ())):
+                raise ValueError(f"maps: the material reads mesh maps {', '.join(missing)}: list them in maps")
         if self.material is None and self.packing is not None:
             raise ValueError("packing: packs a material's channels; give a material")
         if self.materials and self.texture_set == "single":
@@ -307,6 +327,11 @@ class BakeSettings(BaseModel):
         if self.material is not None:
             return bool({"height", "normal"} & set(self.material.channels))
         return self.bump is not None
+
+    @property
+    def tangents(self) -> bool:
+        """Whether the output mesh gets tangents: a normal map, or a source_normal mesh map, is baked in their frame."""
+        return self.normal_map or "source_normal" in (self.maps or ())
 
     @property
     def width_height(self) -> tuple[int, int]:

@@ -58,6 +58,13 @@ class Maps:
         self.images = {name: np.zeros((height, width, c), dtype=dtype) for name, c in widths.items()}
         self.hits = np.zeros((height, width), dtype=np.uint8 if self.samples < 256 else np.uint16 if self.samples < 65536 else np.uint32)
 
+    def add_mesh_maps(self, images: dict[str, np.ndarray]) -> None:
+        """Take the mesh maps' finished images (``texbake.meshmaps``): written and margin-filled
+        with the rest, and read by a material's ``mesh_map`` nodes."""
+        self.images.update(images)
+        if self.material is not None:
+            self.material.mesh_images = images
+
     @property
     def needs_normals(self) -> bool:
         uses_normal = self.material is not None and any(n.op in ("normal", "mtlx") for n in self.material.material.graph.nodes.values())

@@ -33,6 +33,7 @@ class MaterialMaps:
         self.material, self.settings, self.mapping = material, settings, mapping
         given = material.channels
         self.evaluator = Evaluator(material, given)
+        self.mesh_images: dict[str, np.ndarray] = {}  # the mesh maps its mesh_map nodes read, baked first (texbake.meshmaps)
         self.widths = {c: 3 if CHANNELS[c] == COLOUR else 1 for c in given if c != "normal"}
         if settings.normal_map:
             self.widths["normal"] = 3
@@ -46,11 +47,25 @@ class MaterialMaps:
         filtered = settings.filtering and not exact and dqdx is not None
         octaves = None if exact else settings.max_octaves
         values = self.evaluator.values(mapping, q, dqdx if filtered else None, dqdy if filtered else None, s.normals,
-                                       max_octaves=octaves, exact=exact, count=count)
+                                       max_octaves=octaves, exact=exact, count=count, mesh_maps=self._mesh_maps_at(s))
         if "normal" in self.widths:
             values["normal"] = self._normal(values.get("normal"), values.get("height"), s, q, dqdx, dqdy, filtered, octaves, exact,
                                             count)
         return values
+
+    def _mesh_maps_at(self, s):
+        """A reader of the mesh maps' values at the samples ``s`` (their texels' in
+        :attr:`mesh_images`), or None for a material that reads none."""
+        if not self.evaluator.mesh_maps:
+            return None
+
+        def read(name: str) -> np.ndarray:
+            image = self.mesh_images.get(name)
+            if image is None or s.texel is None:
+                raise ValueError(f"mesh map {name!r}: not baked before the material (or the samples have no texels)")
+            return image.reshape(-1, image.shape[2])[s.texel].astype(np.float64)
+
+        return read
 
     def _normal(self, given, centre, s, q, dqdx, dqdy, filtered: bool, octaves, exact: bool, count: bool) -> np.ndarray:
         """The encoded normal map: the height's relief over the ``normal`` channel (either alone)."""
@@ -65,8 +80,11 @@ class MaterialMaps:
         # bump.height_normal_map's forward differences (it is the reference), compiled
         fx, fy = np.concatenate([dqdx, dqdx]), np.concatenate([dqdy, dqdy])
         normals = None if s.normals is None or not self.evaluator.height_uses_normals else np.concatenate([s.normals, s.normals])
+        at = self._mesh_maps_at(s)  # the offset points read their sample's texel: both halves the samples'
+        twice = None if at is None else (lambda name: np.concatenate([at(name), at(name)]))
         shifted = self.evaluator.heights(self.mapping, np.concatenate([q + 0.5 * dqdx, q + 0.5 * dqdy]), fx if filtered else None,
-                                         fy if filtered else None, normals, max_octaves=octaves, exact=exact, count=count)
+                                         fy if filtered else None, normals, max_octaves=octaves, exact=exact, count=count,
+                                         mesh_maps=twice)
         out = np.empty((len(q), 3))
         _native.height_normals(np.ascontiguousarray(centre[:, 0]), shifted, dqdx, dqdy, _NONE3 if s.frame is not None else s.normals,
                                _NONE33 if s.frame is None else s.frame, float(self.material.height_scale),

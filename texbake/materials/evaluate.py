@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 import threading
+from collections.abc import Callable
 
 import numpy as np
 
@@ -25,12 +26,17 @@ from .program import Program, channels_of, compile_program
 _NO_SPREAD = np.zeros(0)
 
 
+MeshMaps = Callable[[str], np.ndarray]  # a mesh map's name -> its (n, c) float64 values at the samples
+
+
 def run_in_space(program: Program, mapping: TextureMapping, q: np.ndarray, dqdx: np.ndarray | None, dqdy: np.ndarray | None,
-                 normals: np.ndarray | None, *, max_octaves: int | None = None, exact: bool = False) -> dict[str, np.ndarray]:
+                 normals: np.ndarray | None, *, max_octaves: int | None = None, exact: bool = False,
+                 mesh_maps: MeshMaps | None = None) -> dict[str, np.ndarray]:
     """``channel -> (n, c)`` float64 (c = 3 for colours, 1 for scalars) at ``(n, 3)`` points
     ``q`` in the bake's texture space (rounded to its precision here unless ``exact``),
     with their footprints (None: point sampling) and ``(n, 3)`` unit ``normals`` (needed
-    only by a material with a normal node)."""
+    only by a material with a normal node); ``mesh_maps`` gives the mesh maps' values at
+    the samples (needed only by a material with a mesh_map node)."""
     if mapping.precision == "float32" and not exact:
         q = q.astype(np.float32).astype(np.float64)
         if dqdx is not None and dqdy is not None:
@@ -41,7 +47,14 @@ def run_in_space(program: Program, mapping: TextureMapping, q: np.ndarray, dqdx:
     for seg in program.segments:
         for leaf in seg.leaves:
             wide = spread and leaf in program.spread  # the leaf's spread is read: evaluated with it
-            values[leaf] = _leaf(nodes[leaf], mapping, q, dqdx, dqdy, normals, values, max_octaves, wide)
+            node = nodes[leaf]
+            if node.op == "mesh_map":
+                name = node.params.map  # type: ignore[attr-defined]
+                if mesh_maps is None:
+                    raise ValueError(f"node {node.id!r}: mesh map {name!r} asked for where there are none")
+                values[leaf] = np.asarray(mesh_maps(name), dtype=np.float64), None
+                continue
+            values[leaf] = _leaf(node, mapping, q, dqdx, dqdy, normals, values, max_octaves, wide)
         if not len(seg.code):
             continue
         out_mean = np.empty((n, seg.columns))
@@ -106,18 +119,26 @@ class Evaluator:
         """The height channel alone: what the normal map's offset points evaluate."""
         return compile_program(self.material.graph, ["height"])
 
-    def values(self, mapping: TextureMapping, q, dqdx, dqdy, normals, *, max_octaves=None, exact=False, count=True) -> dict:
+    @functools.cached_property
+    def mesh_maps(self) -> set[str]:
+        """The mesh maps the material's nodes read (``mesh_map``)."""
+        return {n.params.map for n in self.material.graph.nodes.values() if n.op == "mesh_map"}  # type: ignore[attr-defined]
+
+    def values(self, mapping: TextureMapping, q, dqdx, dqdy, normals, *, max_octaves=None, exact=False, count=True,
+               mesh_maps: MeshMaps | None = None) -> dict:
         """:func:`run_in_space` of the bake's channels, counted (unless ``count`` is False: the error probe)."""
-        out = run_in_space(self.program, mapping, q, dqdx, dqdy, normals, max_octaves=max_octaves, exact=exact)
+        out = run_in_space(self.program, mapping, q, dqdx, dqdy, normals, max_octaves=max_octaves, exact=exact, mesh_maps=mesh_maps)
         if count:
             with self._lock:
                 for node in self.counts:
                     self.counts[node] += len(q)
         return out
 
-    def heights(self, mapping: TextureMapping, q, dqdx, dqdy, normals, *, max_octaves=None, exact=False, count=True) -> np.ndarray:
+    def heights(self, mapping: TextureMapping, q, dqdx, dqdy, normals, *, max_octaves=None, exact=False, count=True,
+                mesh_maps: MeshMaps | None = None) -> np.ndarray:
         """``(n,)`` the height channel at ``q`` (the normal map's offset points)."""
-        h = run_in_space(self.height_program, mapping, q, dqdx, dqdy, normals, max_octaves=max_octaves, exact=exact)["height"]
+        h = run_in_space(self.height_program, mapping, q, dqdx, dqdy, normals, max_octaves=max_octaves, exact=exact,
+                         mesh_maps=mesh_maps)["height"]
         if count:
             with self._lock:
                 for node in self.height_program.nodes:
@@ -140,7 +161,7 @@ class Evaluator:
 
 
 def evaluate_material(material, points, footprint=None, *, normals=None, bounds=None, channels=None,
-                      max_octaves=None) -> dict[str, np.ndarray]:
+                      max_octaves=None, mesh_maps: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
     """Evaluate a material's channels at object-space points, without a mesh.
 
     Parameters
@@ -158,6 +179,8 @@ def evaluate_material(material, points, footprint=None, *, normals=None, bounds=
     channels : list of str, optional
         Which channels (default: all the material gives; ``normal`` is the channel as
         given, not a normal made from ``height``).
+    mesh_maps : dict of str to (n, c) array_like of float, optional
+        The mesh maps' values at the points, for a material with ``mesh_map`` nodes.
 
     Returns
     -------
@@ -172,5 +195,7 @@ def evaluate_material(material, points, footprint=None, *, normals=None, bounds=
     wanted = [c for c in CHANNELS if c in material.graph.channels] if channels is None else list(channels)
     program = compile_program(material.graph, wanted)
     n = None if normals is None else np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    given = None if mesh_maps is None else {k: np.asarray(v, dtype=np.float64).reshape(len(p), -1) for k, v in mesh_maps.items()}
+    reader = None if given is None else given.__getitem__
     return run_in_space(program, mapping, p, None if f is None else f[:, 0], None if f is None else f[:, 1], n,
-                        max_octaves=max_octaves)
+                        max_octaves=max_octaves, mesh_maps=reader)

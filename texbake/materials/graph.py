@@ -22,6 +22,7 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from ..errors import MaterialError, TextureError
+from ..meshmaps.kinds import CHANNELS as MESH_MAP_CHANNELS
 from ..textures.spec import TEXTURES, parse_spec
 from ..validation import describe, did_you_mean, shown
 from .nodes import ANY, COLOUR, OPS, SCALAR, VALUED, ConstantParams, TextureParams
@@ -204,6 +205,8 @@ class _Builder:
             return self.nodes[inputs["input"]].kind
         if gives == "kind":
             return params.kind  # type: ignore[attr-defined]
+        if gives == "mesh_map":
+            return SCALAR if MESH_MAP_CHANNELS[params.map] == 1 else COLOUR  # type: ignore[attr-defined]
         if gives == "widest":
             return COLOUR if any(self.nodes[inputs[n]].kind == COLOUR for n in OPS[op].widest_of) else SCALAR
         return gives

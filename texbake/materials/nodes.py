@@ -21,6 +21,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, model_validator
 
+from ..meshmaps.kinds import KINDS
 from ..textures.spec import ColourMap, Curve
 
 SCALAR, COLOUR, ANY = "scalar", "colour", "any"
@@ -111,6 +112,13 @@ class BlendParams(_Params):
     mode: Literal["overlay", "screen", "multiply"] = Field(..., description="the layer b over the base a")
 
 
+class MeshMapParams(_Params):
+    """``map``: the mesh map read (``texbake.meshmaps``: ao, curvature, thickness... one the
+    bake's ``maps`` lists), at each sample's texel."""
+
+    map: Literal[KINDS]  # type: ignore[valid-type]
+
+
 class MtlxParams(_Params):
     """A channel of a MaterialX document (``texbake.mtlx``): the document's XML text, its
     ``path`` (for messages), the ``channel`` and the ``kind`` it gives."""
@@ -160,8 +168,10 @@ OPS: dict[str, Op] = {
                 **_widest("a", "b")),
     "warp": Op({"by": ANY}, WarpParams, "texture", "a texture at the points moved by amount * by (domain warp)"),
     "mtlx": Op({}, MtlxParams, "kind", "a channel of a MaterialX document's surface shader (--material FILE.mtlx)"),
+    "mesh_map": Op({}, MeshMapParams, "mesh_map", "a mesh map of the bake (ao, curvature, thickness...) at the sample's texel: "
+                   "a scalar for the one-channel maps, else a colour"),
 }
 
 # textures whose scalar before the colour map a "value" output gives
 VALUED = ("noise", "turbulence", "fbm", "marble", "wood", "checker")
-LEAVES = ("texture", "constant", "position", "normal", "warp", "mtlx")  # evaluated outside the program (but warp's input)
+LEAVES = ("texture", "constant", "position", "normal", "warp", "mtlx", "mesh_map")  # evaluated outside the program (but warp's input)

@@ -104,7 +104,7 @@ def compile_program(graph: Graph, channels: list[str]) -> Program:
     done: set[str] = set()  # nodes whose arrays exist before the segment runs
     for s in range(max(level.values(), default=0) + 1):
         members = [i for i in order if level[i] == s]
-        leaves = [i for i in members if nodes[i].op in ("texture", "warp", "position", "normal", "mtlx")]
+        leaves = [i for i in members if nodes[i].op in ("texture", "warp", "position", "normal", "mtlx", "mesh_map")]
         ops = [i for i in members if nodes[i].op not in LEAVES]
         segments.append(_segment(nodes, leaves, ops, done, wanted, later))
         done |= set(leaves) | set(segments[-1].exports)

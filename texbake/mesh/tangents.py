@@ -9,9 +9,9 @@ output mesh's vertex normals and these tangents (:func:`sample_frames`), and the
 carries both. ``B`` points along +v (v up, OpenGL and trimesh): the normal map's green
 channel is "+Y up", as glTF wants.
 
-A vertex's tangent is the area-weighted mean of its faces' dP/du, made orthogonal to the
-vertex normal; ``w`` says whether dP/dv lies on the side of ``N x T`` (+1) or not (-1, a
-mirrored layout). Faces with no UV area give no direction; a vertex left without one gets
+A vertex's tangent is MikkTSpace's: the mean of its faces' dP/du, each made orthogonal to the
+vertex normal and unit, weighted by the face's angle at the vertex; ``w`` says whether
+dP/dv lies on the side of ``N x T`` (+1) or not (-1, a mirrored layout). Faces with no UV area give no direction; a vertex left without one gets
 any unit vector orthogonal to its normal.
 """
 
@@ -37,24 +37,40 @@ def vertex_tangents(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray, nor
     """``(k, 4)`` float64 tangents: unit ``xyz`` orthogonal to each vertex normal, ``w`` = +-1.
 
     ``vertices`` ``(k, 3)``, ``uv`` ``(k, 2)`` (v up) and unit ``normals`` ``(k, 3)`` per
-    vertex; ``faces`` ``(m, 3)`` int indices into them.
+    vertex; ``faces`` ``(m, 3)`` int indices into them. As MikkTSpace weighs them: each
+    face's dP/du made orthogonal to the corner's vertex normal, then unit, summed with the
+    corner's angle (between its edges, laid in that normal's plane) as weight.
     """
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
     normals = np.asarray(normals, dtype=np.float64)
     dpdu, dpdv, _ = uv_jacobian(vertices, faces, uv, faces)
-    weight = areas(vertices, faces)[:, None]
+    weight = areas(vertices, faces)
     face_normal = _unit(np.cross(vertices[faces[:, 1]] - vertices[faces[:, 0]], vertices[faces[:, 2]] - vertices[faces[:, 0]]))
-    handed = np.sign(np.einsum("ij,ij->i", np.cross(face_normal, dpdu), dpdv))[:, None]  # (m, 1): -1 mirrored, 0 degenerate
+    handed = np.sign(np.einsum("ij,ij->i", np.cross(face_normal, dpdu), dpdv))  # (m,): -1 mirrored, 0 degenerate
     tangent, side = np.zeros_like(vertices), np.zeros(len(vertices))
     for corner in range(3):
-        np.add.at(tangent, faces[:, corner], _unit(dpdu) * weight)
-        np.add.at(side, faces[:, corner], (handed * weight)[:, 0])
+        v = faces[:, corner]
+        n = normals[v]
+        along = _unit(dpdu - np.einsum("ij,ij->i", dpdu, n)[:, None] * n)  # in the corner normal's plane, then unit
+        angle = _corner_angle(vertices, faces, corner, n)
+        for axis in range(3):
+            tangent[:, axis] += np.bincount(v, along[:, axis] * angle, len(vertices))
+        side += np.bincount(v, handed * weight, len(vertices))
     tangent -= np.einsum("ij,ij->i", tangent, normals)[:, None] * normals
     tangent = _unit(tangent)
     none = ~(np.linalg.norm(tangent, axis=1) > 0.5)
     tangent[none] = _orthogonal_to(normals[none])
     return np.column_stack([tangent, np.where(side < 0, -1.0, 1.0)])
+
+
+def _corner_angle(vertices: np.ndarray, faces: np.ndarray, corner: int, normals: np.ndarray) -> np.ndarray:
+    """``(m,)`` the angle at ``corner`` of each face between its two edges, both laid in the
+    plane of the corner's unit ``normals`` ``(m, 3)`` first (MikkTSpace's ``fAngle``)."""
+    here = vertices[faces[:, corner]]
+    edges = [vertices[faces[:, (corner + k) % 3]] - here for k in (1, 2)]
+    a, b = (_unit(e - np.einsum("ij,ij->i", e, normals)[:, None] * normals) for e in edges)
+    return np.arccos(np.clip(np.einsum("ij,ij->i", a, b), -1.0, 1.0))
 
 
 def sample_frames(corner_normals: np.ndarray, corner_tangents: np.ndarray, bary: np.ndarray) -> np.ndarray:

@@ -82,6 +82,9 @@ class BakeTally:
         A material's bake: its maps and each node's evaluations (``texbake.maps.material``).
     faces : int
         The faces of the image's mesh (its texture set's, or UDIM tile's).
+    mesh_maps : dict or None
+        The mesh maps baked (``texbake.meshmaps.bake_maps``' tally: maps, texels, rays,
+        ray_seconds, rays_per_second), or None.
     """
 
     covered: np.ndarray
@@ -95,6 +98,7 @@ class BakeTally:
     seconds: dict = field(default_factory=dict)
     material: dict | None = None
     faces: int = 0
+    mesh_maps: dict | None = None
 
 
 def bake_report(settings: BakeSettings, mesh: LoadedMesh, units: list, *, source: LoadedMesh | None = None,
@@ -146,6 +150,7 @@ def bake_report(settings: BakeSettings, mesh: LoadedMesh, units: list, *, source
         "rays": sets[0]["rays"] if one else _sum([s["rays"] for s in sets]),
         "error_estimate": sets[0]["error_estimate"] if one else _combined([s["error_estimate"] for s in sets]),
         **({"material": sets[0]["material"]} if one and "material" in sets[0] else {}),  # several sets: each set's own
+        **({"mesh_maps": sets[0]["mesh_maps"]} if one and "mesh_maps" in sets[0] else {}),
         "warnings": warnings + _transfer_warning(sum(t.cast for t in tallies), sum(t.transfer_missed for t in tallies)),
         "skipped": _skipped(source, list(atlases.values()), tallies),
         "seconds": {k: round(v, 4) for k, v in (seconds or {}).items()},
@@ -197,6 +202,7 @@ def _figures(settings: BakeSettings, tally: BakeTally) -> dict:
         },
         "error_estimate": tally.error_estimate,
         **({} if tally.material is None else {"material": tally.material}),
+        **({} if tally.mesh_maps is None else {"mesh_maps": tally.mesh_maps}),
     }
 
 

@@ -182,7 +182,13 @@ def _slots(b, folder: Path, fmt: str, name_of, written: dict) -> tuple[dict[str,
         colour = "albedo" if "albedo" in images else min(n for n in images if n.startswith("albedo_"))
         emits = b.settings.texture.emits  # the flame: its colour is light, not paint
         slots = {"baseColor": colour, **({"normal": "normal"} if "normal" in images else {}), **({"emissive": colour} if emits else {})}
-        return _pngs(b, folder, fmt, name_of, written, slots, {}), (0.0, 0.0, 0.0, 1.0) if emits else (1.0, 1.0, 1.0, 1.0), {}
+        copies = {}
+        if "normal" not in images and "source_normal" in images:  # a high-to-low bake's normal map (texbake.meshmaps.highpoly)
+            slots["normal"] = "source_normal"
+            if b.settings.normal_convention == "directx":  # glTF's is +Y
+                normal = images["source_normal"]
+                copies["source_normal"] = np.concatenate([normal[..., :1], 1.0 - normal[..., 1:2], normal[..., 2:]], axis=2)
+        return _pngs(b, folder, fmt, name_of, written, slots, copies), (0.0, 0.0, 0.0, 1.0) if emits else (1.0, 1.0, 1.0, 1.0), {}
     from ..materials import DEFAULTS, PACKINGS, pack
 
     material, copies = b.settings.material, {}

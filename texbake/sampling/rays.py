@@ -121,3 +121,25 @@ class Scene:
         face, tfar = self._cast(origins, directions, bound)
         distance = np.where(face >= 0, tfar.astype(np.float64) * self._scale, np.inf)
         return face, distance
+
+    def hemisphere(self, points: np.ndarray, normals: np.ndarray, rays: int, distance: float, *, inward: bool = False,
+                   bent: bool = False, bias: float = 1e-4, seed: int = 0) -> tuple[np.ndarray, np.ndarray | None]:
+        """Cosine-weighted hemisphere rays from each point (compiled: packets of 8, every core).
+
+        ``points``, ``normals``: ``(n, 3)`` float (unit normals); ``rays`` a point, at most
+        ``distance`` long (caller's units); ``bias``: the origins' offset along the normal,
+        caller's units. Outward: ``(open (n,) float64, the share of rays that hit nothing;
+        bent (n, 3) float64 unit mean open direction, or None unless ``bent``)``. ``inward``
+        (about ``-normal``): ``(mean distance (n,) float64 to the first hit, each capped at
+        ``distance``, None)``.
+        """
+        if self._compiled is None:
+            raise RuntimeError("hemisphere rays need texbake's compiled Embree kernels (embreex's Embree 4 library was not found)")
+        n = len(points)
+        value = np.empty(n, dtype=np.float32)
+        out = np.empty((n if bent else 0, 3), dtype=np.float32)
+        unit = np.ascontiguousarray(normals, dtype=np.float32)
+        self._compiled.hemisphere(np.ascontiguousarray(self._origins(points)), unit, int(rays), float(distance / self._scale),
+                                  float(bias / self._scale), int(seed) & 0xFFFFFFFF, bool(inward), value, out)
+        scale = self._scale if inward else 1.0
+        return value.astype(np.float64) * scale, out.astype(np.float64) if bent else None

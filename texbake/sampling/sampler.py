@@ -32,7 +32,8 @@ class Samples:
     ``transfer_missed``: UV points whose transfer rays found no source; ``frame``: ``(n, 3, 3)`` float64 tangent frames (rows T, B, N) of the
     output mesh, or None when the sampler was made without one; ``coverage``: ``(n,)``
     float64 share of each sample's texel that its chart covers, where the footprints were
-    cut to it (:meth:`Sampler.at_located`), else None.
+    cut to it (:meth:`Sampler.at_located`), else None; ``texel``: ``(n,)`` int64 the image
+    texel (row-major) under each sample (what a material's ``mesh_map`` node reads).
     """
 
     index: np.ndarray
@@ -44,24 +45,27 @@ class Samples:
     transfer_missed: int = 0
     frame: np.ndarray | None = None
     coverage: np.ndarray | None = None
+    texel: np.ndarray | None = None
 
 
 @dataclass
 class Located:
     """Where a batch's UV points lie: ``count`` points, of which those at ``index`` (``(n,)``
     int64) hit a face: ``face`` ``(n,)``, ``bary`` ``(n, 3)`` float64; ``rays`` cast to
-    find them. It depends on the atlas and the points only: a later bake of the same atlas
-    at the same size and samples may reuse it (``texbake.atlas.cache``)."""
+    find them; ``texel`` ``(n,)`` int64: the image texel (row-major) each lies in. It depends
+    on the atlas and the points only: a later bake of the same atlas at the same size and
+    samples may reuse it (``texbake.atlas.cache``)."""
 
     index: np.ndarray
     face: np.ndarray
     bary: np.ndarray
     rays: int
     count: int
+    texel: np.ndarray | None = None
 
     @property
     def nbytes(self) -> int:
-        return self.index.nbytes + self.face.nbytes + self.bary.nbytes
+        return self.index.nbytes + self.face.nbytes + self.bary.nbytes + (0 if self.texel is None else self.texel.nbytes)
 
 
 class Sampler:
@@ -102,7 +106,14 @@ class Sampler:
         """The faces under ``(m, 2)`` UV points, ``samples`` a texel in ``sample_uv``'s order
         (``texels.UVLookup.locate``)."""
         face, bary, rays = self.lookup.locate(uvs, samples)
-        return Located(*hits(face, bary), rays, len(uvs))
+        index, face, bary = hits(face, bary)
+        return Located(index, face, bary, rays, len(uvs), self._texels(uvs[index]))
+
+    def _texels(self, uvs: np.ndarray) -> np.ndarray:
+        """``(n,)`` int64 row-major texel of each of ``(n, 2)`` UV points (v up, row 0 at the top)."""
+        col = np.clip(np.floor(uvs[:, 0] * self.width), 0, self.width - 1).astype(np.int64)
+        row = np.clip(np.floor((1.0 - uvs[:, 1]) * self.height), 0, self.height - 1).astype(np.int64)
+        return row * self.width + col
 
     def at(self, uvs: np.ndarray, timer=None, samples: int = 1) -> Samples:
         """Surface samples at ``(m, 2)`` UV points (:meth:`locate`, :meth:`at_located`);
@@ -124,7 +135,7 @@ class Sampler:
         with stage("surface"):
             s = self.surface.samples(located.face, located.bary, self.footprints)
             coverage = self._cut(located, s) if cut and s.dpdx is not None else None
-        found = Samples(index, s.points, s.normals, s.dpdx, s.dpdy, rays=rays, frame=s.frame, coverage=coverage)
+        found = Samples(index, s.points, s.normals, s.dpdx, s.dpdy, rays=rays, frame=s.frame, coverage=coverage, texel=located.texel)
         if self.caster is None:
             return found
         with stage("transfer"):
@@ -133,7 +144,8 @@ class Sampler:
             return Samples(index[hit], points[hit], s.normals[hit], None if s.dpdx is None else s.dpdx[hit],
                            None if s.dpdy is None else s.dpdy[hit], rays=rays,
                            transfer_missed=int((~hit).sum()), frame=None if s.frame is None else s.frame[hit],
-                           coverage=None if coverage is None else coverage[hit])
+                           coverage=None if coverage is None else coverage[hit],
+                           texel=None if located.texel is None else located.texel[hit])
 
     def _cut(self, located: Located, s) -> np.ndarray:
         """Cut the footprints of ``s`` (surface samples of ``located``, one a texel) to the

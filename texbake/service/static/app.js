@@ -263,9 +263,13 @@ function triple({ node, value, title }) { // x, y, z
   return { input: boxes[0], inputs: boxes, read, body: el("div", { className: "triple" }, boxes) };
 }
 
-function list({ nullable, value, words, about }) { // a list of numbers
-  const input = el("input", { type: "text", value: (value || []).join(", "), placeholder: words.placeholder ?? (nullable ? "none" : "") });
-  return { input, read: () => (input.value.trim() === "" && nullable ? null : numbers(input.value)), note: about ? "" : "Numbers, separated by commas." };
+function list({ ctx, node, nullable, value, words, about }) { // a list of numbers, or of names (the mesh maps)
+  const item = node.items ? resolve(ctx.root, node.items) : {};
+  const names = Boolean(item.enum) || item.type === "string";
+  const input = el("input", { type: "text", value: (value || []).join(words.join ?? ", "), placeholder: words.placeholder ?? (nullable ? "none" : "") });
+  const read = () => (input.value.trim() === "" && nullable ? null
+    : names ? input.value.split(",").map((part) => part.trim()).filter(Boolean) : numbers(input.value));
+  return { input, read, note: about ? "" : names ? "Names, separated by commas." : "Numbers, separated by commas." };
 }
 
 function textBox({ value }) { // a string that is not one of a list
