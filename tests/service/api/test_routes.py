@@ -468,7 +468,7 @@ def test_a_material_is_a_setting_resolved_before_queueing(client, meshes):
      "settings.material: node 'a': a cycle: a -> b -> a"),
     ({"base_color": {"op": "blur", "input": 1}}, "settings.material: node 'base_color': unknown op 'blur' (the ops are: texture, "
      "constant, position, normal, channel, combine, mix, add, subtract, multiply, divide, power, invert, clamp, threshold, smoothstep, "
-     "remap, blend, warp, mtlx)"),
+     "remap, blend, warp, mtlx, mesh_map)"),
     ({"base_color": {"op": "mix", "a": 0, "b": 1, "mask": [1, 0, 0]}},
      "settings.material: node 'base_color': input 'mask' takes a scalar, got a colour"),
 ])
