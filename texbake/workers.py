@@ -395,15 +395,16 @@ class Pool:
                 results[busy.pop(w)[0]] = reply
                 if w.process.poll() is None:  # alive: ready for the next job
                     self.idle.append(w)
-            if job_seconds is not None and not ready:
-                for w in self._stuck(busy, job_seconds):
-                    i = busy.pop(w)[0]
-                    w.end()
-                    if tries[i] < retries:
-                        tries[i] += 1
-                        pending.append(i)
-                    else:
-                        results[i] = (False, "timeout")
+            stuck = self._stuck(busy, job_seconds) if job_seconds is not None and not ready else []
+            for w in stuck:
+                i = busy.pop(w)[0]
+                w.end()
+                if tries[i] < retries:
+                    tries[i] += 1
+                    pending.append(i)
+                else:
+                    results[i] = (False, "timeout")
+            if stuck:
                 self._forget_dead()
         self._forget_dead()
         return results

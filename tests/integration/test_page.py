@@ -420,12 +420,7 @@ def test_the_material_editor(api, page, meshes):
     # a bake with it: the material's maps, and its name in the report
     expect(p.locator("#maps")).to_contain_text("the material's base colour")
     p.get_by_role("button", name="Bake", exact=True).click()
-    expect(p.locator("#status")).to_contain_text("Done: bunny.ply", timeout=90000)
-    expect(p.locator("#figures")).to_contain_text("two_layers", timeout=20000)
-    expect(p.locator("#viewer[data-ready='1']")).to_be_attached(timeout=20000)
-    page.shot("25-material-baked")
-    job = httpx.get(f"{api}/v1/jobs", params={"limit": 1}, timeout=10).json()["jobs"][0]
-    report = httpx.get(f"{api}/v1/jobs/{job['id']}", timeout=10).json()["report"]
+    job, report = _baked(p, page, api, "two_layers", "25-material-baked", timeout=90000)
     assert report["material"]["name"] == "two_layers" and {"base_color", "roughness", "metallic"} <= set(report["material"]["maps"]), report["material"]
     assert job["settings"]["material"]["roughness"]["op"] == "mix", job["settings"]["material"]
 
@@ -525,12 +520,7 @@ def test_a_materialx_document_in_the_editor(api, page, meshes, tmp_path):
     sent = sent_settings(request.value)["material"]
     assert sent["base_color"]["op"] == "mtlx" and sent["base_color"]["path"] == MARBLE_MTLX.name, sent["base_color"].keys()
     assert sent["base_color"]["document"] == MARBLE_MTLX.read_text()
-    expect(p.locator("#status")).to_contain_text("Done: bunny.ply", timeout=120000)
-    expect(p.locator("#figures")).to_contain_text("Marble_3D", timeout=20000)
-    expect(p.locator("#viewer[data-ready='1']")).to_be_attached(timeout=20000)
-    page.shot("44-mtlx-baked")
-    job = httpx.get(f"{api}/v1/jobs", params={"limit": 1}, timeout=10).json()["jobs"][0]
-    report = httpx.get(f"{api}/v1/jobs/{job['id']}", timeout=10).json()["report"]
+    job, report = _baked(p, page, api, "Marble_3D", "44-mtlx-baked", timeout=120000)
     assert report["material"]["name"] == "Marble_3D" and "base_color" in report["material"]["maps"], report["material"]
 
 
@@ -747,3 +737,14 @@ def test_two_materials_given_two_textures_on_the_page_bake_as_such(api, page, tm
     expect(p.locator("#status")).to_contain_text("Done: pair.glb", timeout=60000)
     expect(p.locator("#sets li")).to_have_count(1)
     expect(p.locator("#sets li")).to_contain_text("pair (materials ")
+
+
+def _baked(p, page, api: str, figure: str, shot: str, *, timeout: int) -> tuple[dict, dict]:
+    """Wait for the page's bake of bunny.ply to be done, ``figure`` among its figures and
+    the viewer ready; keep the shot ``shot``; the latest job and its report."""
+    expect(p.locator("#status")).to_contain_text("Done: bunny.ply", timeout=timeout)
+    expect(p.locator("#figures")).to_contain_text(figure, timeout=20000)
+    expect(p.locator("#viewer[data-ready='1']")).to_be_attached(timeout=20000)
+    page.shot(shot)
+    job = httpx.get(f"{api}/v1/jobs", params={"limit": 1}, timeout=10).json()["jobs"][0]
+    return job, httpx.get(f"{api}/v1/jobs/{job['id']}", timeout=10).json()["report"]
