@@ -104,7 +104,7 @@ def high_to_low_rows(args, tmp: Path, blender: Path | None) -> list[tuple[str, s
     low, high = spheres(tmp)
     size, extrusion, reach = args.size // 2, 0.06, 0.12
     ours = [sys.executable, "-m", "texbake.cli", "bake", str(low), "--source", str(high), "--maps", "source_normal",
-            "--front-distance", str(extrusion), "--back-distance", str(reach - extrusion), "--uv", "keep", "--size", str(size),
+            "--front-distance", str(extrusion), "--back-distance", str(reach - extrusion), "--uv", "keep", "--texture", "none", "--size", str(size),
             "--bits", "16", "--out", str(tmp / "normal")]
     t_ours = median_time(ours, args.runs)
     figure = f"high to low normal map, displaced icosphere (41k faces) onto 1.3k faces, {size}², whole process"

@@ -176,6 +176,110 @@ class Scene {
     }
   }
 
+  // cast, over every core, also giving each hit's barycentric (u, v) (n, 2) float32 of the
+  // face's corners 1 and 2 (Embree's; 0 where nothing is hit): a high-to-low bake
+  // interpolates the source's normals with them, with no second pass over the triangles
+  void cast_uv(In<float, shape<-1, 3>> origins, In<float, shape<-1, 3>> directions, Out<int32_t, nb::ndim<1>> face,
+               Out<float, nb::ndim<1>> tfar, Out<float, shape<-1, 2>> uv) const {
+    const int64_t n = origins.shape(0), step = directions.shape(0) == 1 ? 0 : 1;
+    if ((step && int64_t(directions.shape(0)) != n) || int64_t(face.shape(0)) != n || int64_t(tfar.shape(0)) != n ||
+        int64_t(uv.shape(0)) != n)
+      throw std::invalid_argument("cast_uv: directions (n, 3) or (1, 3), face and tfar (n,), uv (n, 2)");
+    const float *o = origins.data(), *d = directions.data();
+    float *t = tfar.data(), *w = uv.data();
+    int32_t* f = face.data();
+    parallel_for(n, [&](int64_t begin, int64_t end) {
+      for (int64_t i = begin; i < end; ++i) {
+        RayHit r;
+        r.ray = Ray{o[3 * i], o[3 * i + 1], o[3 * i + 2], 0.0f, d[3 * step * i], d[3 * step * i + 1], d[3 * step * i + 2],
+                    0.0f, t[i], 0xFFFFFFFFu, 0u, 0u};
+        r.hit.geomID = r.hit.primID = r.hit.instID[0] = INVALID_ID;
+        api.rtcIntersect1(scene_, &r, nullptr);
+        const bool hit = r.hit.primID != INVALID_ID;
+        f[i] = hit ? int32_t(r.hit.primID) : -1;
+        t[i] = r.ray.tfar;
+        w[2 * i] = hit ? r.hit.u : 0.0f;
+        w[2 * i + 1] = hit ? r.hit.v : 0.0f;
+      }
+    }, 4096);
+  }
+
+  // High to low (texbake/meshmaps/highpoly.py's project, its reference in numpy): from each
+  // target point p (n, 3) float64 with unit smooth normal nrm, a ray from the cage point c
+  // (cage (n, 3), or (0, 3): none) towards p and on by back, else from p + front nrm along
+  // -nrm, front + back long; its first hit on this scene of the source, whose smooth vertex
+  // normals are src_normals (k, 3) and faces src_faces (m, 3) (those the scene holds, in its
+  // order). Writes hit (n,) uint8, depth (n,) float64 (the hit's signed distance from p along
+  // nrm, 0 where none) and normal (n, 3) float64 (the source's interpolated unit normal, 0
+  // where none). The scene's map to the unit box (centre, scale) is applied here as
+  // rays.py's _origins applies it.
+  void project(In<double, shape<-1, 3>> points, In<double, shape<-1, 3>> normals, In<double, shape<-1, 3>> cage,
+               double front, double back, In<double, shape<3>> centre, double scale, In<double, shape<-1, 3>> src_normals,
+               In<int64_t, shape<-1, 3>> src_faces, Out<uint8_t, nb::ndim<1>> hit, Out<double, nb::ndim<1>> depth,
+               Out<double, shape<-1, 3>> normal) const {
+    const int64_t n = points.shape(0), m = src_faces.shape(0), k = src_normals.shape(0);
+    const bool caged = cage.shape(0) != 0;
+    if (int64_t(normals.shape(0)) != n || (caged && int64_t(cage.shape(0)) != n) || int64_t(hit.shape(0)) != n ||
+        int64_t(depth.shape(0)) != n || int64_t(normal.shape(0)) != n)
+      throw std::invalid_argument("project: points, normals, cage (or (0, 3)), hit, depth and normal of n rows");
+    for (int64_t i = 0; i < 3 * m; ++i) {
+      if (src_faces.data()[i] < 0 || src_faces.data()[i] >= k) throw nb::index_error("project: a face index outside the normals");
+    }
+    const double *P = points.data(), *N = normals.data(), *C = cage.data(), *SN = src_normals.data();
+    const int64_t* F = src_faces.data();
+    const double cx = centre.data()[0], cy = centre.data()[1], cz = centre.data()[2];
+    uint8_t* H = hit.data();
+    double *D = depth.data(), *O = normal.data();
+    parallel_for(n, [&](int64_t begin, int64_t end) {
+      for (int64_t i = begin; i < end; ++i) {
+        const double* p = P + 3 * i;
+        const double* q = N + 3 * i;
+        double o[3], d[3], reach;
+        if (caged) {
+          const double* c = C + 3 * i;
+          double t[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]};
+          const double len = std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+          for (int a = 0; a < 3; ++a) {
+            o[a] = c[a];
+            d[a] = len > 0 ? t[a] / len : -q[a];
+          }
+          reach = len + back;
+        } else {
+          for (int a = 0; a < 3; ++a) {
+            o[a] = p[a] + front * q[a];
+            d[a] = -q[a];
+          }
+          reach = front + back;
+        }
+        RayHit r;
+        r.ray = Ray{float((o[0] - cx) / scale), float((o[1] - cy) / scale), float((o[2] - cz) / scale), 0.0f,
+                    float(d[0]), float(d[1]), float(d[2]), 0.0f, float(reach / scale), 0xFFFFFFFFu, 0u, 0u};
+        r.hit.geomID = r.hit.primID = r.hit.instID[0] = INVALID_ID;
+        api.rtcIntersect1(scene_, &r, nullptr);
+        double* out = O + 3 * i;
+        if (r.hit.primID == INVALID_ID) {
+          H[i] = 0;
+          D[i] = 0.0;
+          out[0] = out[1] = out[2] = 0.0;
+          continue;
+        }
+        const double t = double(r.ray.tfar) * scale, u = r.hit.u, v = r.hit.v, w = 1.0 - u - v;
+        const int64_t* f = F + 3 * int64_t(r.hit.primID);
+        const double *n0 = SN + 3 * f[0], *n1 = SN + 3 * f[1], *n2 = SN + 3 * f[2];
+        double s[3], len2 = 0.0, along = 0.0;
+        for (int a = 0; a < 3; ++a) {
+          s[a] = w * n0[a] + u * n1[a] + v * n2[a];
+          len2 += s[a] * s[a];
+          along += (o[a] + t * d[a] - p[a]) * q[a];
+        }
+        const double inv = len2 > 0 ? 1.0 / std::sqrt(len2) : 0.0;
+        for (int a = 0; a < 3; ++a) out[a] = s[a] * inv;
+        H[i] = 1;
+        D[i] = along;
+      }
+    }, 4096);
+  }
+
  // Hemisphere rays (mesh maps: texbake/meshmaps/rays.py), rays a point, cosine-weighted about
   // its normal (inward: about -normal), in packets of 8, the points cut over the cores.
   // Outward: value (n,) the share of rays that hit nothing within distance (ambient
@@ -281,6 +385,14 @@ void bind_embree(nb::module_& m) {
       .def("cast", &Scene::cast, nb::arg("origins"), nb::arg("directions"), nb::arg("face").noconvert(),
            nb::arg("tfar").noconvert(), Release(),
            "Fill face (n,) int32 (-1: no hit) and tfar (n,) float32 (in: each ray's bound) of the rays' first hits.")
+      .def("cast_uv", &Scene::cast_uv, nb::arg("origins"), nb::arg("directions"), nb::arg("face").noconvert(),
+           nb::arg("tfar").noconvert(), nb::arg("uv").noconvert(), Release(),
+           "cast, over every core, also filling uv (n, 2) float32: each hit's barycentrics of the face's corners 1 and 2.")
+      .def("project", &Scene::project, nb::arg("points"), nb::arg("normals"), nb::arg("cage"), nb::arg("front"), nb::arg("back"),
+           nb::arg("centre"), nb::arg("scale"), nb::arg("src_normals"), nb::arg("src_faces"), nb::arg("hit").noconvert(),
+           nb::arg("depth").noconvert(), nb::arg("normal").noconvert(), Release(),
+           "High to low: each target point's ray onto the source (from the cage, or front along the normal), its hit, "
+           "signed depth along the normal and the source's interpolated unit normal there.")
       .def("hemisphere", &Scene::hemisphere, nb::arg("origins"), nb::arg("normals"), nb::arg("rays"), nb::arg("distance"),
            nb::arg("bias"), nb::arg("seed"), nb::arg("inward"), nb::arg("value").noconvert(), nb::arg("bent").noconvert(), Release(),
            "Cosine-weighted hemisphere rays about each normal (inward: about -normal): value (n,) the open share (or the "

@@ -168,7 +168,9 @@ def _bake_one(mesh: str, out: str, given: dict, source: str | None = None, worke
 
     given = dict(given)
     overrides = given.pop("set", None) or []
-    if "texture" in given or overrides:
+    if given.get("texture") == "none" and not overrides:
+        pass  # no texture: a bake of the mesh maps only (texbake.settings)
+    elif "texture" in given or overrides:
         given["texture"] = with_overrides(read_spec(given.get("texture", "checker")), overrides)
     if isinstance(given.get("bump"), str):
         given["bump"] = read_spec(given["bump"])
@@ -217,7 +219,8 @@ def _floats(text: str, name: str) -> list[float]:
 
 
 _SET = typer.Option(None, "--set", help="override a texture parameter: key.sub=value (repeatable)")
-_TEXTURE = typer.Option("checker", "--texture", "-t", help="texture name, JSON spec, or a .json/.yaml spec file (see `texbake textures`)")
+_TEXTURE = typer.Option("checker", "--texture", "-t", help="texture name, JSON spec, or a .json/.yaml spec file (see `texbake textures`); "
+                        "none: bake the --maps only")
 _UV = typer.Option("auto", "--uv", help="auto | unwrap | keep")
 _CACHE = typer.Option(None, "--cache", help="folder of atlases kept for later bakes of the same mesh "
                       "(default: $TEXBAKE_CACHE, else $XDG_CACHE_HOME/texbake or ~/.cache/texbake)")

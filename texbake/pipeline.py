@@ -348,16 +348,21 @@ def _bake_tile(tile: Tile, whole: tuple[LoadedMesh, Scenes], mapping: TextureMap
     mesh_maps = None
     if settings.maps:  # before the tiles: a material may read them (mesh_map nodes)
         with timer.stage("mesh maps"):
-            made, mesh_maps = meshmaps.bake_maps(meshmaps.MeshMapContext.for_image(settings, whole[0], mesh, atlas, whole[1]), sampler)
+            made, mesh_covered, mesh_maps = meshmaps.bake_maps(meshmaps.MeshMapContext.for_image(settings, whole[0], mesh, atlas, whole[1]),
+                                                               sampler, workers=workers)
         maps.add_mesh_maps(made)
     say(0.3)
-    lookups = None if store is None else (store[0], (store[1], *settings.width_height, settings.samples, settings.seed, tile_samples,
-                                                     *([] if tile.number is None else [tile.number])))
-    (cast, rays, missed), reused = _bake_tiles(sampler, maps, settings, timer, workers, tile_samples,
-                                               lambda done: say(0.3 + 0.6 * done), lookups)
-    covered, hits = _coverage(maps)
-    with timer.stage("estimate"):
-        error_estimate = _estimate(sampler, maps, covered, settings)
+    if maps.per_sample:
+        lookups = None if store is None else (store[0], (store[1], *settings.width_height, settings.samples, settings.seed, tile_samples,
+                                                         *([] if tile.number is None else [tile.number])))
+        (cast, rays, missed), reused = _bake_tiles(sampler, maps, settings, timer, workers, tile_samples,
+                                                   lambda done: say(0.3 + 0.6 * done), lookups)
+        covered, hits = _coverage(maps)
+        with timer.stage("estimate"):
+            error_estimate = _estimate(sampler, maps, covered, settings)
+    else:  # texture none: the mesh maps' texel centres are the bake's samples, and nothing is estimated
+        covered, hits = mesh_covered, int(mesh_covered.sum())
+        cast, rays, missed, reused, error_estimate = hits, hits, 0, False, None
     with timer.stage("margin"):
         filled = margin_stage.extend(list(maps.images.values()), covered, settings.margin, workers=workers)
     say(0.95)
@@ -507,7 +512,7 @@ def _bake_tiles(sampler: Sampler, maps: Maps, settings: BakeSettings, timer: Tim
         values = maps.values(s, timer)
         texel = texels[s.index // samples]
         refined = 0
-        if settings.adaptive and settings.filtering and samples == 1:
+        if settings.adaptive and settings.filtering and samples == 1 and maps.colour_name is not None:
             with timer.stage("adaptive"):
                 refined = adaptive.refine(sampler, maps.values, tile_list[i], texel, values, maps.colour_name, settings.adaptive)
         with timer.stage("accumulate"):
@@ -544,6 +549,7 @@ def _estimate(sampler: Sampler, maps: Maps, covered: np.ndarray, settings: BakeS
     edge_grid = grid if settings.samples == 1 else min(16, 2 * grid)
     estimates = {name: estimate_stage.probe_estimate(reference_at(name), maps.images[name], covered, seed=settings.seed, grid=grid,
                                                      edge_grid=edge_grid) for name in maps.estimated}
+    assert maps.colour_name is not None  # the tiles run for a texture's or a material's maps only
     estimate = estimates[maps.colour_name]
     estimate["map"] = maps.colour_name
     if len(estimates) > 1:

@@ -52,9 +52,15 @@ from .meshmaps.kinds import KINDS
 from .textures.spec import TEXTURES, TextureSpec, parse_spec
 from .validation import describe
 
+NO_TEXTURE = "none"  # the texture of a bake of mesh maps only
+
 
 def _texture(value: Any):
-    """A texture name, JSON text or spec object; never a path (``parse_spec`` reads no files)."""
+    """A texture name, JSON text or spec object; never a path (``parse_spec`` reads no files).
+    ``"none"`` (or None) is no texture: a bake of its mesh maps alone (no albedo, no texel
+    lookups of its own: the mesh maps' are the bake's)."""
+    if value is None or value == NO_TEXTURE:
+        return None
     try:
         return parse_spec(value)
     except TextureError as exc:
@@ -102,8 +108,8 @@ def _finite(value: float) -> float:
 TextureName = Literal[tuple(TEXTURES)]  # type: ignore[valid-type]  # the registry's names, as an enum
 Texture = Annotated[
     Any,
-    PlainValidator(_texture, json_schema_input_type=Union[TextureName, TextureSpec]),  # noqa: UP007  # values, not annotations
-    PlainSerializer(lambda spec: spec.model_dump(mode="json"), return_type=dict),
+    PlainValidator(_texture, json_schema_input_type=Union[TextureName, Literal["none"], TextureSpec]),  # noqa: UP007  # values, not annotations
+    PlainSerializer(lambda spec: None if spec is None else spec.model_dump(mode="json"), return_type=Union[dict, None]),  # noqa: UP007
 ]
 MaterialName = Literal[tuple(BUILTINS)]  # type: ignore[valid-type]  # the built-ins' names, as an enum
 MaterialSetting = Annotated[
@@ -151,8 +157,9 @@ class BakeSettings(BaseModel):
 
     Attributes
     ----------
-    texture : TextureSpec
-        The texture baked into the albedo map (given as a name, JSON text or a dict).
+    texture : TextureSpec or None
+        The texture baked into the albedo map (given as a name, JSON text or a dict);
+        ``"none"``: no albedo, a bake of the ``maps`` only.
     size : int or (int, int)
         Image width and height in texels, 1 to 65536 (one number: square).
     quality : {"default", "final"}
@@ -282,6 +289,12 @@ class BakeSettings(BaseModel):
     def _consistent(self):
         if self.bits is not None and (problem := bits_problem(self.format, self.bits)):
             raise ValueError(f"bits: {problem}")
+        if self.texture is None and self.material is None:
+            if not self.maps:
+                raise ValueError("texture: none bakes mesh maps only: list them in maps (or give a texture)")
+            for name, value, plain in (("shading", self.shading, "decal"), ("bump", self.bump, None), ("frames", self.frames, None)):
+                if value != plain:
+                    raise ValueError(f"{name}: {value!r} needs a texture (texture is none: mesh maps only)")
         if self.frames is not None and "time" not in type(self.texture).model_fields:
             raise ValueError(f"frames: texture {self.texture.name!r} has no time to animate")
         if self.material is not None and self.frames is not None:

@@ -41,7 +41,10 @@ class Maps:
         if self.material is not None:
             self.colours: dict = {}
             widths = dict(self.material.widths)
-            self.colour_name = "base_color"
+            self.colour_name: str | None = "base_color"
+        elif spec is None:  # texture none: the mesh maps alone (texbake.settings)
+            self.colours, widths = {}, {}
+            self.colour_name = None
         else:
             if settings.frames is None:
                 self.colours = {"albedo": spec}
@@ -66,6 +69,12 @@ class Maps:
             self.material.mesh_images = images
 
     @property
+    def per_sample(self) -> bool:
+        """Whether any map is made of the bake's own samples (a texture's, a material's):
+        without one (texture none) the mesh maps' texels are the whole bake."""
+        return bool(self.colours) or self.material is not None
+
+    @property
     def needs_normals(self) -> bool:
         uses_normal = self.material is not None and any(n.op in ("normal", "mtlx") for n in self.material.material.graph.nodes.values())
         return self.settings.shading != "decal" or self.settings.normal_map or uses_normal
@@ -73,15 +82,18 @@ class Maps:
     @property
     def estimated(self) -> list[str]:
         """The maps the error estimate covers: the colour map, and a material's every map."""
-        return [self.colour_name] if self.material is None else list(self.material.widths)
+        if self.material is not None:
+            return list(self.material.widths)
+        return [] if self.colour_name is None else [self.colour_name]
 
     def reference(self, s: Samples) -> dict[str, np.ndarray]:
         """``map -> (n, c)`` the error probe's reference of each of :attr:`estimated` at the
         samples ``s``: point-sampled, float64, every octave."""
         if self.material is not None:
             return self.material.values(s, exact=True, count=False)
-        spec = self.colours[self.colour_name]
-        return {self.colour_name: self.mapping.evaluate(spec, s.points, None, None, exact=True)}
+        name = self.colour_name
+        assert name is not None  # only the maps of a texture are estimated
+        return {name: self.mapping.evaluate(self.colours[name], s.points, None, None, exact=True)}
 
     def packs(self, images: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """The packed maps of a material's ``packing`` templates, from its finished ``images``."""

@@ -12,6 +12,7 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -145,33 +146,49 @@ class MeshMapContext:
         return self._curvature
 
 
-def bake_maps(context: MeshMapContext, sampler: Sampler, tile_texels: int = 1 << 18) -> tuple[dict[str, np.ndarray], dict]:
-    """``(images, tally)``: ``kind -> (h, w, c)`` float32 image (zero where no face is), and
-    ``{"maps", "texels", "rays", "ray_seconds", "rays_per_second"}`` for the report."""
+def bake_maps(context: MeshMapContext, sampler: Sampler, tile_texels: int = 1 << 18,
+              workers: int = 1) -> tuple[dict[str, np.ndarray], np.ndarray, dict]:
+    """``(images, covered, tally)``: ``kind -> (h, w, c)`` float32 image (zero where no face
+    is), the ``(h, w)`` bool texels whose centre a face covers, and ``{"maps", "texels",
+    "rays", "ray_seconds", "rays_per_second"}`` for the report. Row tiles run on ``workers``
+    threads: the lookup, the rays and most of numpy release the GIL, and each tile writes
+    its own rows."""
     width, height = sampler.width, sampler.height
     images = {kind: np.zeros((height, width, CHANNELS[kind]), dtype=np.float32) for kind in context.kinds}
-    texels = rays = missed = 0
-    ray_seconds = 0.0
-    for tile in tiles(height, width, 1, tile_texels):
+    covered = np.zeros(height * width, dtype=bool)
+    if "curvature" in context.kinds:
+        context.curvature()  # made once, before the threads share the context
+
+    def one(tile) -> tuple[int, int, float]:
         t = texel_points(sampler, tile)
         start = time.perf_counter()
         values = _values(context, t)
-        if any(k in RAY_KINDS for k in context.kinds):
-            ray_seconds += time.perf_counter() - start
-            rays += len(t.texel) * context.rays * (("ao" in context.kinds or "bent_normal" in context.kinds) + ("thickness" in context.kinds))
-        texels += len(t.texel)
-        if context.high is not None:
-            missed += int(np.sum(values["source_missed"] if values["source_missed"] is not None else 0))
+        seconds = time.perf_counter() - start if any(k in RAY_KINDS for k in context.kinds) else 0.0
+        flags = values.get("source_missed")
+        missed = int(np.sum(flags)) if flags is not None else 0
+        covered[t.texel] = True
         for kind, v in values.items():
-            if kind not in context.kinds or v is None:
-                continue
-            image = images[kind].reshape(height * width, CHANNELS[kind])
-            image[t.texel] = v
+            if kind in context.kinds and v is not None:
+                images[kind].reshape(height * width, CHANNELS[kind])[t.texel] = v
+        return len(t.texel), missed, seconds
+
+    row_tiles = list(tiles(height, width, 1, tile_texels))
+    if any(k in RAY_KINDS for k in context.kinds):
+        workers = 1  # the hemisphere kernel spreads each tile's rays over every core itself (and ray_seconds stays wall time)
+    if workers > 1 and len(row_tiles) > 1:
+        with ThreadPoolExecutor(min(workers, len(row_tiles))) as pool:
+            done = list(pool.map(one, row_tiles))
+    else:
+        done = [one(tile) for tile in row_tiles]
+    texels, missed = sum(d[0] for d in done), sum(d[1] for d in done)
+    ray_seconds = sum(d[2] for d in done)
+    per_texel = ("ao" in context.kinds or "bent_normal" in context.kinds) + ("thickness" in context.kinds)
+    rays = texels * context.rays * per_texel
     tally = {"maps": list(context.kinds), "texels": texels, "rays": rays, "ray_seconds": round(ray_seconds, 4),
-             "rays_per_second": round(rays / ray_seconds) if ray_seconds > 0 else None,
+             "rays_per_second": round(rays / ray_seconds) if rays and ray_seconds > 0 else None,
              **({} if context.high is None else {"source_rays": texels, "source_missed": missed, "cage": context.high.rays.cage is not None,
                                                  "front_distance": context.high.rays.front, "back_distance": context.high.rays.back})}
-    return images, tally
+    return images, covered.reshape(height, width), tally
 
 
 def _high_values(c: MeshMapContext, h: HighContext, t: TexelPoints) -> dict[str, np.ndarray]:

@@ -72,11 +72,13 @@ class Source:
         self.normals = vertex_normals(np.asarray(self.vertices, dtype=np.float64), np.asarray(self.faces, dtype=np.int64))
 
     def scene(self, parts: tuple[int, ...] | None) -> tuple[Scene, np.ndarray]:
-        """``(scene, faces (k,) int64 of the source it holds)``: of the source parts ``parts``, or all."""
+        """``(scene, corners (k, 3) int64 of the source faces it holds, in its order)``: of
+        the source parts ``parts``, or all."""
         with self._lock:
             if parts not in self._scenes:
                 chosen = np.arange(len(self.faces)) if parts is None or self.part is None else np.flatnonzero(np.isin(self.part, parts))
-                self._scenes[parts] = Scene(self.vertices, self.faces[chosen]), chosen
+                corners = np.ascontiguousarray(np.asarray(self.faces, dtype=np.int64)[chosen])
+                self._scenes[parts] = Scene(self.vertices, corners), corners
             return self._scenes[parts]
 
 
@@ -94,26 +96,18 @@ def project(source: Source, rays: Rays, points: np.ndarray, normals: np.ndarray,
             groups: np.ndarray | None, matches: dict[int, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(hit (n,) bool, distance (n,) float64 signed along the normal, source normal (n, 3))``
     of the rays from ``points`` with unit smooth ``normals`` (``(n, 3)`` each; ``cage_points``
-    the cage's points there, or None), a target part each (``groups`` ``(n,)`` or None)."""
+    the cage's points there, or None), a target part each (``groups`` ``(n,)`` or None);
+    cast, hit and interpolated in one compiled pass (``Scene.project``)."""
     n = len(points)
-    if cage_points is not None:
-        towards = points - cage_points
-        length = np.linalg.norm(towards, axis=1)
-        direction = np.divide(towards, length[:, None], out=-normals.copy(), where=length[:, None] > 0)
-        origin, reach = cage_points, length + rays.back
-    else:
-        origin, direction, reach = points + rays.front * normals, -normals, np.full(n, rays.front + rays.back)
-    hit, t, normal = np.zeros(n, dtype=bool), np.zeros(n), np.zeros((n, 3))
+    if groups is None or not matches:  # every texel sees the whole source: no gathering of rows
+        scene, corners = source.scene(None)
+        return scene.project(points, normals, cage_points, rays.front, rays.back, source.normals, corners)
+    hit, depth, normal = np.zeros(n, dtype=bool), np.zeros(n), np.zeros((n, 3))
     for parts, rows in _groups(groups, matches, n):
-        scene, faces = source.scene(parts)
-        face, distance = scene.first_hit(origin[rows], direction[rows], reach[rows])
-        found = face >= 0
-        at = rows[found]
-        hit[at], t[at] = True, distance[found]
-        point = origin[at] + distance[found, None] * direction[at]
-        normal[at] = _interpolated_normal(source, faces[face[found]], point)
-    depth = np.einsum("ij,ij->i", origin + t[:, None] * direction - points, normals)
-    return hit, np.where(hit, depth, 0.0), normal
+        scene, corners = source.scene(parts)
+        hit[rows], depth[rows], normal[rows] = scene.project(points[rows], normals[rows], None if cage_points is None else cage_points[rows],
+                                                             rays.front, rays.back, source.normals, corners)
+    return hit, depth, normal
 
 
 def _groups(groups: np.ndarray | None, matches: dict[int, np.ndarray], n: int):
@@ -128,22 +122,6 @@ def _groups(groups: np.ndarray | None, matches: dict[int, np.ndarray], n: int):
         rows = np.flatnonzero(groups == target)
         if len(rows):
             yield tuple(int(p) for p in parts), rows
-
-
-def _interpolated_normal(source: Source, faces: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """``(k, 3)`` unit smooth normals of the source at ``points`` on its ``faces`` ``(k,)``."""
-    corners = np.asarray(source.faces, dtype=np.int64)[faces]
-    tri = np.asarray(source.vertices, dtype=np.float64)[corners]
-    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
-    cross = np.cross(b - a, c - a)
-    area2 = np.einsum("ij,ij->i", cross, cross)
-    safe = np.where(area2 > 0, area2, 1.0)
-    wb = np.einsum("ij,ij->i", np.cross(points - a, c - a), cross) / safe
-    wc = np.einsum("ij,ij->i", np.cross(b - a, points - a), cross) / safe
-    bary = np.column_stack([1.0 - wb - wc, wb, wc])
-    normal = np.einsum("ni,nij->nj", bary, source.normals[corners])
-    length = np.linalg.norm(normal, axis=1, keepdims=True)
-    return np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
 
 
 def tangent_space(normals: np.ndarray, frame: np.ndarray, directx: bool = False) -> np.ndarray:

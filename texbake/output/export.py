@@ -204,8 +204,8 @@ def _slot_pngs(path: Path, textures) -> dict[str, bytes]:
     """The PNG bytes of each texture slot :func:`write_glb` was given."""
     slots = dict(textures) if isinstance(textures, dict) else {"baseColor": textures}
     unknown = sorted(set(slots) - set(SLOTS))
-    if unknown or "baseColor" not in slots:
-        raise ParameterError("textures", f"expected a baseColor PNG and optionally {', '.join(SLOTS[1:])}, got {sorted(slots)}")
+    if unknown:  # a dict without baseColor is a plain white material (a bake of mesh maps only: its normal map)
+        raise ParameterError("textures", f"expected PNGs of the slots {', '.join(SLOTS)}, got {sorted(slots)}")
     return {slot: _png(path, slot, texture) for slot, texture in slots.items()}
 
 
@@ -271,7 +271,7 @@ def _attributes(buffer: _Buffer, v: np.ndarray, t: np.ndarray, n: np.ndarray | N
 def _material(name: str, texture: dict[str, dict], base_factor, extra: dict | None = None) -> dict:
     """A material named ``name``: base colour, and metallic-roughness, occlusion, normal and
     emissive where ``texture`` has them; ``extra`` written over it."""
-    pbr: dict = {"baseColorTexture": texture["baseColor"], "metallicFactor": 0.0, "roughnessFactor": 1.0}
+    pbr: dict = {**({"baseColorTexture": texture["baseColor"]} if "baseColor" in texture else {}), "metallicFactor": 0.0, "roughnessFactor": 1.0}
     material: dict = {"name": name, "pbrMetallicRoughness": pbr}
     if tuple(base_factor) != (1.0, 1.0, 1.0, 1.0):
         pbr["baseColorFactor"] = [float(x) for x in base_factor]
@@ -339,7 +339,7 @@ class ObjPart:
     vertices: np.ndarray  # (k, 3) float
     faces: np.ndarray  # (m, 3) int into vertices
     uv: np.ndarray  # (k, 2) float, v up, as written (UDIM tiles: beyond the unit square)
-    image: str  # relative to the OBJ's folder
+    image: str | None  # relative to the OBJ's folder; None: no map_Kd (a bake of mesh maps only)
     material: str
     normals: np.ndarray | None = None
 
@@ -354,10 +354,10 @@ def write_obj_parts(path, parts: list[ObjPart]) -> dict:
     vertices = faces = 0
     for part in parts:
         v, f, t, n = _mesh_arrays(part.vertices, part.faces, part.uv, part.normals)
-        if any(ch in part.image + part.material for ch in "\n\r"):
+        if any(ch in (part.image or "") + part.material for ch in "\n\r"):
             raise ParameterError("image_filename", "must not contain line breaks")
         material = part.material.replace(" ", "_")
-        mtl_lines += [f"newmtl {material}", "Ka 0 0 0", "Kd 1 1 1", "Ks 0 0 0", "illum 1", f"map_Kd {part.image}", ""]
+        mtl_lines += [f"newmtl {material}", "Ka 0 0 0", "Kd 1 1 1", "Ks 0 0 0", "illum 1", *([] if part.image is None else [f"map_Kd {part.image}"]), ""]
         lines.append(f"usemtl {material}")
         lines += [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in v]
         lines += [f"vt {a:.9g} {b:.9g}" for a, b in t]

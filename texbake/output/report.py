@@ -74,8 +74,9 @@ class BakeTally:
         Samples that reached a face.
     lookup_reused : bool
         Whether the lookups were an earlier bake's, kept in memory (then no ray was cast).
-    error_estimate : dict
-        The colour map's error estimate (``texbake.maps.estimate``).
+    error_estimate : dict or None
+        The colour map's error estimate (``texbake.maps.estimate``); None in a bake of mesh
+        maps only (texture none), which has no colour map.
     seconds : dict of str to float
         Seconds per stage, summed over the tiles that ran it.
     material : dict or None
@@ -94,7 +95,7 @@ class BakeTally:
     transfer_missed: int
     hits: int
     lookup_reused: bool = False
-    error_estimate: dict = field(default_factory=dict)
+    error_estimate: dict | None = field(default_factory=dict)
     seconds: dict = field(default_factory=dict)
     material: dict | None = None
     faces: int = 0
@@ -152,7 +153,7 @@ def bake_report(settings: BakeSettings, mesh: LoadedMesh, units: list, *, source
         **({"material": sets[0]["material"]} if one and "material" in sets[0] else {}),  # several sets: each set's own
         **({"mesh_maps": sets[0]["mesh_maps"]} if one and "mesh_maps" in sets[0] else {}),
         "warnings": warnings + _transfer_warning(sum(t.cast for t in tallies), sum(t.transfer_missed for t in tallies)),
-        "skipped": _skipped(source, list(atlases.values()), tallies),
+        "skipped": _skipped(source, list(atlases.values()), tallies, mesh_maps_only=settings.texture is None and settings.material is None),
         "seconds": {k: round(v, 4) for k, v in (seconds or {}).items()},
         "versions": library_versions(),
         "sets": sets,
@@ -211,16 +212,19 @@ def _sum(dicts: list[dict]) -> dict:
     return {k: all(d[k] for d in dicts) if isinstance(v, bool) else sum(d[k] for d in dicts) for k, v in dicts[0].items()}
 
 
-def _combined(estimates: list[dict]) -> dict:
+def _combined(estimates: list[dict | None]) -> dict | None:
     """Several images' error estimates as one over all their probed texels: the RMSE of
     their squared errors pooled, weighted by the texels each probed."""
-    weights = [max(int(e.get("texels", 0)), 0) for e in estimates]
+    given = [e for e in estimates if e is not None]  # a bake of mesh maps only estimates nothing
+    if not given:
+        return None
+    weights = [max(int(e.get("texels", 0)), 0) for e in given]
     total = sum(weights)
     if not total:
-        return dict(estimates[0])
+        return dict(given[0])
     pool = lambda key, i=None: float(np.sqrt(sum(w * (e[key] if i is None else e[key][i]) ** 2
-                                                 for w, e in zip(weights, estimates, strict=True)) / total))
-    return {**estimates[0], "rmse": pool("rmse"), "rmse_interval": [pool("rmse_interval", 0), pool("rmse_interval", 1)],
+                                                 for w, e in zip(weights, given, strict=True)) / total))
+    return {**given[0], "rmse": pool("rmse"), "rmse_interval": [pool("rmse_interval", 0), pool("rmse_interval", 1)],
             "texels": total, "probe_rmse": pool("probe_rmse"), "probe_noise": pool("probe_noise")}
 
 
@@ -238,9 +242,11 @@ def _mesh(mesh: LoadedMesh) -> dict:
     }
 
 
-def _skipped(source: LoadedMesh | None, atlases: list[Atlas], tallies: list[BakeTally]) -> list[dict]:
+def _skipped(source: LoadedMesh | None, atlases: list[Atlas], tallies: list[BakeTally], mesh_maps_only: bool = False) -> list[dict]:
     """The stages a bake left out (for every texture set), and why."""
     skipped = []
+    if mesh_maps_only:
+        skipped.append({"stage": "texture", "why": "texture none: the mesh maps alone (no albedo, no samples or error estimate of its own)"})
     if source is None:
         skipped.append({"stage": "transfer", "why": "no source mesh given"})
     if all(a.cached for a in atlases):

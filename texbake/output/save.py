@@ -74,7 +74,7 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
         slots, factor, fields = _slots(b, folder, fmt, name_of, written)
         owner.update({path.name: b.name for path in slots.values() if path.name not in jobs})
         glb_parts += _glb_parts(b, slots, _material_name(result, b), factor, fields)
-        obj_parts.append((b, slots["baseColor"]))
+        obj_parts.append((b, slots.get("baseColor")))
     m = result.sets[0].mesh
     written["glb"] = write_glb_parts(folder / f"{m.name}.glb", glb_parts, name=m.name)
     written.update(_mtlx(result, folder, fmt, name_of))
@@ -84,11 +84,12 @@ def save_result(result, folder: Path, *, fmt: str = "png", bits: int | None = No
         written.update(write_udim(result, folder, name_of, fmt=fmt, obj=obj))
         if "usd" not in written:
             result.report = {**result.report, "warnings": [*result.report.get("warnings", []), USD_MISSING]}
-    elif obj and len(obj_parts) == 1:
+    elif obj and len(obj_parts) == 1 and obj_parts[0][1] is not None:
         written["obj"] = write_obj(folder / f"{m.name}.obj", m.vertices, m.faces, m.uv, obj_parts[0][1].name, normals=m.normals)
-    elif obj:
-        written["obj"] = write_obj_parts(folder / f"{m.name}.obj", [ObjPart(b.mesh.vertices, b.mesh.faces, b.mesh.uv, texture.name, b.name,
-                                                                             b.mesh.normals) for b, texture in obj_parts])
+    elif obj:  # several materials, or no colour map (texture none): no map_Kd
+        written["obj"] = write_obj_parts(folder / f"{m.name}.obj", [ObjPart(b.mesh.vertices, b.mesh.faces, b.mesh.uv, None if texture is None else texture.name,
+                                                                             b.name or _material_name(result, b), b.mesh.normals)
+                                                                     for b, texture in obj_parts])
 
     result.report = _report(result.report, written, owner, time.perf_counter() - start)
     write_json(folder / "report.json", result.report)
@@ -179,9 +180,11 @@ def _slots(b, folder: Path, fmt: str, name_of, written: dict) -> tuple[dict[str,
     as its alpha, a normal map with green up, an ORM map where the packing has none)."""
     images = b.images
     if b.settings.material is None:
-        colour = "albedo" if "albedo" in images else min(n for n in images if n.startswith("albedo_"))
-        emits = b.settings.texture.emits  # the flame: its colour is light, not paint
-        slots = {"baseColor": colour, **({"normal": "normal"} if "normal" in images else {}), **({"emissive": colour} if emits else {})}
+        colours = sorted(n for n in images if n.startswith("albedo"))
+        colour: str | None = "albedo" if "albedo" in images else colours[0] if colours else None  # None: texture none (mesh maps only)
+        emits = b.settings.texture is not None and b.settings.texture.emits  # the flame: its colour is light, not paint
+        slots: dict[str, str] = {**({} if colour is None else {"baseColor": colour}), **({"normal": "normal"} if "normal" in images else {}),
+                                 **({"emissive": colour} if emits and colour is not None else {})}
         copies = {}
         if "normal" not in images and "source_normal" in images:  # a high-to-low bake's normal map (texbake.meshmaps.highpoly)
             slots["normal"] = "source_normal"

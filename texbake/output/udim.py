@@ -50,23 +50,25 @@ def write_udim(result, folder: Path, name_of, *, fmt: str, obj: bool) -> dict:
         written["usd"] = _write_usd(folder / f"{name}.usda", name, [(s, v, f, uv, n, _usd_maps(first, name_of, fmt, tile))
                                                                      for s, first, tile, v, f, uv, n in sets])
     if obj or "usd" not in written:
-        written["obj"] = write_obj_parts(folder / f"{name}.obj", [ObjPart(v, f, uv, name_of(first, _colour(first), fmt, tile=tile), s, n)
+        written["obj"] = write_obj_parts(folder / f"{name}.obj", [ObjPart(v, f, uv, None if _colour(first) is None else name_of(first, _colour(first), fmt, tile=tile), s, n)
                                                                   for s, first, tile, v, f, uv, n in sets])
     return written
 
 
-def _colour(b) -> str:
-    """A set's colour map: its albedo (a material's base colour), or its first frame's."""
+def _colour(b) -> str | None:
+    """A set's colour map: its albedo (a material's base colour), or its first frame's;
+    None in a bake of mesh maps only (texture none)."""
     if "albedo" in b.images or "base_color" in b.images:
         return "albedo" if "albedo" in b.images else "base_color"
-    return min(n for n in b.images if n.startswith("albedo_"))
+    return min((n for n in b.images if n.startswith("albedo_")), default=None)
 
 
 def _usd_maps(b, name_of, fmt: str, tile) -> dict[str, str]:
     """The files a set's USD material reads, by its input (``diffuseColor`` or
     ``emissiveColor``, ``normal``), as the GLB binds them (texbake.output.save)."""
-    colour = name_of(b, _colour(b), fmt, tile=tile)
-    maps = {"emissiveColor" if b.settings.texture.emits else "diffuseColor": colour}
+    colour = _colour(b)
+    emits = b.settings.texture is not None and b.settings.texture.emits
+    maps = {} if colour is None else {"emissiveColor" if emits else "diffuseColor": name_of(b, colour, fmt, tile=tile)}
     if "normal" in b.images:
         maps["normal"] = name_of(b, "normal", fmt, tile=tile)
     return maps

@@ -122,6 +122,67 @@ class Scene:
         distance = np.where(face >= 0, tfar.astype(np.float64) * self._scale, np.inf)
         return face, distance
 
+    def first_hit_bary(self, origins: np.ndarray, directions: np.ndarray,
+                       max_distance: float | np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`first_hit` with each hit's barycentric coordinates: ``(face (n,) int32,
+        distance (n,) float64, bary (n, 3) float64)``, the hit ``bary @ triangle`` (Embree's
+        float32 ``u, v`` of corners 1 and 2; 0 where nothing is hit). Compiled: every core."""
+        n = len(origins)
+        reach = np.inf if max_distance is None else np.asarray(max_distance, dtype=np.float64) / self._scale
+        tfar = np.ascontiguousarray(np.broadcast_to(np.minimum(reach, 1e37), n), dtype=np.float32)
+        o, d = self._origins(origins), self._directions(directions)
+        if self._compiled is not None:
+            face, uv = np.empty(n, dtype=np.int32), np.empty((n, 2), dtype=np.float32)
+            self._compiled.cast_uv(np.ascontiguousarray(o), np.ascontiguousarray(d), face, tfar, uv)
+        else:
+            res = self._scene.run(o, d, dists=tfar, output=1)
+            face, tfar = res["primID"], res["tfar"]
+            uv = np.column_stack([res["u"], res["v"]]) * (face >= 0)[:, None]
+        u, v = uv[:, 0].astype(np.float64), uv[:, 1].astype(np.float64)
+        distance = np.where(face >= 0, tfar.astype(np.float64) * self._scale, np.inf)
+        return face, distance, np.column_stack([1.0 - u - v, u, v])
+
+    def project(self, points: np.ndarray, normals: np.ndarray, cage: np.ndarray | None, front: float, back: float,
+                vertex_normals: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """High to low onto this scene (``texbake.meshmaps.highpoly``): ``(hit (n,) bool,
+        depth (n,) float64, normal (n, 3) float64)`` of the ray of each target point.
+
+        ``points``, ``normals``: ``(n, 3)`` float64, unit smooth normals; ``cage``: ``(n, 3)``
+        the cage's points there (the ray goes from it towards the point and ``back`` past
+        it), or None (from ``point + front * normal`` along ``-normal``, ``front + back``
+        long). ``vertex_normals`` ``(k, 3)`` and ``faces`` ``(m, 3)``: the scene's faces, in
+        its order, and their smooth normals, interpolated at the hit (unit; 0 where none).
+        ``depth``: the hit's signed distance from the point along its normal (0 where none).
+        Compiled: every core, one pass; else numpy through :meth:`first_hit_bary`.
+        """
+        points, normals = np.ascontiguousarray(points, dtype=np.float64), np.ascontiguousarray(normals, dtype=np.float64)
+        n = len(points)
+        if self._compiled is not None:
+            hit, depth, normal = np.empty(n, dtype=np.uint8), np.empty(n), np.empty((n, 3))
+            centre = np.zeros(3) if self._centre is None else self._centre
+            self._compiled.project(points, normals, np.zeros((0, 3)) if cage is None else np.ascontiguousarray(cage, dtype=np.float64),
+                                   float(front), float(back), np.ascontiguousarray(centre, dtype=np.float64), float(self._scale),
+                                   np.ascontiguousarray(vertex_normals, dtype=np.float64), np.ascontiguousarray(faces, dtype=np.int64),
+                                   hit, depth, normal)
+            return hit.astype(bool), depth, normal
+        if cage is not None:
+            towards = points - cage
+            length = np.linalg.norm(towards, axis=1)
+            direction = np.divide(towards, length[:, None], out=-normals.copy(), where=length[:, None] > 0)
+            origin, reach = np.asarray(cage, dtype=np.float64), length + back
+        else:
+            origin, direction, reach = points + front * normals, -normals, np.full(n, front + back)
+        face, distance, bary = self.first_hit_bary(origin, direction, reach)
+        found = face >= 0
+        normal = np.zeros((n, 3))
+        corners = np.asarray(faces, dtype=np.int64)[face[found]]
+        smooth = np.einsum("ni,nij->nj", bary[found], np.asarray(vertex_normals, dtype=np.float64)[corners])
+        length = np.linalg.norm(smooth, axis=1, keepdims=True)
+        normal[found] = np.divide(smooth, length, out=np.zeros_like(smooth), where=length > 0)
+        t = np.where(found, distance, 0.0)
+        depth = np.where(found, np.einsum("ij,ij->i", origin + t[:, None] * direction - points, normals), 0.0)
+        return found, depth, normal
+
     def hemisphere(self, points: np.ndarray, normals: np.ndarray, rays: int, distance: float, *, inward: bool = False,
                    bent: bool = False, bias: float = 1e-4, seed: int = 0) -> tuple[np.ndarray, np.ndarray | None]:
         """Cosine-weighted hemisphere rays from each point (compiled: packets of 8, every core).

@@ -129,3 +129,35 @@ def test_the_glb_carries_the_high_to_low_normal_map_and_its_tangents(tmp_path):
     image = gltf["images"][gltf["textures"][material["normalTexture"]["index"]]["source"]]
     assert "source_normal" in image.get("uri", image.get("name", "source_normal"))
     assert "TANGENT" in gltf["meshes"][0]["primitives"][0]["attributes"]
+
+
+def test_a_bake_of_mesh_maps_only_has_no_albedo_and_the_same_maps(tmp_path):
+    """texture none: the mesh maps alone, from the mesh maps' own texels; the same source maps and coverage."""
+    low, high = trimesh.creation.icosphere(subdivisions=2), trimesh.creation.icosphere(subdivisions=4)
+    kwargs = dict(maps=SOURCE_MAPS, source=high, size=64, margin=2, uv="unwrap")
+    full = texbake.bake_mesh(low, **kwargs)
+    alone = texbake.bake_mesh(low, texture="none", **kwargs)
+    assert "albedo" not in alone.images and "albedo" in full.images
+    np.testing.assert_array_equal(alone.coverage, full.coverage)  # one sample a texel: the texel centres both
+    for name in SOURCE_MAPS:
+        np.testing.assert_allclose(alone.images[name], full.images[name], atol=1e-6)
+    report = alone.report
+    assert report["error_estimate"] is None and report["settings"]["texture"] is None
+    assert {"stage": "texture", "why": "texture none: the mesh maps alone (no albedo, no samples or error estimate of its own)"} in report["skipped"]
+    written = alone.save(tmp_path)
+    assert "albedo" not in written and (tmp_path / "source_normal.png").exists() and not (tmp_path / "albedo.png").exists()
+    import json
+    import struct
+
+    data = (tmp_path / f"{next(p.stem for p in tmp_path.glob('*.glb'))}.glb").read_bytes()
+    doc = json.loads(data[20 : 20 + struct.unpack_from("<I", data, 12)[0]])
+    (material,) = doc["materials"]
+    assert "baseColorTexture" not in material["pbrMetallicRoughness"] and "normalTexture" in material
+
+
+@pytest.mark.parametrize(("options", "named"), [({}, "texture"), ({"maps": ["ao"], "shading": "full"}, "shading"),
+                                                ({"maps": ["ao"], "bump": "wood"}, "bump")])
+def test_texture_none_needs_maps_and_no_colour_settings(options, named):
+    with pytest.raises(ParameterError) as caught:
+        texbake.BakeSettings.build(texture="none", **options)
+    assert caught.value.name == named, caught.value

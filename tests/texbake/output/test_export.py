@@ -305,11 +305,24 @@ def test_glb_texture_slots_and_tangents(tmp_path):
     assert report["issues"]["numWarnings"] == 0, report["issues"]["messages"]
 
 
+def test_a_glb_of_a_normal_map_alone_has_a_plain_base_colour(tmp_path):
+    """A bake of mesh maps only (texture none) has no colour map: its material is white with the normal texture."""
+    v, f, uv, normals = unwelded_cube()
+    normal_map = encode_png_bytes(np.full((4, 4, 3), 0.5, np.float32), colorspace="data")
+    tangents = np.column_stack([np.cross(normals, [0.6, 0.0, 0.8]), np.ones(len(v))])
+    tangents[:, :3] /= np.linalg.norm(tangents[:, :3], axis=1, keepdims=True)
+    write_glb(tmp_path / "n.glb", v, f, uv, {"normal": normal_map}, normals=normals, tangents=tangents)
+    doc, _ = glb_parts(tmp_path / "n.glb")
+    (material,) = doc["materials"]
+    assert "baseColorTexture" not in material["pbrMetallicRoughness"] and "baseColorFactor" not in material["pbrMetallicRoughness"]
+    assert material["normalTexture"] == {"index": 0} and len(doc["images"]) == 1
+    report = assert_valid(tmp_path / "n.glb")
+    assert report["issues"]["numErrors"] == 0 and report["issues"]["numWarnings"] == 0, report["issues"]["messages"]
+
+
 def test_glb_bad_slots_and_tangents(tmp_path):
     v, f, uv, normals = unwelded_cube()
     png = encode_png_bytes(np.zeros((2, 2, 3), np.float32))
-    with pytest.raises(ParameterError, match="baseColor"):
-        write_glb(tmp_path / "a.glb", v, f, uv, {"normal": png})
     with pytest.raises(ParameterError, match="clearcoat"):
         write_glb(tmp_path / "a.glb", v, f, uv, {"baseColor": png, "clearcoat": png})
     with pytest.raises(ParameterError, match="normal: expected a PNG"):

@@ -272,7 +272,8 @@ def get_zip(job: JobDep, storage: StorageDep, session: SessionDep):
 
 def _zip_name(job: Job) -> str:
     """``<mesh stem>-<texture>.zip``: results downloaded side by side are told apart by what they are."""
-    texture = json.loads(job.settings).get("texture") or BakeSettings.model_fields["texture"].default
+    settings = json.loads(job.settings)
+    texture = settings.get("texture", BakeSettings.model_fields["texture"].default) or "maps"  # None: texture none, mesh maps only
     name = texture.get("name", "texture") if isinstance(texture, dict) else str(texture)
     return f"{safe_stem(job.mesh_name)}-{safe_stem(name)}.zip"
 
