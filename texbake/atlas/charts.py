@@ -244,17 +244,27 @@ def planar_charts(vertices: np.ndarray, faces: np.ndarray, angle_limit: float = 
         bad = overlapping_faces((uv - lo) / max(float((hi - lo).max()), 1e-300), chart_faces, grid)
         if not bad.any():
             break
-        for i in np.unique(island[bad]):
-            members = np.flatnonzero(island == i)
+        # the faces of each overlapping island, ascending, from one sort (not a scan of every
+        # face per island: counter.unitsmm.STL has hundreds of them each round)
+        hit = np.unique(island[bad])
+        order = np.argsort(island, kind="stable")
+        first = np.searchsorted(island[order], hit)
+        last = np.searchsorted(island[order], hit, side="right")
+        new_group = []  # each new chart's direction: a copy of its island's
+        for lo_i, hi_i in zip(first.tolist(), last.tolist(), strict=True):
+            members = order[lo_i:hi_i]
             if attempt == 0:  # first the overlapping faces alone: the layers of a fold come apart
                 part = members[bad[members]]
             else:  # then the chart cut in two across its longest extent
                 c = centroids[members]
                 axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
                 part = members[c[:, axis] > np.median(c[:, axis])]
-            dirs = np.concatenate([dirs, dirs[group[part[:1]]]])
-            bases = np.concatenate([bases, bases[group[part[:1]]]])
-            group[part] = len(dirs) - 1
+            if len(part):
+                new_group.append(int(group[part[0]]))
+                group[part] = len(dirs) + len(new_group) - 1
+        copied = np.asarray(new_group, dtype=np.int64)
+        dirs = np.concatenate([dirs, dirs[copied]])
+        bases = np.concatenate([bases, bases[copied]])
     if attempt:  # something was cut: join the pieces that need not be apart
         lo, hi = uv.min(axis=0), uv.max(axis=0)
         island = _merge_cuts(vertices, faces, pairs, island, group, (dirs, bases), float((hi - lo).max()), grid)
@@ -324,21 +334,29 @@ def _apart(uv: np.ndarray, island: np.ndarray) -> np.ndarray:
     count = int(island.max()) + 1
     lo = np.full((count, 2), np.inf)
     hi = np.full((count, 2), -np.inf)
-    np.minimum.at(lo, island, uv)
-    np.maximum.at(hi, island, uv)
+    # the boxes by sorted runs (reduceat), not ufunc.at: a tenth of the time on thousands of
+    # islands; _project's islands come sorted, so the sort is skipped there
+    order = np.arange(len(island)) if (island[1:] >= island[:-1]).all() else np.argsort(island, kind="stable")
+    ordered = island[order]
+    starts = np.flatnonzero(np.r_[True, ordered[1:] != ordered[:-1]])
+    ids = ordered[starts]
+    lo[ids] = np.minimum.reduceat(uv[order], starts, axis=0)
+    hi[ids] = np.maximum.reduceat(uv[order], starts, axis=0)
     size = hi - lo
     gap = 0.1 * float(size.max()) + 1e-12
     cell = size + gap
     row_width = max(float(np.sqrt((cell[:, 0] * cell[:, 1]).sum())), float(cell[:, 0].max()))
-    order = np.argsort(-cell[:, 1], kind="stable")  # tallest first: shelves
-    origin = np.zeros((count, 2))
+    shelves = np.argsort(-cell[:, 1], kind="stable").tolist()  # tallest first: shelves
+    widths, heights = cell[:, 0].tolist(), cell[:, 1].tolist()  # Python floats: the loop is per island
+    xs, ys = [0.0] * count, [0.0] * count
     x = y = shelf = 0.0
-    for i in order:
-        if x > 0 and x + cell[i, 0] > row_width:
+    for i in shelves:
+        if x > 0 and x + widths[i] > row_width:
             x, y, shelf = 0.0, y + shelf, 0.0
-        origin[i] = (x, y)
-        x += cell[i, 0]
-        shelf = max(shelf, cell[i, 1])
+        xs[i], ys[i] = x, y
+        x += widths[i]
+        shelf = max(shelf, heights[i])
+    origin = np.column_stack([xs, ys])
     return uv - lo[island] + origin[island]
 
 
@@ -414,19 +432,28 @@ def outline_triangles(uv: np.ndarray, faces: np.ndarray, tolerance: float = 0.0)
         return None
     ring, lengths = found
     loops = np.split(ring, np.cumsum(lengths)[:-1])
+    # np.roll(x, -1) as a concatenation, the same values: this runs once per chart, and
+    # roll's own overhead was most of the packing proxies' time on counter.unitsmm.STL
+    points = [uv[loop] for loop in loops]
+    after = [np.concatenate((p[1:], p[:1])) for p in points]
 
-    def signed(loop):
-        p = uv[loop]
-        return 0.5 * float(np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1]))
-    loops.sort(key=signed, reverse=True)  # the outer one (counter-clockwise, largest) first
+    def signed(i: int) -> float:
+        p, q = points[i], after[i]
+        return 0.5 * float(np.sum(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]))
+    if len(loops) > 1:  # the outer one (counter-clockwise, largest) first
+        order = sorted(range(len(loops)), key=signed, reverse=True)
+        loops, points, after = [loops[i] for i in order], [points[i] for i in order], [after[i] for i in order]
     from ..mesh import uv_areas
 
     want = uv_areas(uv, faces).sum()
-    perimeter = sum(float(np.linalg.norm(uv[loop] - uv[np.roll(loop, -1)], axis=1).sum()) for loop in loops)
+    perimeter = 0.0
+    for p, q in zip(points, after, strict=True):
+        d = p - q  # np.linalg.norm(d, axis=1) is this sqrt of the row sums of squares
+        perimeter += float(np.sqrt((d * d).sum(axis=1)).sum())
     if tolerance * perimeter > 0.01 * want:  # a thin chart: simplified, it could lose its width
         tolerance = 0.0
     if tolerance > 0:
-        loops = [loop[_simplified(uv[loop], tolerance)] for loop in loops]
+        loops = [loop[_simplified(p, tolerance)] for loop, p in zip(loops, points, strict=True)]
     ring = np.concatenate(loops)
     tri = mapbox_earcut.triangulate_float64(uv[ring].astype(np.float64), np.cumsum([len(x) for x in loops]).astype(np.uint32))
     if len(tri) == 0:

@@ -36,6 +36,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .. import _native
 from ..mesh import areas, uv_areas
 from ..workers import Pool
 from .charts import outline_triangles, planar_charts
@@ -310,8 +311,7 @@ def _tiny(uv: np.ndarray, idx: np.ndarray, texel: float) -> np.ndarray:
     k = int(chart.max()) + 1 if len(chart) else 0
     lo = np.full((k, 2), np.inf)
     hi = np.full((k, 2), -np.inf)
-    np.minimum.at(lo, chart, uv[idx].min(axis=1))
-    np.maximum.at(hi, chart, uv[idx].max(axis=1))
+    _native.label_boxes(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(idx, dtype=np.int64), chart, lo, hi)
     return ((hi - lo).max(axis=1) < MIN_EXTENT * texel)[chart]
 
 
@@ -454,20 +454,25 @@ def _place(uv: np.ndarray, chart: np.ndarray, source: np.ndarray, placed: np.nda
     if (n[np.unique(chart)] == 0).any():
         raise XatlasFailed("xatlas' packing lost a chart")
     x = np.column_stack([uv[source], np.ones(len(source))])  # (s, 3)
-    gram = np.zeros((k, 3, 3))
-    rhs = np.zeros((k, 3, 2))
-    np.add.at(gram, c, x[:, :, None] * x[:, None, :])
-    np.add.at(rhs, c, x[:, :, None] * placed[:, None, :])
+    # sums per chart by bincount, not ufunc.at: the same additions in the same order, and a
+    # tenth of the time on the thousands of charts of a CAD part
+    outer = np.concatenate([(x[:, :, None] * x[:, None, :]).reshape(-1, 9), (x[:, :, None] * placed[:, None, :]).reshape(-1, 6)], axis=1)
+    sums = np.stack([np.bincount(c, outer[:, j], minlength=k) for j in range(15)], axis=1)
+    gram, rhs = sums[:, :9].reshape(k, 3, 3), sums[:, 9:].reshape(k, 3, 2)
     maps = np.linalg.pinv(gram) @ rhs  # (k, 3, 2): each chart's affine map
     err = np.linalg.norm(np.einsum("si,sij->sj", x, maps[c]) - placed, axis=1)
     whole = n >= np.bincount(chart, minlength=k)  # every vertex placed: xatlas' own placement
     lo = np.full((k, 2), np.inf)
     hi = np.full((k, 2), -np.inf)
-    np.minimum.at(lo, c, placed)
-    np.maximum.at(hi, c, placed)
-    extent = (hi - lo).max(axis=1)
     worst = np.zeros(k)
-    np.maximum.at(worst, c, err)
+    by = np.argsort(c, kind="stable")  # each chart's placed vertices in one run: min, max by reduceat
+    starts = np.flatnonzero(np.r_[True, c[by][1:] != c[by][:-1]]) if len(by) else by
+    if len(by):
+        ids = c[by][starts]
+        lo[ids] = np.minimum.reduceat(placed[by], starts, axis=0)
+        hi[ids] = np.maximum.reduceat(placed[by], starts, axis=0)
+        worst[ids] = np.maximum(0.0, np.maximum.reduceat(err[by], starts))
+    extent = (hi - lo).max(axis=1)
     out = np.einsum("ki,kij->kj", np.column_stack([uv, np.ones(len(uv))]), maps[chart])
     direct = whole[c]
     out[source[direct]] = placed[direct]
