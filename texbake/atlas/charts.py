@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import _native
-from ..mesh import areas, connected_components, group_rows
+from ..mesh import areas, connected_components, group_rows, unique_inverse
 
 ANGLE_LIMIT = 66.0  # degrees between a face's normal and its chart's direction, at most (Blender's default)
 FLAT_COS = np.cos(np.radians(2.0))  # a face this close to its chart's direction counts as flat
@@ -67,13 +67,8 @@ class Sides:
         start = np.argmin(faces, axis=1)
         turned = np.take_along_axis(faces, (start[:, None] + np.arange(3)) % 3, axis=1)
         winding = turned[:, 1] < turned[:, 2]
-        corners = np.sort(faces, axis=1)
-        order = np.lexsort(corners.T[::-1])  # stable: within one set of corners, the faces in their order
-        ordered = corners[order]
-        new = np.ones(len(faces), dtype=bool)
-        new[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
-        twin = np.empty(len(faces), dtype=np.int64)  # the first face on each face's corners
-        twin[order] = order[np.maximum.accumulate(np.where(new, np.arange(len(faces)), 0))]
+        first, group = group_rows(np.sort(faces, axis=1))  # hashed: linear, where a lexsort sorted them
+        twin = first[group]  # the first face on each face's corners
         is_back = winding != winding[twin]
         front = np.flatnonzero(~is_back)
         back = np.flatnonzero(is_back)
@@ -87,7 +82,7 @@ class Sides:
         own = self.faces[self.back]  # (b, 3) mesh vertices of each back face
         corner = np.argmax(own[:, :, None] == vmapping[tf][:, None, :], axis=2)  # twin's corner of each back corner
         ids = np.take_along_axis(tf, corner, axis=1)
-        new, inverse = np.unique(ids, return_inverse=True)
+        new, inverse = unique_inverse(ids)
         out = np.empty((len(self.faces), 3), dtype=np.int64)
         out[self.front] = faces
         out[self.back] = len(vmapping) + inverse.reshape(-1, 3)

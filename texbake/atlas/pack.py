@@ -37,7 +37,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import _native
-from ..mesh import areas, uv_areas
+from ..mesh import areas, unique_inverse, uv_areas
 from ..workers import Pool
 from .charts import outline_triangles, planar_charts
 from .fallback import flat_triangles, normalised
@@ -223,7 +223,7 @@ def _chart_xatlas(pos, faces, good, pool, deadline, patch_faces):
         patches = [good[p] for p in _patches(pos, faces[good], patch_faces)]
     jobs, used_of = [], []
     for p in patches:
-        used, local = np.unique(faces[p], return_inverse=True)
+        used, local = unique_inverse(faces[p])
         used_of.append(used)
         jobs.append(("chart", (pos32[used], local.reshape(-1, 3).astype(np.uint32), CHART_ITERATIONS)))
     done = pool.run(jobs, job_seconds=PATCH_JOB_SECONDS, retries=1) if len(jobs) > 1 else pool.run(jobs)
@@ -262,7 +262,7 @@ def _chart_planar(pos, faces, good, size):
     keep = 2 * a_uv > 1e-3 * texel * longest
     if not keep.any():
         return [], 0, c.flat
-    used, local = np.unique(c.faces[keep], return_inverse=True)  # vertices of the faces kept
+    used, local = unique_inverse(c.faces[keep])  # vertices of the faces kept
     return [(good[keep], c.vmapping[used], c.uv[used], local.reshape(-1, 3))], int(c.labels.max()) + 1, c.flat
 
 
@@ -409,7 +409,7 @@ def _placed(meshes, proxies, value) -> tuple[list[np.ndarray], list[np.ndarray]]
 
 def _compact(face_ids, vmap, uv, idx):
     """A UV mesh for :func:`_pack` without the vertices no face uses."""
-    used, local = np.unique(idx, return_inverse=True)
+    used, local = unique_inverse(idx)
     return face_ids, vmap[used], uv[used], local.reshape(-1, 3)
 
 
@@ -437,7 +437,7 @@ def _proxy(uv: np.ndarray, faces: np.ndarray, texel: float, own: np.ndarray | No
                 tri = None
         parts.append(faces[members] if tri is None else tri)
     tri = np.concatenate(parts)
-    used, local = np.unique(tri, return_inverse=True)
+    used, local = unique_inverse(tri)
     return used, local.reshape(-1, 3), chart
 
 
