@@ -410,13 +410,17 @@ def _simplified(points: np.ndarray, tolerance: float) -> np.ndarray:
     return _native.simplified(np.ascontiguousarray(points, dtype=np.float64), float(tolerance))
 
 
-def outline_triangles(uv: np.ndarray, faces: np.ndarray, tolerance: float = 0.0) -> np.ndarray | None:
+def outline_triangles(uv: np.ndarray, faces: np.ndarray, tolerance: float = 0.0, *,
+                      want: float | None = None, areas_out: list | None = None) -> np.ndarray | None:
     """``(t, 3)`` triangles of (nearly) the same region as one chart's ``(m, 3)`` faces into
     ``(k, 2)`` ``uv``, on vertices of its outline only, simplified within ``tolerance``
     (Douglas-Peucker) and ear-cut (mapbox_earcut): a few well-shaped triangles for a
     region a fan of slivers covers. None when the outline is not simple loops (a vertex
     where the border touches itself) or the triangles' area differs from the chart's by
-    more than the simplification allows (the chart overlaps itself)."""
+    more than the simplification allows (the chart overlaps itself). ``want``: the faces'
+    UV area when already summed (``uv_areas(uv, faces).sum()``); ``areas_out``: a list the
+    triangles' UV areas are appended to (the packing proxies check them, and this runs
+    once per chart)."""
     import mapbox_earcut
 
     found = _native.outline_loops(np.ascontiguousarray(faces, dtype=np.int64))  # edges no neighbour shares, walked
@@ -437,7 +441,8 @@ def outline_triangles(uv: np.ndarray, faces: np.ndarray, tolerance: float = 0.0)
         loops, points, after = [loops[i] for i in order], [points[i] for i in order], [after[i] for i in order]
     from ..mesh import uv_areas
 
-    want = uv_areas(uv, faces).sum()
+    if want is None:
+        want = uv_areas(uv, faces).sum()
     perimeter = 0.0
     for p, q in zip(points, after, strict=True):
         d = p - q  # np.linalg.norm(d, axis=1) is this sqrt of the row sums of squares
@@ -451,6 +456,9 @@ def outline_triangles(uv: np.ndarray, faces: np.ndarray, tolerance: float = 0.0)
     if len(tri) == 0:
         return None
     tri = ring[np.asarray(tri, dtype=np.int64).reshape(-1, 3)]
-    if abs(uv_areas(uv, tri).sum() - want) > 1e-9 * max(want, 1e-300) * len(faces) + tolerance * perimeter:
+    got = uv_areas(uv, tri)
+    if abs(got.sum() - want) > 1e-9 * max(want, 1e-300) * len(faces) + tolerance * perimeter:
         return None
+    if areas_out is not None:
+        areas_out.append(got)
     return tri

@@ -429,11 +429,13 @@ def _proxy(uv: np.ndarray, faces: np.ndarray, texel: float, own: np.ndarray | No
     order = np.argsort(face_chart, kind="stable")
     starts = np.flatnonzero(np.r_[True, face_chart[order][1:] != face_chart[order][:-1]])
     parts = []
+    face_areas = uv_areas(uv, faces)  # once, not once a chart (each chart's sum is of the same values in the same order)
     for members in np.split(order, starts[1:]):
         tri = None
         if len(members) > PROXY_FACES and (own is None or not own[members].any()):
-            tri = outline_triangles(uv, faces[members], 0.25 * texel)
-            if tri is not None and uv_areas(uv, tri).min() < MIN_PROXY_AREA * texel**2:
+            got: list[np.ndarray] = []
+            tri = outline_triangles(uv, faces[members], 0.25 * texel, want=face_areas[members].sum(), areas_out=got)
+            if tri is not None and got[0].min() < MIN_PROXY_AREA * texel**2:
                 tri = None
         parts.append(faces[members] if tri is None else tri)
     tri = np.concatenate(parts)
