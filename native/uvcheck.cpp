@@ -4,13 +4,17 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <cstdint>
 #include <vector>
 
 #include "arrays.hpp"
 #include "parallel.hpp"
+#include "unionfind.hpp"
 
 namespace texbake {
 namespace {
+
+using Array = nb::ndarray<nb::numpy, int64_t>;
 
 // top-left rule for a counter-clockwise edge a -> b (y down)
 inline bool edge_owns(double ax, double ay, double bx, double by) { return (ay == by && bx < ax) || by < ay; }
@@ -54,14 +58,16 @@ struct Layout {
   bool count;
 };
 
-// the faces over the rows [row0, row1): count them in, or flag those over a centre counted twice
-TEXBAKE_AVX2_CLONE void raster_rows(const Layout& l, int64_t row0, int64_t row1, uint8_t* flags) {
-  const int64_t size = l.size;
-  for (int64_t f = 0; f < l.m; ++f) {
-    const int64_t* v = l.faces + 3 * f;
-    const double x0 = l.uv[2 * v[0]] * size, y0 = (1.0 - l.uv[2 * v[0] + 1]) * size;
-    double x1 = l.uv[2 * v[1]] * size, y1 = (1.0 - l.uv[2 * v[1] + 1]) * size;
-    double x2 = l.uv[2 * v[2]] * size, y2 = (1.0 - l.uv[2 * v[2] + 1]) * size;
+// visit(face, texel index) for each texel centre of rows [row0, row1) that a face of the
+// layout covers (top-left rule); a visit returning true stops the walk
+template <class Visit>
+inline void walk_rows(const double* uv, const int64_t* faces, int64_t m, int64_t size, int64_t row0, int64_t row1,
+                      Visit&& visit) {
+  for (int64_t f = 0; f < m; ++f) {
+    const int64_t* v = faces + 3 * f;
+    const double x0 = uv[2 * v[0]] * size, y0 = (1.0 - uv[2 * v[0] + 1]) * size;
+    double x1 = uv[2 * v[1]] * size, y1 = (1.0 - uv[2 * v[1] + 1]) * size;
+    double x2 = uv[2 * v[2]] * size, y2 = (1.0 - uv[2 * v[2] + 1]) * size;
     const double area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0);
     if (area == 0.0 || !std::isfinite(area)) continue;  // not finite: no centre passes the tests below either
     if (area < 0.0) {  // make it counter-clockwise
@@ -82,23 +88,127 @@ TEXBAKE_AVX2_CLONE void raster_rows(const Layout& l, int64_t row0, int64_t row1,
       cross(x0, y0, x1, y1, py, lo, hi);
       const int64_t a = std::max(c0, clamped(std::floor(lo - 0.5), -1, size));
       const int64_t b = std::min(c1, clamped(std::ceil(hi - 0.5), -1, size));
-      uint16_t* row = l.counts + r * size;
       for (int64_t c = a; c <= b; ++c) {
         const double px = c + 0.5;
         const double w0 = edge(x1, y1, x2, y2, px, py);
         const double w1 = edge(x2, y2, x0, y0, px, py);
         const double w2 = edge(x0, y0, x1, y1, px, py);
         if ((w0 > 0 || (w0 == 0 && own0)) && (w1 > 0 || (w1 == 0 && own1)) && (w2 > 0 || (w2 == 0 && own2))) {
-          if (l.count) {
-            ++row[c];
-            flags[f] = 1;
-          } else if (row[c] > 1) {
-            flags[f] = 1;
-          }
+          if (visit(f, r * size + c)) return;
         }
       }
     }
   }
+}
+
+// the faces over the rows [row0, row1): count them in, or flag those over a centre counted twice
+TEXBAKE_AVX2_CLONE void raster_rows(const Layout& l, int64_t row0, int64_t row1, uint8_t* flags) {
+  walk_rows(l.uv, l.faces, l.m, l.size, row0, row1, [&](int64_t f, int64_t texel) {
+    if (l.count) {
+      ++l.counts[texel];
+      flags[f] = 1;
+    } else if (l.counts[texel] > 1) {
+      flags[f] = 1;
+    }
+    return false;
+  });
+}
+
+// Planar charts' merge of cut pieces (texbake/atlas/charts.py, _merge_cuts): the candidate
+// pairs of islands in order, each pair's sets joined where their union, projected on the
+// first's plane and scaled to texels, covers no texel centre twice, within a budget of faces
+// rasterised. Here, not in charts.cpp, for the rasteriser: one walk per pair, stopped at the
+// first centre covered twice, on a grid of stamps (no grid cleared or allocated per pair).
+// Each value is computed as the numpy it replaced computed it, but the projection's
+// three-term dot product (BLAS may fuse it).
+struct Stamps {
+  std::vector<uint32_t> stamp;  // the pair that last covered each texel
+  uint32_t now = 0;
+};
+
+TEXBAKE_AVX2_CLONE bool covers_twice(const std::vector<double>& uv, int64_t m, int64_t size, Stamps& grid) {
+  if (grid.stamp.size() < size_t(size * size)) grid.stamp.assign(size_t(size * size), grid.now);
+  ++grid.now;
+  if (grid.now == 0) {  // wrapped round: start afresh
+    std::fill(grid.stamp.begin(), grid.stamp.end(), 0);
+    grid.now = 1;
+  }
+  std::vector<int64_t> corners(3 * m);
+  for (int64_t i = 0; i < 3 * m; ++i) corners[i] = i;
+  bool twice = false;
+  walk_rows(uv.data(), corners.data(), m, size, 0, size, [&](int64_t, int64_t texel) {
+    if (grid.stamp[texel] == grid.now) return twice = true;
+    grid.stamp[texel] = grid.now;
+    return false;
+  });
+  return twice;
+}
+
+Array merged_islands(In<double, shape<-1, 3>> vertices, In<int64_t, shape<-1, 3>> faces, In<int64_t, nb::ndim<1>> island,
+                     In<int64_t, nb::ndim<1>> direction, In<double, shape<-1, 2, 3>> bases, In<int64_t, shape<-1, 2>> pairs,
+                     double texels_per_unit, int64_t budget) {
+  const int64_t m = faces.shape(0), n = vertices.shape(0), k = direction.shape(0), d = bases.shape(0);
+  if (int64_t(island.shape(0)) != m) throw std::invalid_argument("merged_islands: island of m");
+  for (int64_t i = 0; i < 3 * m; ++i) {
+    if (faces.data()[i] < 0 || faces.data()[i] >= n) throw std::invalid_argument("merged_islands: a face indexes a missing vertex");
+  }
+  for (int64_t i = 0; i < m; ++i) {
+    if (island.data()[i] < 0 || island.data()[i] >= k) throw std::invalid_argument("merged_islands: an island outside [0, k)");
+  }
+  for (int64_t i = 0; i < k; ++i) {
+    if (direction.data()[i] < 0 || direction.data()[i] >= d) throw std::invalid_argument("merged_islands: a direction outside [0, d)");
+  }
+  for (int64_t i = 0; i < 2 * int64_t(pairs.shape(0)); ++i) {
+    if (pairs.data()[i] < 0 || pairs.data()[i] >= k) throw std::invalid_argument("merged_islands: a pair outside [0, k)");
+  }
+  std::vector<int64_t> labels(k);
+  {
+    nb::gil_scoped_release unlocked;
+    const double* p = vertices.data();
+    const int64_t* f = faces.data();
+    std::vector<std::vector<int64_t>> members(k);  // each set's faces, at its root
+    for (int64_t i = 0; i < m; ++i) members[island.data()[i]].push_back(i);
+    std::vector<int64_t> parent(k);
+    for (int64_t i = 0; i < k; ++i) parent[i] = i;
+    Stamps grid;
+    std::vector<double> uv;
+    for (int64_t e = 0; e < int64_t(pairs.shape(0)); ++e) {
+      const int64_t rx = root(parent.data(), pairs.data()[2 * e]), ry = root(parent.data(), pairs.data()[2 * e + 1]);
+      const int64_t count = int64_t(members[rx].size() + members[ry].size());
+      if (rx == ry || count > budget) continue;
+      budget -= count;
+      const double* b = bases.data() + 6 * direction.data()[rx];  // (2, 3): the plane of rx's direction
+      uv.resize(size_t(6 * count));
+      double lo[2] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
+      int64_t at = 0;
+      for (const int64_t r : {rx, ry}) {
+        for (const int64_t face : members[r]) {
+          for (int j = 0; j < 3; ++j, ++at) {
+            const double* q = p + 3 * f[3 * face + j];
+            for (int a = 0; a < 2; ++a) {
+              uv[2 * at + a] = q[0] * b[3 * a] + q[1] * b[3 * a + 1] + q[2] * b[3 * a + 2];
+              lo[a] = std::min(lo[a], uv[2 * at + a]);  // np.min: NaN aside, the same
+            }
+          }
+        }
+      }
+      double most = -std::numeric_limits<double>::infinity();
+      for (int64_t i = 0; i < 6 * count; ++i) {
+        uv[i] = (uv[i] - lo[i % 2]) * texels_per_unit;
+        most = std::max(most, uv[i]);
+      }
+      const int64_t side = int64_t(std::ceil(most)) + 2;
+      for (double& x : uv) x /= double(side);
+      if (covers_twice(uv, count, side, grid)) continue;
+      const int64_t joined = join(parent.data(), rx, ry);
+      auto& into = members[joined];
+      auto& from = members[joined == rx ? ry : rx];
+      into.insert(into.end(), from.begin(), from.end());
+      std::vector<int64_t>().swap(from);
+    }
+    number(parent.data(), k, labels.data());
+  }
+  return owned(std::move(labels), {size_t(k)});
 }
 
 void raster(In<double, shape<-1, 2>> uv, In<int64_t, shape<-1, 3>> faces, int64_t size,
@@ -130,6 +240,10 @@ void bind_uvcheck(nb::module_& m) {
         nb::arg("flags").noconvert(), nb::arg("count"), Release(),
         "count: add each face of a UV layout to counts (size, size) uint16 at the texel centres it covers "
         "(top-left rule) and flag the faces that cover one; else flag the faces over a centre counted twice.");
+  m.def("merged_islands", &merged_islands, nb::arg("vertices"), nb::arg("faces"), nb::arg("island"), nb::arg("direction"),
+        nb::arg("bases"), nb::arg("pairs"), nb::arg("texels_per_unit"), nb::arg("budget"),
+        "(k,) labels of islands (island (m,) of each face; direction (k,) into bases (d, 2, 3)) joined pair by pair "
+        "(pairs (p, 2), in order) where their union, projected and scaled to texels, covers no texel centre twice.");
 }
 
 }  // namespace texbake

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import _native
-from ..mesh import DisjointSets, areas, connected_components
+from ..mesh import areas, connected_components, group_rows, unique_inverse
 
 ANGLE_LIMIT = 66.0  # degrees between a face's normal and its chart's direction, at most (Blender's default)
 FLAT_COS = np.cos(np.radians(2.0))  # a face this close to its chart's direction counts as flat
@@ -67,13 +67,8 @@ class Sides:
         start = np.argmin(faces, axis=1)
         turned = np.take_along_axis(faces, (start[:, None] + np.arange(3)) % 3, axis=1)
         winding = turned[:, 1] < turned[:, 2]
-        corners = np.sort(faces, axis=1)
-        order = np.lexsort(corners.T[::-1])  # stable: within one set of corners, the faces in their order
-        ordered = corners[order]
-        new = np.ones(len(faces), dtype=bool)
-        new[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
-        twin = np.empty(len(faces), dtype=np.int64)  # the first face on each face's corners
-        twin[order] = order[np.maximum.accumulate(np.where(new, np.arange(len(faces)), 0))]
+        first, group = group_rows(np.sort(faces, axis=1))  # hashed: linear, where a lexsort sorted them
+        twin = first[group]  # the first face on each face's corners
         is_back = winding != winding[twin]
         front = np.flatnonzero(~is_back)
         back = np.flatnonzero(is_back)
@@ -87,7 +82,7 @@ class Sides:
         own = self.faces[self.back]  # (b, 3) mesh vertices of each back face
         corner = np.argmax(own[:, :, None] == vmapping[tf][:, None, :], axis=2)  # twin's corner of each back corner
         ids = np.take_along_axis(tf, corner, axis=1)
-        new, inverse = np.unique(ids, return_inverse=True)
+        new, inverse = unique_inverse(ids)
         out = np.empty((len(self.faces), 3), dtype=np.int64)
         out[self.front] = faces
         out[self.back] = len(vmapping) + inverse.reshape(-1, 3)
@@ -244,17 +239,27 @@ def planar_charts(vertices: np.ndarray, faces: np.ndarray, angle_limit: float = 
         bad = overlapping_faces((uv - lo) / max(float((hi - lo).max()), 1e-300), chart_faces, grid)
         if not bad.any():
             break
-        for i in np.unique(island[bad]):
-            members = np.flatnonzero(island == i)
+        # the faces of each overlapping island, ascending, from one sort (not a scan of every
+        # face per island: counter.unitsmm.STL has hundreds of them each round)
+        hit = np.unique(island[bad])
+        order = np.argsort(island, kind="stable")
+        first = np.searchsorted(island[order], hit)
+        last = np.searchsorted(island[order], hit, side="right")
+        new_group = []  # each new chart's direction: a copy of its island's
+        for lo_i, hi_i in zip(first.tolist(), last.tolist(), strict=True):
+            members = order[lo_i:hi_i]
             if attempt == 0:  # first the overlapping faces alone: the layers of a fold come apart
                 part = members[bad[members]]
             else:  # then the chart cut in two across its longest extent
                 c = centroids[members]
                 axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
                 part = members[c[:, axis] > np.median(c[:, axis])]
-            dirs = np.concatenate([dirs, dirs[group[part[:1]]]])
-            bases = np.concatenate([bases, bases[group[part[:1]]]])
-            group[part] = len(dirs) - 1
+            if len(part):
+                new_group.append(int(group[part[0]]))
+                group[part] = len(dirs) + len(new_group) - 1
+        copied = np.asarray(new_group, dtype=np.int64)
+        dirs = np.concatenate([dirs, dirs[copied]])
+        bases = np.concatenate([bases, bases[copied]])
     if attempt:  # something was cut: join the pieces that need not be apart
         lo, hi = uv.min(axis=0), uv.max(axis=0)
         island = _merge_cuts(vertices, faces, pairs, island, group, (dirs, bases), float((hi - lo).max()), grid)
@@ -271,40 +276,37 @@ def _merge_cuts(vertices, faces, pairs, island, group, planes, scale, grid):
     where the overlap is not, so without this a part keeps a fifth more charts than it
     needs (featuretype.STL: 146 against 103). The faces rasterised are bounded by
     ``MERGE_WORK`` times the mesh's. ``planes``: the directions and their :func:`_basis`."""
-    from .uvcheck import overlapping_faces
-
     dirs, bases = planes
     a, b = pairs
     same = (island[a] != island[b]) & (dirs[group[a]] == dirs[group[b]]).all(axis=1)
     pairs = np.unique(np.sort(np.column_stack([island[a][same], island[b][same]]), axis=1), axis=0)
     n = int(island.max()) + 1
-    order = np.argsort(island, kind="stable")
-    members = dict(enumerate(np.split(order, np.searchsorted(island[order], np.arange(1, n)))))
     direction = np.zeros(n, dtype=np.int64)
     direction[island] = group
     count = np.bincount(island, minlength=n)
-    sets = DisjointSets(n)
-    budget = MERGE_WORK * len(faces)
-    for x, y in pairs[np.argsort(count[pairs].sum(axis=1), kind="stable")]:
-        rx, ry = sets.find(int(x)), sets.find(int(y))
-        union = np.concatenate([members[rx], members[ry]])
-        if rx == ry or len(union) > budget:
-            continue
-        budget -= len(union)
-        p = vertices[faces[union]].reshape(-1, 3) @ bases[direction[rx]].T
-        p = (p - p.min(axis=0)) * (grid / scale)  # in texels
-        side = int(np.ceil(p.max())) + 2
-        if overlapping_faces(p / side, np.arange(len(p)).reshape(-1, 3), side).any():
-            continue
-        members[sets.join(rx, ry)] = union
-    return sets.labels()[island]
+    order = pairs[np.argsort(count[pairs].sum(axis=1), kind="stable")]
+    # the joins in native/uvcheck.cpp (merged_islands): a pair at a time from Python cost
+    # 0.1 ms each, 0.17 s on counter.unitsmm.STL's 1,642 pairs
+    labels = _native.merged_islands(vertices, np.ascontiguousarray(faces, dtype=np.int64), island, direction,
+                                    np.ascontiguousarray(bases, dtype=np.float64), np.ascontiguousarray(order, dtype=np.int64),
+                                    float(grid / scale), int(MERGE_WORK * len(faces)))
+    return labels[island]
 
 
 def _project(vertices, faces, island, group, bases):
     """``(vmapping, chart faces, uv)``: each island projected on the plane of its direction
     (``bases`` (d, 2, 3): :func:`_basis` of each) and moved apart from the others (:func:`_apart`)."""
     n = len(vertices)
-    keys, inverse = np.unique(island[:, None] * n + faces, return_inverse=True)
+    # np.unique(keys, return_inverse=True) by hashing the 3m corners, then sorting only the
+    # distinct keys (a third of them): the same arrays, in half the time, every round
+    corners = (island[:, None] * n + faces).reshape(-1, 1)
+    first, grouped = group_rows(corners)
+    distinct = corners[first, 0]
+    by_key = np.argsort(distinct, kind="stable")
+    keys = distinct[by_key]
+    rank = np.empty(len(keys), dtype=np.int64)
+    rank[by_key] = np.arange(len(keys))
+    inverse = rank[grouped]
     vmapping = keys % n
     vertex_island = keys // n
     island_dir = np.zeros(int(island.max()) + 1, dtype=np.int64)
@@ -324,21 +326,29 @@ def _apart(uv: np.ndarray, island: np.ndarray) -> np.ndarray:
     count = int(island.max()) + 1
     lo = np.full((count, 2), np.inf)
     hi = np.full((count, 2), -np.inf)
-    np.minimum.at(lo, island, uv)
-    np.maximum.at(hi, island, uv)
+    # the boxes by sorted runs (reduceat), not ufunc.at: a tenth of the time on thousands of
+    # islands; _project's islands come sorted, so the sort is skipped there
+    order = np.arange(len(island)) if (island[1:] >= island[:-1]).all() else np.argsort(island, kind="stable")
+    ordered = island[order]
+    starts = np.flatnonzero(np.r_[True, ordered[1:] != ordered[:-1]])
+    ids = ordered[starts]
+    lo[ids] = np.minimum.reduceat(uv[order], starts, axis=0)
+    hi[ids] = np.maximum.reduceat(uv[order], starts, axis=0)
     size = hi - lo
     gap = 0.1 * float(size.max()) + 1e-12
     cell = size + gap
     row_width = max(float(np.sqrt((cell[:, 0] * cell[:, 1]).sum())), float(cell[:, 0].max()))
-    order = np.argsort(-cell[:, 1], kind="stable")  # tallest first: shelves
-    origin = np.zeros((count, 2))
+    shelves = np.argsort(-cell[:, 1], kind="stable").tolist()  # tallest first: shelves
+    widths, heights = cell[:, 0].tolist(), cell[:, 1].tolist()  # Python floats: the loop is per island
+    xs, ys = [0.0] * count, [0.0] * count
     x = y = shelf = 0.0
-    for i in order:
-        if x > 0 and x + cell[i, 0] > row_width:
+    for i in shelves:
+        if x > 0 and x + widths[i] > row_width:
             x, y, shelf = 0.0, y + shelf, 0.0
-        origin[i] = (x, y)
-        x += cell[i, 0]
-        shelf = max(shelf, cell[i, 1])
+        xs[i], ys[i] = x, y
+        x += widths[i]
+        shelf = max(shelf, heights[i])
+    origin = np.column_stack([xs, ys])
     return uv - lo[island] + origin[island]
 
 
@@ -400,13 +410,17 @@ def _simplified(points: np.ndarray, tolerance: float) -> np.ndarray:
     return _native.simplified(np.ascontiguousarray(points, dtype=np.float64), float(tolerance))
 
 
-def outline_triangles(uv: np.ndarray, faces: np.ndarray, tolerance: float = 0.0) -> np.ndarray | None:
+def outline_triangles(uv: np.ndarray, faces: np.ndarray, tolerance: float = 0.0, *,
+                      want: float | None = None, areas_out: list | None = None) -> np.ndarray | None:
     """``(t, 3)`` triangles of (nearly) the same region as one chart's ``(m, 3)`` faces into
     ``(k, 2)`` ``uv``, on vertices of its outline only, simplified within ``tolerance``
     (Douglas-Peucker) and ear-cut (mapbox_earcut): a few well-shaped triangles for a
     region a fan of slivers covers. None when the outline is not simple loops (a vertex
     where the border touches itself) or the triangles' area differs from the chart's by
-    more than the simplification allows (the chart overlaps itself)."""
+    more than the simplification allows (the chart overlaps itself). ``want``: the faces'
+    UV area when already summed (``uv_areas(uv, faces).sum()``); ``areas_out``: a list the
+    triangles' UV areas are appended to (the packing proxies check them, and this runs
+    once per chart)."""
     import mapbox_earcut
 
     found = _native.outline_loops(np.ascontiguousarray(faces, dtype=np.int64))  # edges no neighbour shares, walked
@@ -414,24 +428,37 @@ def outline_triangles(uv: np.ndarray, faces: np.ndarray, tolerance: float = 0.0)
         return None
     ring, lengths = found
     loops = np.split(ring, np.cumsum(lengths)[:-1])
+    # np.roll(x, -1) as a concatenation, the same values: this runs once per chart, and
+    # roll's own overhead was most of the packing proxies' time on counter.unitsmm.STL
+    points = [uv[loop] for loop in loops]
+    after = [np.concatenate((p[1:], p[:1])) for p in points]
 
-    def signed(loop):
-        p = uv[loop]
-        return 0.5 * float(np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1]))
-    loops.sort(key=signed, reverse=True)  # the outer one (counter-clockwise, largest) first
+    def signed(i: int) -> float:
+        p, q = points[i], after[i]
+        return 0.5 * float(np.sum(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]))
+    if len(loops) > 1:  # the outer one (counter-clockwise, largest) first
+        order = sorted(range(len(loops)), key=signed, reverse=True)
+        loops, points, after = [loops[i] for i in order], [points[i] for i in order], [after[i] for i in order]
     from ..mesh import uv_areas
 
-    want = uv_areas(uv, faces).sum()
-    perimeter = sum(float(np.linalg.norm(uv[loop] - uv[np.roll(loop, -1)], axis=1).sum()) for loop in loops)
+    if want is None:
+        want = uv_areas(uv, faces).sum()
+    perimeter = 0.0
+    for p, q in zip(points, after, strict=True):
+        d = p - q  # np.linalg.norm(d, axis=1) is this sqrt of the row sums of squares
+        perimeter += float(np.sqrt((d * d).sum(axis=1)).sum())
     if tolerance * perimeter > 0.01 * want:  # a thin chart: simplified, it could lose its width
         tolerance = 0.0
     if tolerance > 0:
-        loops = [loop[_simplified(uv[loop], tolerance)] for loop in loops]
+        loops = [loop[_simplified(p, tolerance)] for loop, p in zip(loops, points, strict=True)]
     ring = np.concatenate(loops)
     tri = mapbox_earcut.triangulate_float64(uv[ring].astype(np.float64), np.cumsum([len(x) for x in loops]).astype(np.uint32))
     if len(tri) == 0:
         return None
     tri = ring[np.asarray(tri, dtype=np.int64).reshape(-1, 3)]
-    if abs(uv_areas(uv, tri).sum() - want) > 1e-9 * max(want, 1e-300) * len(faces) + tolerance * perimeter:
+    got = uv_areas(uv, tri)
+    if abs(got.sum() - want) > 1e-9 * max(want, 1e-300) * len(faces) + tolerance * perimeter:
         return None
+    if areas_out is not None:
+        areas_out.append(got)
     return tri

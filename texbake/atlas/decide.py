@@ -181,9 +181,9 @@ def _unwrap(request: UnwrapRequest, why: str, warnings: list[str], *, deadline: 
         grid = _fallback(request, deadline, why, failures, start, charting)
         grid.warnings[:0] = warnings
         return grid
-    charted, atlas = found
+    charted, atlas, raster = found
     retried = f" (after: {'; '.join(failures)})" if failures else ""
-    stats = {**_stats(request, atlas.faces, atlas.uv, start), **atlas.detail}
+    stats = {**_stats(request, atlas.faces, atlas.uv, start, raster), **atlas.detail}
     warnings = (warnings + _retry_warning(charting, charted, failures) + _promise_warning(request, atlas, stats)
                 + _overlap_warning(stats))
     return Atlas(atlas.vmapping, atlas.faces, atlas.uv, atlas.method, f"{why}; {charted} charts: {order}{retried}", stats,
@@ -191,9 +191,10 @@ def _unwrap(request: UnwrapRequest, why: str, warnings: list[str], *, deadline: 
 
 
 def _unwrapped(request: UnwrapRequest, pool: Pool, charting: str,
-               patch_faces: int | None) -> tuple[tuple[str, Unwrapped] | None, str, list[str]]:
-    """``((charting used, atlas) or None, why that charting, what failed)``: the unwrap's
-    attempts in ``pool`` within its deadline."""
+               patch_faces: int | None) -> tuple[tuple[str, Unwrapped, tuple | None] | None, str, list[str]]:
+    """``((charting used, atlas, its raster) or None, why that charting, what failed)``: the
+    unwrap's attempts in ``pool`` within its deadline; the raster is :func:`coverage` of the
+    atlas on the overlap grid, made once for the choice and the stats."""
     attempts, order = _attempts(request.vertices, request.faces, charting, patch_faces)
     failures: list[str] = []
     found = _first_usable(request, pool, attempts, failures)
@@ -431,7 +432,7 @@ def _keep_parts(request: UnwrapRequest, uv, has_uv: np.ndarray | None, part: np.
             raise AtlasError(f"charting={charting!r} cannot be honoured: {'; '.join(failures) or _passed(deadline)}")
         if found is None:
             vm, fa, u = grid_atlas(sub.vertices, sub.faces, sub.padding / sub.size)
-            found, order = ("grid", Unwrapped(vm, fa, u, "fallback-grid", {})), "both chartings failed"
+            found, order = ("grid", Unwrapped(vm, fa, u, "fallback-grid", {}), None), "both chartings failed"
         try:
             out = combine(request, keep, uv, found[1], used, pool, pool.left())
             bad = unwrap_problem(out.vmapping, out.faces, out.uv, request.faces, len(request.vertices))
@@ -521,14 +522,14 @@ def _attempts(vertices, faces, charting: str, patch_faces: int | None) -> tuple[
 
 
 def _first_usable(request: UnwrapRequest, pool: Pool, attempts: list[tuple[str, int | None]],
-                  failures: list[str]) -> tuple[str, Unwrapped] | None:
-    """``(charting, atlas)`` of the first of ``attempts`` that gives a usable atlas within
+                  failures: list[str]) -> tuple[str, Unwrapped, tuple] | None:
+    """``(charting, atlas, raster)`` of the first of ``attempts`` that gives a usable atlas within
     ``pool``'s deadline, or None; what failed is added to ``failures``. xatlas is not
     tried again once it has timed out. An atlas whose charts overlap on more than
     ``OVERLAP_LIMIT`` of the covered texels (on the bake's grid) is passed over for the
     next attempt; when none does better, the least overlapping is used (and
     :func:`_overlap_warning` says so)."""
-    overlapping: tuple[float, str, Unwrapped] | None = None
+    overlapping: tuple[float, str, Unwrapped, tuple] | None = None
     for i, (charting, patch_faces) in enumerate(attempts):
         left = pool.left()
         if left <= 0 or (charting == "xatlas" and any("timed out" in f for f in failures)):
@@ -545,12 +546,13 @@ def _first_usable(request: UnwrapRequest, pool: Pool, attempts: list[tuple[str, 
         if bad is not None:
             failures.append(f"{charting} charting gave an unusable atlas: {bad}")
             continue
-        over, _ = overlap_of(coverage_counts(atlas.uv, atlas.faces, min(request.size, OVERLAP_GRID)))
+        raster = coverage(atlas.uv, atlas.faces, min(request.size, OVERLAP_GRID))  # kept for the stats: one rasterisation
+        over, _ = overlap_of(raster[0])
         if over <= OVERLAP_LIMIT:
-            return charting, atlas
+            return charting, atlas, raster
         failures.append(f"{charting} charting's atlas overlaps on {over:.1%} of its covered texels")
         if overlapping is None or over < overlapping[0]:
-            overlapping = over, charting, atlas
+            overlapping = over, charting, atlas, raster
     return None if overlapping is None else overlapping[1:]
 
 

@@ -21,7 +21,7 @@ from .._lazy import lazy_names
 
 if TYPE_CHECKING:
     from .components import DisjointSets, connected_components
-    from .grouping import group_rows, groups, stable_order
+    from .grouping import group_rows, groups, stable_order, unique_inverse
     from .load import FORMATS, LoadedMesh, check_file, load_mesh, mesh_from_trimesh
     from .normals import split_normals
     from .objfile import read_obj
@@ -32,11 +32,11 @@ _HOMES = {name: module for module, names in {
     "load": ["LoadedMesh", "load_mesh", "mesh_from_trimesh", "check_file", "FORMATS"],
     "objfile": ["read_obj"],
     "components": ["connected_components", "DisjointSets"],
-    "grouping": ["group_rows", "groups", "stable_order"],
+    "grouping": ["group_rows", "groups", "stable_order", "unique_inverse"],
     "normals": ["split_normals"],
     "tangents": ["vertex_tangents", "sample_frames"],
     "uvgeometry": ["areas", "uv_areas", "uv_dets", "edges", "uv_edges", "uv_inverse", "uv_jacobian", "inverse_det"],
 }.items() for name in names}
 
-__all__ = ["LoadedMesh", "load_mesh", "mesh_from_trimesh", "check_file", "FORMATS", "read_obj", "connected_components", "DisjointSets", "group_rows", "groups", "stable_order", "split_normals", "vertex_tangents", "sample_frames", "areas", "uv_areas", "uv_dets", "edges", "uv_edges", "uv_inverse", "uv_jacobian", "inverse_det"]
+__all__ = ["LoadedMesh", "load_mesh", "mesh_from_trimesh", "check_file", "FORMATS", "read_obj", "connected_components", "DisjointSets", "group_rows", "groups", "stable_order", "unique_inverse", "split_normals", "vertex_tangents", "sample_frames", "areas", "uv_areas", "uv_dets", "edges", "uv_edges", "uv_inverse", "uv_jacobian", "inverse_det"]
 __getattr__ = lazy_names(__name__, _HOMES)

@@ -71,6 +71,63 @@ def test_a_part_cut_for_overlap_keeps_no_more_charts_than_it_needs():
     assert overlap((c.uv - lo) / (hi - lo).max(), c.faces, 1024)[0] == 0.0
 
 
+def _merge_reference(vertices, faces, pairs, island, group, planes, scale, grid):
+    """The cut pieces' merge as it was in Python before native/uvcheck.cpp's merged_islands:
+    a pair at a time, each union projected, scaled to texels and rasterised anew."""
+    from texbake.atlas.charts import MERGE_WORK
+    from texbake.atlas.uvcheck import overlapping_faces
+    from texbake.mesh import DisjointSets
+
+    dirs, bases = planes
+    a, b = pairs
+    same = (island[a] != island[b]) & (dirs[group[a]] == dirs[group[b]]).all(axis=1)
+    pairs = np.unique(np.sort(np.column_stack([island[a][same], island[b][same]]), axis=1), axis=0)
+    n = int(island.max()) + 1
+    order = np.argsort(island, kind="stable")
+    members = dict(enumerate(np.split(order, np.searchsorted(island[order], np.arange(1, n)))))
+    direction = np.zeros(n, dtype=np.int64)
+    direction[island] = group
+    count = np.bincount(island, minlength=n)
+    sets = DisjointSets(n)
+    budget = MERGE_WORK * len(faces)
+    for x, y in pairs[np.argsort(count[pairs].sum(axis=1), kind="stable")]:
+        rx, ry = sets.find(int(x)), sets.find(int(y))
+        union = np.concatenate([members[rx], members[ry]])
+        if rx == ry or len(union) > budget:
+            continue
+        budget -= len(union)
+        p = vertices[faces[union]].reshape(-1, 3) @ bases[direction[rx]].T
+        p = (p - p.min(axis=0)) * (grid / scale)
+        side = int(np.ceil(p.max())) + 2
+        if overlapping_faces(p / side, np.arange(len(p)).reshape(-1, 3), side).any():
+            continue
+        members[sets.join(rx, ry)] = union
+    return sets.labels()[island]
+
+
+@pytest.mark.parametrize("name", ["featuretype.STL", "fandisk.obj", "bunny.ply"])
+def test_the_native_merge_of_cut_pieces_joins_what_the_python_one_joined(monkeypatch, name):
+    # the same islands joined, pair for pair, as the loop it replaced (the atlas must not
+    # change with the port); and some were cut and joined, so the comparison says something
+    import texbake.atlas.charts as charts
+
+    seen = []
+    native = charts._merge_cuts
+
+    def recorded(*args):
+        seen.append((args, native(*args)))
+        return seen[-1][1]
+
+    monkeypatch.setattr(charts, "_merge_cuts", recorded)
+    m = load_mesh(MESHES / name)
+    planar_charts(m.vertices, m.faces)
+    assert len(seen) == 1
+    args, joined = seen[0]
+    island = args[3]
+    assert len(np.unique(joined)) < len(np.unique(island))  # pieces were joined
+    assert np.array_equal(joined, _merge_reference(*args))
+
+
 def test_auto_charting_picks_planar_for_cad_and_xatlas_for_small_organic_meshes():
     plate = holed_plate(cells=(2, 1), segments=256)
     assert prefer_planar(*plate) == (True, "CAD-like: 84% of the area on flat regions, 42% on slivers")

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from texbake.mesh.grouping import group_rows, groups, stable_order
+from texbake.mesh.grouping import group_rows, groups, stable_order, unique_inverse
 
 
 @pytest.mark.parametrize("n", [0, 1, 2, 17, 5000])
@@ -45,3 +45,22 @@ def test_group_rows_takes_minus_zero_as_zero():
     rows = np.array([[0.0, 1.0], [-0.0, 1.0], [0.0, -1.0]])
     first, inverse = group_rows(rows)
     assert inverse[0] == inverse[1] != inverse[2] and len(first) == 2
+
+
+@pytest.mark.parametrize("shape", [(0, 3), (1, 3), (500, 3), (4000,)])
+def test_unique_inverse_is_numpys_unique(shape):
+    # the unwrap's chart vertices (sparse indices, repeated) against np.unique's own
+    values = np.random.default_rng(5).integers(0, 3000, size=shape) * 7
+    used, inverse = unique_inverse(values)
+    want_used, want_inverse = np.unique(values, return_inverse=True)
+    assert used.dtype == np.int64 and inverse.dtype == np.int64
+    assert np.array_equal(used, want_used)
+    assert np.array_equal(inverse, want_inverse.reshape(-1))
+    assert np.array_equal(used[inverse], values.reshape(-1))
+
+
+def test_unique_inverse_refuses_values_outside_its_range():
+    with pytest.raises(ValueError, match=r"outside \[0, 3\)"):
+        unique_inverse(np.array([0, 3]), 3)
+    with pytest.raises(ValueError, match="outside"):
+        unique_inverse(np.array([-1, 2]))
