@@ -2,7 +2,8 @@
 // by the footprint, the marble in one pass, colour maps, the filtered checkerboard, the
 // bake's affine placement. Each takes NumPy arrays and writes into out (allocated by the
 // caller, so that nothing here needs the GIL), releases the GIL and runs on one thread a
-// core (parallel_for). A point's value depends on nothing but the point: not on the piece
+// core (parallel_for; the octave sums and the marble in chunks the threads take in turn,
+// parallel_chunks). A point's value depends on nothing but the point: not on the piece
 // or the block it is in, nor on the instruction set (no FMA contraction: CMakeLists.txt).
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
@@ -202,6 +203,10 @@ TEXBAKE_INLINE void checker_range(const Checker& c, double* out, ptrdiff_t lo, p
 }
 TEXBAKE_VARIANTS(checker_range, (const Checker& c, double* out, ptrdiff_t lo, ptrdiff_t hi), (c, out, lo, hi))
 
+// the points the octave kernels' threads take at a time (parallel_chunks): a whole number of
+// blocks, small enough that a thread the machine slows leaves little for the other to wait on
+constexpr ptrdiff_t CHUNK = 128 * noise::BLOCK;
+
 // -- checks and bindings -------------------------------------------------------------------
 
 void same_rows(ptrdiff_t n, ptrdiff_t rows, const char* name) {
@@ -242,7 +247,7 @@ void octave_sum(const Points& points, const Values& width, const Values& noise, 
   const double *p = points.data(), *w = footprints(width, n);
   const auto range = octave_range_variants.at(current_isa());
   double* dst = out.data();
-  parallel_for(n, [&](ptrdiff_t lo, ptrdiff_t hi) { range(o, p, w, dst, lo, hi); });
+  parallel_chunks(n, [&](ptrdiff_t lo, ptrdiff_t hi) { range(o, p, w, dst, lo, hi); }, CHUNK);
 }
 
 void marble(const Points& points, const Values& width, const Values& noise, const In<int64_t, nb::ndim<1>>& index,
@@ -262,7 +267,7 @@ void marble(const Points& points, const Values& width, const Values& noise, cons
   const double *p = points.data(), *w = footprints(width, n);
   const auto range = marble_range_variants.at(current_isa());
   double* dst = out.data();
-  parallel_for(n, [&](ptrdiff_t lo, ptrdiff_t hi) { range(k, p, w, dst, lo, hi); });
+  parallel_chunks(n, [&](ptrdiff_t lo, ptrdiff_t hi) { range(k, p, w, dst, lo, hi); }, CHUNK);
 }
 
 void colour_map(const Values& values, const In<double, nb::shape<-1, 3>>& samples, double lo, double step, OutColours out) {

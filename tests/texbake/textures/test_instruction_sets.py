@@ -87,3 +87,20 @@ def test_an_unknown_instruction_set_is_refused(instruction_set):
     assert _native.instruction_set() == _native.instruction_sets()[0]
     assert instruction_set("baseline") == _native.instruction_sets()[0]  # the previous one
     assert instruction_set(None) == "baseline"
+
+
+def test_the_threads_chunks_do_not_change_a_value():
+    # 40 chunks of 16384 points, taken by the threads in whatever order they come, against
+    # the same points in pieces under MIN_PIECE (32768), each run on the calling thread alone
+    p, width, _ = points(n=655_360, seed=9)
+    m = MARBLE_COLOURS
+    kernels = {
+        "octave_sum": lambda q, w: octave_sum(q, w, octaves=8),
+        "marble_colours": lambda q, w: marble_colours(q, w, m.knots, m.colours, frequency=7.5, amplitude=2.0),
+    }
+    for name, kernel in kernels.items():
+        for w in (None, width):
+            whole = kernel(p, w)
+            pieces = np.concatenate([kernel(p[a:a + 20_000], None if w is None else w[a:a + 20_000])
+                                     for a in range(0, len(p), 20_000)])
+            assert np.array_equal(whole.view(np.uint64), pieces.view(np.uint64)), f"{name} filtered={w is not None}"
