@@ -509,7 +509,8 @@ def _bake_tiles(sampler: Sampler, maps: Maps, settings: BakeSettings, timer: Tim
         refined = 0
         if settings.adaptive and settings.filtering and samples == 1:
             with timer.stage("adaptive"):
-                refined = adaptive.refine(sampler, maps.values, tile_list[i], texel, values, maps.colour_name, settings.adaptive)
+                refined = adaptive.refine(sampler, maps.values, tile_list[i], texel, values, maps.colour_name, settings.adaptive,
+                                          s.coverage)
         with timer.stage("accumulate"):
             maps.accumulate(tile_list[i], texel, values)
         progress(next(finished) / len(tile_list))

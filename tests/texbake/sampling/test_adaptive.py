@@ -17,6 +17,21 @@ def test_the_hardest_texels_are_those_that_differ_most_from_a_neighbour():
     assert len(hardest(texel, values, rows, width, 0.0)) == 0 and len(hardest(texel, values, rows, width, 1.0)) == 20
 
 
+def test_only_eligible_texels_are_picked():
+    # texels their chart covers in part are not refined (texbake.sampling.adaptive): the
+    # hardest of the rest, and no more than there are
+    rows, width = 4, 5
+    texel = np.arange(20)
+    values = np.zeros((20, 1))
+    values[7] = 1.0  # it and its four neighbours score highest
+    eligible = np.ones(20, dtype=bool)
+    eligible[7] = False
+    assert sorted(hardest(texel, values, rows, width, 4 / 20, eligible).tolist()) == [2, 6, 8, 12]
+    few = np.zeros(20, dtype=bool)
+    few[[3, 4]] = True
+    assert sorted(hardest(texel, values, rows, width, 10 / 20, few).tolist()) == [3, 4]
+
+
 def test_adaptive_sub_samples_bring_marble_closer_to_the_converged_texels(meshes):
     # Suzanne at 256²: 1 filtered sample, and the same with a quarter of the texels refined,
     # against 256 point samples. Tolerance: the refined RMSE at most 0.9x (measured 0.75x at
