@@ -168,12 +168,14 @@ def quarter_marble_colours(points, dpdx, dpdy, width, knots, colour_list, *, axi
     through the fused kernel, :func:`marble_colours`; this path is numpy over the
     compiled octave sums.)
     """
-    from .noise import octave_count, octave_spread, quarter_points
+    from .noise import QUARTERS, octave_count, octave_spread
     from .solid import quarter_turbulence
 
     w = np.asarray(width, dtype=np.float64).reshape(-1)
     turb = quarter_turbulence(points, dpdx, dpdy, w, max_octaves=max_octaves, **turbulence_args)
-    x = quarter_points(points, dpdx, dpdy)[:, :, axis]
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    dx, dy = (np.asarray(d, dtype=np.float64).reshape(-1, 3)[:, axis] for d in (dpdx, dpdy))
+    x = np.stack([p[:, axis] + a * dx + b * dy for a, b in QUARTERS])  # the quarters' centres along the axis
     phase = frequency * x + amplitude * turb
     spread_args = {k: v for k, v in turbulence_args.items() if k != "offset"}
     norm = octave_count(turbulence_args.get("octaves", 8), turbulence_args.get("gain", 0.5)).norm
@@ -182,6 +184,6 @@ def quarter_marble_colours(points, dpdx, dpdy, width, knots, colour_list, *, axi
     out = wave_colours(knots, colour_list, phase.reshape(-1), np.tile(spread, 4)).reshape(4, -1, 3).mean(axis=0)
     point = spread == 0  # a zero footprint: the point-sampled colour exactly (the sine's own table, not the waves')
     if point.any():
-        out[point] = marble_colours(np.asarray(points, dtype=np.float64).reshape(-1, 3)[point], None, knots, colour_list, axis=axis,
+        out[point] = marble_colours(p[point], None, knots, colour_list, axis=axis,
                                     frequency=frequency, amplitude=amplitude, max_octaves=max_octaves, **turbulence_args)
     return out

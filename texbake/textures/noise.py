@@ -141,9 +141,21 @@ def quarter_points(points: np.ndarray, dpdx: np.ndarray, dpdy: np.ndarray) -> np
     """``(4, n, 3)`` float64: the centres of the four quarters of each footprint
     parallelogram ``p + a dpdx + b dpdy`` (``a``, ``b`` in [-1/2, 1/2]) cut in 2x2, in
     :data:`QUARTERS`' order; each quarter is the parallelogram of ``dpdx / 2``, ``dpdy / 2``."""
+    return _quarters_by_point(points, dpdx, dpdy).transpose(1, 0, 2)
+
+
+def _quarters_by_point(points: np.ndarray, dpdx: np.ndarray, dpdy: np.ndarray) -> np.ndarray:
+    """:func:`quarter_points` laid out ``(n, 4, 3)``: a run of points' quarters is one
+    contiguous block (no copy to hand to the kernel)."""
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     dx, dy = np.asarray(dpdx, dtype=np.float64).reshape(-1, 3), np.asarray(dpdy, dtype=np.float64).reshape(-1, 3)
-    return np.stack([p + a * dx + b * dy for a, b in QUARTERS])
+    both, across = 0.25 * (dx + dy), 0.25 * (dx - dy)  # QUARTERS: -both, +across, -across, +both
+    out = np.empty((len(p), 4, 3))
+    np.subtract(p, both, out=out[:, 0])
+    np.add(p, across, out=out[:, 1])
+    np.subtract(p, across, out=out[:, 2])
+    np.add(p, both, out=out[:, 3])
+    return out
 
 
 def first_quarter_octave(width: np.ndarray, count: int, lacunarity: float, scale: float = 1.0) -> np.ndarray:
@@ -192,22 +204,30 @@ def quarter_octave_sums(
     """
     p = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
     w = np.ascontiguousarray(width, dtype=np.float64).reshape(-1)
-    quarters = quarter_points(p, dpdx, dpdy)
     cap = octave_count(octaves, gain, max_octaves, basis=basis, seed=seed)
     first = first_quarter_octave(w, cap.evaluated, lacunarity, scale)
-    out = np.zeros((4, len(p)))
+    # the points in runs of one k0 (one gather, one scatter back: slices in between, not copies)
+    order = np.argsort(first, kind="stable")
+    first, p, w = first[order], p[order], w[order]
+    quarters = _quarters_by_point(p, np.asarray(dpdx, dtype=np.float64).reshape(-1, 3)[order],
+                                  np.asarray(dpdy, dtype=np.float64).reshape(-1, 3)[order])
+    runs = np.flatnonzero(np.diff(first)) + 1
     sums = functools.partial(octave_sum, basis=basis, interpolation=interpolation, lacunarity=lacunarity, gain=gain,
                              signed=signed, seed=seed)
-    for k0 in np.unique(first):
-        at = np.flatnonzero(first == k0)
-        k0 = int(k0)
+    by_point = np.zeros((len(p), 4))
+    for lo, hi in zip(np.concatenate([[0], runs]), np.concatenate([runs, [len(p)]]), strict=True):
+        k0 = int(first[lo]) if hi > lo else 0
+        if hi <= lo:
+            continue
         if k0 > 0:  # the coarse octaves, once at the centre
-            out[:, at] = sums(p[at], w[at], octaves=k0, scale=scale, offset=offset)
+            by_point[lo:hi] = sums(p[lo:hi], w[lo:hi], octaves=k0, scale=scale, offset=offset)[:, None]
         if k0 < cap.evaluated:  # the fine ones at each quarter, filtered at half the width
             shift = float(lacunarity) ** k0
-            fine = sums(quarters[:, at].reshape(-1, 3), np.tile(0.5 * w[at], 4), octaves=cap.evaluated - k0, scale=scale * shift,
-                        offset=offset * shift)
-            out[:, at] += float(gain) ** k0 * fine.reshape(4, -1)
+            fine = sums(quarters[lo:hi].reshape(-1, 3), np.repeat(0.5 * w[lo:hi], 4), octaves=cap.evaluated - k0,
+                        scale=scale * shift, offset=offset * shift)
+            by_point[lo:hi] += float(gain) ** k0 * fine.reshape(-1, 4)
+    out = np.empty((4, len(p)))
+    out[:, order] = by_point.T
     if cap.evaluated < octaves and not signed:  # the capped octaves add their mean (signed octaves have mean 0)
         out += cap.capped
     return out
