@@ -514,7 +514,8 @@ def _bake_tiles(sampler: Sampler, maps: Maps, settings: BakeSettings, timer: Tim
         refined = 0
         if settings.adaptive and settings.filtering and samples == 1 and maps.colour_name is not None:
             with timer.stage("adaptive"):
-                refined = adaptive.refine(sampler, maps.values, tile_list[i], texel, values, maps.colour_name, settings.adaptive)
+                refined = adaptive.refine(sampler, maps.values, tile_list[i], texel, values, maps.colour_name, settings.adaptive,
+                                          s.coverage)
         with timer.stage("accumulate"):
             maps.accumulate(tile_list[i], texel, values)
         progress(next(finished) / len(tile_list))

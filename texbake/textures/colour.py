@@ -153,3 +153,37 @@ def marble_colours(points, width, knots, colour_list, *, axis=0, frequency=6.0, 
                    float(lacunarity), float(gain), basis_mean(basis, seed), float(scale), float(offset), int(axis), float(frequency),
                    float(amplitude), float(cap.capped), float(cap.norm), sines, waves, MAX_SPREAD, out)
     return out
+
+
+def quarter_marble_colours(points, dpdx, dpdy, width, knots, colour_list, *, axis=0, frequency=6.0, amplitude=4.0,
+                           max_octaves=None, **turbulence_args) -> np.ndarray:
+    """``(n, 3)`` filtered marble colours at ``(n, 3)`` points with footprints ``p + a dpdx +
+    b dpdy`` (``a``, ``b`` in [-1/2, 1/2]; ``width`` ``(n,)``): the mean of the four
+    quarters' colours, each :func:`wave_colours` of the quarter's phase (its centre's
+    ``frequency * x`` and turbulence, ``solid.quarter_turbulence``) and its phase spread:
+    the box of ``frequency * x`` over half the width, ``(frequency width / 2)^2 / 12``,
+    and the turbulence's own spread inside the quarter (``noise.octave_spread``) times
+    ``amplitude``, as independent variances. The mean of the colours, not the colour of the
+    mean: the veins near a texel's size part the quarters. (The point-sampled marble goes
+    through the fused kernel, :func:`marble_colours`; this path is numpy over the
+    compiled octave sums.)
+    """
+    from .noise import QUARTERS, octave_count, octave_spread
+    from .solid import quarter_turbulence
+
+    w = np.asarray(width, dtype=np.float64).reshape(-1)
+    turb = quarter_turbulence(points, dpdx, dpdy, w, max_octaves=max_octaves, **turbulence_args)
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    dx, dy = (np.asarray(d, dtype=np.float64).reshape(-1, 3)[:, axis] for d in (dpdx, dpdy))
+    x = np.stack([p[:, axis] + a * dx + b * dy for a, b in QUARTERS])  # the quarters' centres along the axis
+    phase = frequency * x + amplitude * turb
+    spread_args = {k: v for k, v in turbulence_args.items() if k != "offset"}
+    norm = octave_count(turbulence_args.get("octaves", 8), turbulence_args.get("gain", 0.5)).norm
+    turb_spread = octave_spread(w, max_octaves=max_octaves, quarters=True, **spread_args) / norm
+    spread = np.sqrt((frequency * 0.5 * w) ** 2 / 12.0 + (amplitude * turb_spread) ** 2)
+    out = wave_colours(knots, colour_list, phase.reshape(-1), np.tile(spread, 4)).reshape(4, -1, 3).mean(axis=0)
+    point = spread == 0  # a zero footprint: the point-sampled colour exactly (the sine's own table, not the waves')
+    if point.any():
+        out[point] = marble_colours(p[point], None, knots, colour_list, axis=axis,
+                                    frequency=frequency, amplitude=amplitude, max_octaves=max_octaves, **turbulence_args)
+    return out

@@ -7,6 +7,14 @@ shrunk towards its mean by the share of it a box filter over the footprint keeps
 1/``DROP_CELLS`` (1/8) of the footprint are skipped and add their mean. The octave count
 itself is the spec's (or ``max_octaves``), the same for every texel.
 
+That damping is unbiased, but a single sample at the footprint's centre is the limit for
+octaves whose cells are near the footprint's size: the octave varies inside the footprint in
+a way one damped value cannot follow. :func:`quarter_octave_sums` evaluates the octaves
+whose footprint spans ``QUAD_CELLS`` (1/20) of a lattice cell or more at the footprint's
+four quarters (its parallelogram cut in 2x2, each filtered at half the width), the coarser
+ones once at the centre, where a box filter of an octave that is about linear across the
+footprint is its centre value.
+
 Lattice noise as the lecture describes it: a seeded ``noiseTable`` of 256 values in
 [0, 1], an ``indexTable`` permutation of 0..255 (both pinned: ``tables.py``), ``PERM(x) = indexTable[x & 255]`` and
 ``INDEX(i, j, k) = PERM(i + PERM(j + PERM(k)))``; between lattice points, linear, cubic
@@ -33,8 +41,8 @@ import numpy as np
 from .. import _native
 from .._native import DROP_CELLS, box_keep, fade_factor
 
-__all__ = ["BASES", "DROP_CELLS", "INTERPOLATIONS", "OctaveCount", "basis_mean", "box_keep", "fade_factor", "noise", "octave_count",
-           "octave_sum", "tables"]
+__all__ = ["BASES", "DROP_CELLS", "INTERPOLATIONS", "QUAD_CELLS", "QUARTERS", "OctaveCount", "basis_mean", "box_keep", "fade_factor", "noise", "octave_count",
+           "octave_sum", "quarter_octave_sums", "quarter_points", "tables"]
 
 INTERPOLATIONS = ("linear", "cubic", "catmull-rom")
 BASES = ("value", "perlin")
@@ -125,6 +133,106 @@ def octave_sum(
     return out
 
 
+QUAD_CELLS = 1.0 / 20.0  # footprint width, in an octave's lattice cells, from which it is evaluated at the four quarters
+QUARTERS = np.array([[-0.25, -0.25], [0.25, -0.25], [-0.25, 0.25], [0.25, 0.25]])  # the quarters' centres, in (dpdx, dpdy)
+
+
+def quarter_points(points: np.ndarray, dpdx: np.ndarray, dpdy: np.ndarray) -> np.ndarray:
+    """``(4, n, 3)`` float64: the centres of the four quarters of each footprint
+    parallelogram ``p + a dpdx + b dpdy`` (``a``, ``b`` in [-1/2, 1/2]) cut in 2x2, in
+    :data:`QUARTERS`' order; each quarter is the parallelogram of ``dpdx / 2``, ``dpdy / 2``."""
+    return _quarters_by_point(points, dpdx, dpdy).transpose(1, 0, 2)
+
+
+def _quarters_by_point(points: np.ndarray, dpdx: np.ndarray, dpdy: np.ndarray) -> np.ndarray:
+    """:func:`quarter_points` laid out ``(n, 4, 3)``: a run of points' quarters is one
+    contiguous block (no copy to hand to the kernel)."""
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    dx, dy = np.asarray(dpdx, dtype=np.float64).reshape(-1, 3), np.asarray(dpdy, dtype=np.float64).reshape(-1, 3)
+    both, across = 0.25 * (dx + dy), 0.25 * (dx - dy)  # QUARTERS: -both, +across, -across, +both
+    out = np.empty((len(p), 4, 3))
+    np.subtract(p, both, out=out[:, 0])
+    np.add(p, across, out=out[:, 1])
+    np.subtract(p, across, out=out[:, 2])
+    np.add(p, both, out=out[:, 3])
+    return out
+
+
+def first_quarter_octave(width: np.ndarray, count: int, lacunarity: float, scale: float = 1.0) -> np.ndarray:
+    """``(n,)`` int64: for ``(n,)`` footprint widths, the first of ``count`` octaves whose
+    footprint spans :data:`QUAD_CELLS` of its lattice cell or more (``count`` where none
+    does): the octaves before it are evaluated once, at the footprint's centre."""
+    w = np.abs(float(scale)) * np.asarray(width, dtype=np.float64).reshape(-1)
+    first = np.zeros(len(w), dtype=np.int64)
+    freq = 1.0
+    for _ in range(count):  # the frequencies as the kernel multiplies them out
+        first += w * freq < QUAD_CELLS  # NaN widths: no octave is coarse
+        freq *= lacunarity
+    return first
+
+
+def quarter_octave_sums(
+    points: np.ndarray,
+    dpdx: np.ndarray,
+    dpdy: np.ndarray,
+    width: np.ndarray,
+    *,
+    octaves: int,
+    basis: str = "value",
+    interpolation: str = "linear",
+    lacunarity: float = 2.0,
+    gain: float = 0.5,
+    signed: bool = False,
+    seed: int = 0,
+    max_octaves: int | None = None,
+    scale: float = 1.0,
+    offset: float = 0.0,
+) -> np.ndarray:
+    """``(4, n)`` float64: :func:`octave_sum` at the four quarters of each footprint
+    (:func:`quarter_points`), filtered by the quarter's width (``width / 2``) for the octaves
+    whose footprint spans :data:`QUAD_CELLS` of a cell or more, and by the whole footprint,
+    at its centre, for the coarser ones (the same value in every quarter).
+
+    ``points``, ``dpdx``, ``dpdy``: ``(n, 3)`` the points and their footprints' edges;
+    ``width``: ``(n,)`` the footprints' widths (``EvalContext.width``). The mean of the four,
+    through a colour map, is the footprint's mean colour, closer than one filtered sample's
+    where octaves near the footprint's size vary inside it.
+
+    The octaves from ``k0`` on are the sum ``gain^k0 sum_j gain^j noise(lacunarity^j
+    (lacunarity^k0 (scale p + offset)))``: one :func:`octave_sum` call for each ``k0`` the
+    points have (at most ``octaves`` + 1), the compiled kernel unchanged.
+    """
+    p = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    w = np.ascontiguousarray(width, dtype=np.float64).reshape(-1)
+    cap = octave_count(octaves, gain, max_octaves, basis=basis, seed=seed)
+    first = first_quarter_octave(w, cap.evaluated, lacunarity, scale)
+    # the points in runs of one k0 (one gather, one scatter back: slices in between, not copies)
+    order = np.argsort(first, kind="stable")
+    first, p, w = first[order], p[order], w[order]
+    quarters = _quarters_by_point(p, np.asarray(dpdx, dtype=np.float64).reshape(-1, 3)[order],
+                                  np.asarray(dpdy, dtype=np.float64).reshape(-1, 3)[order])
+    runs = np.flatnonzero(np.diff(first)) + 1
+    sums = functools.partial(octave_sum, basis=basis, interpolation=interpolation, lacunarity=lacunarity, gain=gain,
+                             signed=signed, seed=seed)
+    by_point = np.zeros((len(p), 4))
+    for lo, hi in zip(np.concatenate([[0], runs]), np.concatenate([runs, [len(p)]]), strict=True):
+        k0 = int(first[lo]) if hi > lo else 0
+        if hi <= lo:
+            continue
+        if k0 > 0:  # the coarse octaves, once at the centre
+            by_point[lo:hi] = sums(p[lo:hi], w[lo:hi], octaves=k0, scale=scale, offset=offset)[:, None]
+        if k0 < cap.evaluated:  # the fine ones at each quarter, filtered at half the width
+            shift = float(lacunarity) ** k0
+            fine = sums(quarters[lo:hi].reshape(-1, 3), np.repeat(0.5 * w[lo:hi], 4), octaves=cap.evaluated - k0,
+                        scale=scale * shift, offset=offset * shift)
+            by_point[lo:hi] += float(gain) ** k0 * fine.reshape(-1, 4)
+    out = np.empty((4, len(p)))
+    out[:, order] = by_point.T
+    if cap.evaluated < octaves and not signed:  # the capped octaves add their mean (signed octaves have mean 0)
+        out += cap.capped
+    return out
+
+
 class OctaveCount(NamedTuple):
     """How an octave sum is evaluated under a cap on its octaves (``max_octaves``)."""
 
@@ -161,7 +269,7 @@ def octave_variance(basis: str = "value", interpolation: str = "linear", seed: i
 
 def octave_spread(width: np.ndarray, *, octaves: int, basis: str = "value", interpolation: str = "linear",
                   lacunarity: float = 2.0, gain: float = 0.5, seed: int = 0, max_octaves: int | None = None,
-                  scale: float = 1.0) -> np.ndarray:
+                  scale: float = 1.0, quarters: bool = False) -> np.ndarray:
     """``(n,)`` float64: the standard deviation, inside each footprint, of the unsigned
     octave sum :func:`octave_sum` gives for ``(n,)`` footprint widths ``width`` (the filtered
     sum is about the footprint's mean; what the filter took out is the spread about it).
@@ -169,9 +277,14 @@ def octave_spread(width: np.ndarray, *, octaves: int, basis: str = "value", inte
     Octave ``k`` (weight ``gain^k``, variance :func:`octave_variance` over space) keeps
     ``f_k = fade_factor(|scale| width lacunarity^k)`` of itself about its mean, so ``1 -
     f_k^2`` of its variance lies inside the footprint; capped octaves (``max_octaves``) all
-    of it; the octaves taken as independent. Multiply by 2 for the signed sum."""
+    of it; the octaves taken as independent. Multiply by 2 for the signed sum.
+
+    ``quarters``: the spread inside one quarter of a :func:`quarter_octave_sums` footprint:
+    the octaves it evaluates at the quarters filtered by half the width, the coarser ones
+    (evaluated at the centre) by the whole of it."""
     w = np.abs(float(scale)) * np.asarray(width, dtype=np.float64).reshape(-1)
-    lo, hi, table = _spread_table(int(octaves), basis, interpolation, float(lacunarity), float(gain), int(seed), max_octaves)
+    lo, hi, table = _spread_table(int(octaves), basis, interpolation, float(lacunarity), float(gain), int(seed), max_octaves,
+                                  bool(quarters))
     at = np.log(np.clip(w, lo, hi))  # the table over log width (8 octaves a point otherwise: 6x the turbulence's own time)
     out = np.interp(at, np.linspace(np.log(lo), np.log(hi), len(table)), table)
     out = np.where(w < lo, table[0] * w / lo, out)  # the finest octave's spread, proportional to the width below the table
@@ -180,16 +293,20 @@ def octave_spread(width: np.ndarray, *, octaves: int, basis: str = "value", inte
 
 @functools.lru_cache(maxsize=64)
 def _spread_table(octaves: int, basis: str, interpolation: str, lacunarity: float, gain: float, seed: int,
-                  max_octaves: int | None) -> tuple[float, float, np.ndarray]:
+                  max_octaves: int | None, quarters: bool = False) -> tuple[float, float, np.ndarray]:
     """``(lo, hi, spreads (SPREAD_WIDTHS,))``: :func:`octave_spread` at widths (lattice
     cells) spaced evenly in log from ``lo`` to ``hi`` (below: no octave is filtered; above:
-    every one is dropped)."""
+    every one is dropped); ``quarters``: in a quarter (octaves from :data:`QUAD_CELLS` of a
+    cell on at half the width)."""
     lo, hi = 1e-3 / lacunarity ** max(octaves - 1, 0), 8.0 * DROP_CELLS
     w = np.exp(np.linspace(np.log(lo), np.log(hi), SPREAD_WIDTHS))
     cap = octave_count(octaves, gain, max_octaves, basis=basis, seed=seed)
     variance = np.zeros(len(w))
     for k in range(octaves):
-        share = box_share(w * lacunarity**k) if k < cap.evaluated else np.zeros(len(w))
+        s = w * lacunarity**k
+        if quarters:
+            s = np.where(s < QUAD_CELLS, s, 0.5 * s)
+        share = box_share(s) if k < cap.evaluated else np.zeros(len(w))
         variance += gain ** (2 * k) * (1.0 - share * share)
     return lo, hi, np.sqrt(np.maximum(variance, 0.0) * octave_variance(basis, interpolation, seed))
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from .basic import _sign, _triangle
-from .noise import octave_count, octave_sum
+from .noise import octave_count, octave_sum, quarter_octave_sums
 
 
 def spline(t: np.ndarray, knots: np.ndarray, values: np.ndarray) -> np.ndarray:
@@ -44,6 +44,17 @@ def turbulence(points, width, *, scale=1.0, offset=0.0, octaves=8, lacunarity=2.
     """
     total = octave_sum(points, width, octaves=octaves, basis=basis, interpolation=interpolation, lacunarity=lacunarity,
                        gain=gain, signed=signed, seed=seed, max_octaves=max_octaves, scale=scale, offset=offset)
+    return total / octave_count(octaves, gain).norm
+
+
+def quarter_turbulence(points, dpdx, dpdy, width, *, scale=1.0, offset=0.0, octaves=8, lacunarity=2.0, gain=0.5,
+                       basis="value", interpolation="linear", signed=False, seed=0, max_octaves=None) -> np.ndarray:
+    """``(4, n)``: :func:`turbulence` at the four quarters of each footprint ``points`` ``(n,
+    3)`` + ``a dpdx + b dpdy`` (``a``, ``b`` in [-1/2, 1/2], ``width`` ``(n,)``), each
+    filtered by its quarter (``noise.quarter_octave_sums``)."""
+    total = quarter_octave_sums(points, dpdx, dpdy, width, octaves=octaves, basis=basis, interpolation=interpolation,
+                                lacunarity=lacunarity, gain=gain, signed=signed, seed=seed, max_octaves=max_octaves, scale=scale,
+                                offset=offset)
     return total / octave_count(octaves, gain).norm
 
 

@@ -237,41 +237,50 @@ class Turbulence(_Texture, TurbulenceParams):
 
     Each octave is shrunk towards its mean by the share a box filter over the footprint
     keeps of it; octaves finer than 1/8 of the footprint are skipped (their mean added;
-    see ``noise.octave_sum``). Filtered, the colour is the colour map's mean over the
-    value's spread inside the footprint (:func:`filtered_colours`), not the colour of the
-    filtered value.
+    see ``noise.octave_sum``); those near the footprint's size are evaluated at its four
+    quarters (``noise.quarter_octave_sums``). Filtered, the colour is the mean of the
+    quarters' colours, each the colour map's mean over the value's spread inside the
+    quarter (:func:`filtered_colours`), not the colour of the filtered value.
     """
 
     name: Literal["turbulence"] = "turbulence"
     colormap: ColourMap = ColourMap()
 
     def evaluate(self, points, ctx):
-        from .solid import turbulence
+        from .solid import quarter_turbulence, turbulence
 
-        t = turbulence(points, ctx.width, max_octaves=ctx.max_octaves, **turbulence_args(self))
-        return self.colormap(t) if ctx.width is None else filtered_colours(self.colormap, t, ctx.width, self, ctx.max_octaves)
+        if ctx.dpdx is None or ctx.dpdy is None:
+            return self.colormap(turbulence(points, None, max_octaves=ctx.max_octaves, **turbulence_args(self)))
+        t = quarter_turbulence(points, ctx.dpdx, ctx.dpdy, ctx.width, max_octaves=ctx.max_octaves, **turbulence_args(self))
+        return filtered_colours(self.colormap, t, ctx.width, self, ctx.max_octaves, quarters=True)
 
 
 def filtered_colours(colormap: ColourMap, t: np.ndarray, width: np.ndarray, params: TurbulenceParams,
-                     max_octaves: int | None) -> np.ndarray:
+                     max_octaves: int | None, *, quarters: bool = False) -> np.ndarray:
     """``(n, 3)`` mean colours of a filtered octave sum ``t`` ``(n,)`` in [0, 1] (turbulence,
     or fBm as ``0.5 + 0.5 fBm``: the same spread) at footprints ``width`` ``(n,)``: the value
     taken as Gaussian about ``t`` with the spread the filter took out of it
     (``noise.octave_spread``, over the octaves' normalisation), through the colour map
-    (``colour.spread_colours``)."""
+    (``colour.spread_colours``).
+
+    ``quarters``: ``t`` is ``(4, n)``, the sum at each footprint's four quarters
+    (``solid.quarter_turbulence``), each with a quarter's spread; the colour is the mean of
+    the four colours (the footprint's mean colour), not the colour of their mean."""
     from .colour import spread_colours
     from .noise import octave_count, octave_spread, octave_variance
 
     args = {k: v for k, v in turbulence_args(params).items() if k != "offset"}
     norm = octave_count(params.octaves, params.gain).norm
-    spread = octave_spread(width, max_octaves=max_octaves, **args) / norm
+    spread = octave_spread(width, max_octaves=max_octaves, quarters=quarters, **args) / norm
     whole = np.sqrt(sum(params.gain ** (2 * k) for k in range(params.octaves)) * octave_variance(params.basis, params.interpolation,
                                                                                                   params.seed)) / norm
-    out = spread_colours(colormap.knots, colormap.colours, t, spread, whole)
-    point = spread == 0  # a zero footprint: the point-sampled colour exactly
+    parts = len(t) if quarters else 1
+    values, spreads = np.reshape(t, -1), np.tile(spread, parts)
+    out = spread_colours(colormap.knots, colormap.colours, values, spreads, whole)
+    point = spreads == 0  # a zero footprint: the point-sampled colour exactly
     if point.any():
-        out[point] = colormap(t[point])
-    return out
+        out[point] = colormap(values[point])
+    return out.reshape(parts, -1, 3).mean(axis=0) if quarters else out
 
 
 class FBm(_Texture, TurbulenceParams):
@@ -299,9 +308,10 @@ WOOD_COLOURS = ColourMap(knots=(0.0, 1.0), colours=((0.55, 0.33, 0.14), (0.30, 0
 class Marble(_Texture):
     """Perlin's marble: ``MarbleColor(sin(frequency * x + amplitude * turbulence(p)))``.
 
-    Filtered, the colour is the colour map's mean over the texel's phase spread
-    (``colour.wave_colours``), not the colour of the filtered value. Evaluated in one pass
-    (``colour.marble_colours``).
+    Point-sampled, evaluated in one pass (``colour.marble_colours``). Filtered, the
+    colour is the mean of the colour map's means over the phase spread of each of the
+    footprint's four quarters (``colour.quarter_marble_colours``), not the colour of the
+    filtered value.
     """
 
     name: Literal["marble"] = "marble"
@@ -312,11 +322,13 @@ class Marble(_Texture):
     colormap: ColourMap = MARBLE_COLOURS
 
     def evaluate(self, points, ctx):
-        from .colour import marble_colours
+        from .colour import marble_colours, quarter_marble_colours
 
-        return marble_colours(points, ctx.width, self.colormap.knots, self.colormap.colours, axis="xyz".index(self.axis),
-                              frequency=self.frequency, amplitude=self.amplitude, max_octaves=ctx.max_octaves,
-                              **turbulence_args(self.turbulence))
+        args = {"axis": "xyz".index(self.axis), "frequency": self.frequency, "amplitude": self.amplitude,
+                "max_octaves": ctx.max_octaves, **turbulence_args(self.turbulence)}
+        if ctx.dpdx is None or ctx.dpdy is None:  # point samples: the fused kernel
+            return marble_colours(points, None, self.colormap.knots, self.colormap.colours, **args)
+        return quarter_marble_colours(points, ctx.dpdx, ctx.dpdy, ctx.width, self.colormap.knots, self.colormap.colours, **args)
 
 
 class Wood(_Texture):

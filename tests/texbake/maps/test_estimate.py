@@ -270,4 +270,4 @@ def test_checker_halves_and_half_means_against_a_plain_loop():
 
 
 def test_probe_grid_follows_the_samples():
-    assert [estimate.probe_grid(n) for n in (1, 4, 9, 16, 64, 256)] == [4, 4, 6, 8, 16, 16]
+    assert [estimate.probe_grid(n) for n in (1, 4, 9, 16, 64, 256)] == [8, 8, 8, 8, 16, 16]
