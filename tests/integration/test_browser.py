@@ -75,20 +75,22 @@ def render(server, glb: Path, name: str, tmp_path: Path, ids: list[str] | None =
     kept as an artefact. ``ids``: material names, each drawn flat in its colour of
     :data:`IDS` instead (the same view).
 
-    Headless screenshots have come out blank (all background) now and then, or, once in a
-    CI run, with one primitive of two not drawn: retried up to three times, also while over
+    Headless screenshots have come out blank (all background, or in one CI run one flat
+    colour everywhere) now and then, or, once in a CI run, with one primitive of two not
+    drawn: retried up to five times, each in a fresh profile (a chromium that finds its
+    profile in use hands the page to the other one and writes nothing), also while over
     5 % of the pixels ``cover`` ((SIZE, SIZE) bool: where another render of the same view
     drew the model) show the background.
     """
     site, base = server
     shutil.copy(glb, site / glb.name)
     shot = tmp_path / f"{name}.png"
-    for _ in range(3):
+    for attempt in range(5):
         shot.unlink(missing_ok=True)
         subprocess.run(
             [chromium(), "--headless", "--no-sandbox", "--use-gl=swiftshader", "--enable-unsafe-swiftshader",
              "--disable-gpu-sandbox", "--disable-background-networking", "--hide-scrollbars", "--no-first-run",
-             f"--user-data-dir={tmp_path / 'chromium-profile'}", "--virtual-time-budget=20000",
+             f"--user-data-dir={tmp_path / f'chromium-profile-{name}-{attempt}'}", "--virtual-time-budget=20000",
              f"--window-size={SIZE},{SIZE}", f"--screenshot={shot}",
              f"{base}/render.html?glb=/{glb.name}&size={SIZE}" + ("" if ids is None else "&ids=" + quote(",".join(ids)))
              + ("&env=1" if environment else "")],
@@ -96,9 +98,11 @@ def render(server, glb: Path, name: str, tmp_path: Path, ids: list[str] | None =
         if shot.is_file():
             image = read_image(shot)[..., :3]
             background = np.abs(image - MAGENTA).max(axis=2) < 0.05
-            if not background.all() and (cover is None or background[cover].mean() <= 0.05):
+            flat = np.ptp(image.reshape(-1, 3), axis=0).max() < 1e-3
+            if not background.all() and not flat and (cover is None or background[cover].mean() <= 0.05):
                 break
     assert shot.is_file(), f"chromium wrote no screenshot of {name}"
+    assert not flat, f"every screenshot of {name} came out one flat colour"
     keep_artefact(shot)
     return image
 
