@@ -412,7 +412,10 @@ def _output_mesh(mesh: LoadedMesh, atlas: Atlas, *, tangents: bool) -> BakedMesh
     atlas_vertices = mesh.vertices[atlas.vmapping]
     source_vertex, faces, normals = split_normals(atlas_vertices, atlas.faces)
     vertices, uv = atlas_vertices[source_vertex], atlas.uv[source_vertex]
-    frame = vertex_tangents(vertices, faces, uv, normals) if tangents else None
+    frame = None
+    if tangents:  # MikkTSpace's groups split a vertex more where a UV seam or mirror meets itself
+        split, faces, frame = vertex_tangents(vertices, faces, uv, normals)
+        vertices, uv, normals = vertices[split], uv[split], normals[split]
     return BakedMesh(vertices, faces, uv, mesh.name, normals, frame, material=mesh.material, material_names=list(mesh.material_names))
 
 

@@ -28,7 +28,8 @@ MIRRORED = [[0.1, 0.1], [0.1, 0.9], [0.9, 0.9], [0.9, 0.1]]
 def test_tangents_follow_u_and_the_bitangent_follows_v(uv, w):
     v, f, t = quad(uv)
     normals = np.tile([0.0, 0.0, 1.0], (4, 1))
-    tangents = vertex_tangents(v, f, t, normals)
+    source, faces, tangents = vertex_tangents(v, f, t, normals)
+    assert np.array_equal(source, np.arange(4)) and np.array_equal(faces, f)  # nothing to split
     assert np.allclose(tangents, [[0, 1, 0, w]] * 4, rtol=0, atol=1e-12)  # dP/du is +y; float64 round-off
     frames = sample_frames(normals[f], tangents[f], np.full((2, 3), 1 / 3))
     dpdv = np.array([-1.0, 0, 0]) if w > 0 else np.array([1.0, 0, 0])
@@ -67,3 +68,52 @@ def test_a_viewer_rebuilds_the_bumped_normal_from_the_glb_frame(uv):
     expect = np.array([-LUMINANCE[0], -LUMINANCE[1], 1.0])
     expect /= np.linalg.norm(expect)
     assert np.abs(world - expect).max() < 1e-6  # float32 image: measured 5e-8
+
+
+def fan(uv):
+    """Four triangles around the origin in the x-y plane (normal +z): centre 0, then (1, 0),
+    (0, 1) twice, (-1, 0), (0, -1) twice; faces 0 and 3 use the first copies of the shared
+    rim vertices, faces 1 and 2 the second; ``uv`` (7, 2)."""
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0], [0, -1, 0]], dtype=float)
+    f = np.array([[0, 1, 2], [0, 3, 4], [0, 4, 5], [0, 6, 1]])
+    return v, f, np.asarray(uv, dtype=float), np.tile([0.0, 0.0, 1.0], (7, 1))
+
+
+def test_a_uv_seam_that_meets_itself_at_a_vertex_splits_it():
+    # faces 0 and 3 laid as (u, v) = (x, y), faces 1 and 2 turned a quarter, (u, v) = (y, -x):
+    # they share the centre's UV (0, 0) but no edge, so MikkTSpace (and Blender) give the
+    # centre two tangents, +x and +y; one per vertex, the mean would be 45° off both
+    v, f, t, n = fan([[0, 0], [1, 0], [0, 1], [1, 0], [0, 1], [-1, 0], [0, -1]])
+    source, faces, tangents = vertex_tangents(v, f, t, n)
+    assert np.array_equal(source, [0, 1, 2, 3, 4, 5, 6, 0])  # the centre once more
+    assert faces[:, 0].tolist() == [0, 7, 7, 0] and np.array_equal(faces[:, 1:], f[:, 1:])
+    assert np.allclose(tangents[0], [1, 0, 0, 1], rtol=0, atol=1e-12)
+    assert np.allclose(tangents[7], [0, 1, 0, 1], rtol=0, atol=1e-12)
+
+
+def test_a_mirror_line_splits_its_vertices_with_opposite_signs():
+    # (u, v) = (|x|, y): the UVs run on across the y axis, but mirrored on its left (faces 1
+    # and 2): there u runs along -x and w = -1; one tangent per vertex would sum +x and -x
+    v, f, t, n = fan([[0, 0], [1, 0], [0, 1], [0, 1], [1, 0], [0, -1], [0, -1]])
+    f = f.copy()
+    f[1, 1], f[3, 1] = 2, 5  # the shared rim vertices used once each: the UVs agree there
+    source, faces, tangents = vertex_tangents(v, f, t, n)
+    right, left = faces[[0, 3]], faces[[1, 2]]
+    assert not set(right.ravel()) & set(left.ravel())  # the centre, (0, 1) and (0, -1) split
+    assert np.allclose(tangents[right.ravel()], [1, 0, 0, 1], rtol=0, atol=1e-12)
+    assert np.allclose(tangents[left.ravel()], [-1, 0, 0, -1], rtol=0, atol=1e-12)
+    assert np.array_equal(v[source[faces]], v[f])  # the same positions, corner for corner
+
+
+def test_an_edge_of_three_faces_joins_none_of_them():
+    # Blender's corner normals part at an edge of more than two faces, so its tangents do:
+    # the two faces on the edge 0-1's far side are no group with the near one there
+    v = np.array([[0, 0, 0], [1, 0, 0], [0.5, 1, 0], [0.5, -1, 0], [0.5, -1, 0.1]], dtype=float)
+    f = np.array([[0, 1, 2], [1, 0, 3], [1, 0, 4]])
+    t = v[:, :2].copy()
+    t[4] = [0.5, -1.0]
+    n = np.tile([0.0, 0.0, 1.0], (5, 1))
+    source, faces, _ = vertex_tangents(v, f, t, n)
+    assert len(source) == 5 + 4  # 0 and 1: one vertex for each of their three faces
+    two = np.array([[0, 1, 2], [1, 0, 3]])
+    assert len(vertex_tangents(v[:4], two, t[:4], n[:4])[0]) == 4  # two faces on the edge: one group
