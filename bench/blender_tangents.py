@@ -41,7 +41,7 @@ def main() -> None:
     paths = sys.argv[1:]
     if not paths or len(paths) % 2:
         raise SystemExit(__doc__)
-    for path, out in zip(paths[::2], paths[1::2]):
+    for path, out in zip(paths[::2], paths[1::2], strict=True):
         tangents(path, out)
 
 
