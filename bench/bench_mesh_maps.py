@@ -12,7 +12,9 @@ Run: scripts/run python bench/bench_mesh_maps.py [--size 2048] [--rays 64] [--di
    texbake first, the same OBJ for both), tangent-space normal map at ``--size``/2, texbake
    with ``--texture none`` (the normal map alone, as Blender bakes it):
    the mean angle between texbake's and Blender's "Selected to Active" normal over the
-   texels both cover, and the times (targets: <= 2 degrees, <= 0.5x).
+   texels both cover, and the times (targets: <= 2 degrees, <= 0.5x). The same for a second
+   pair: a torus (radii 1 and 0.35, 384 x 192 sections, 147k faces) knurled with 24 x 6
+   bumps of +-0.02 along its tube's normal, onto a torus of 64 x 32 sections (4.1k faces).
 
 Blender runs from ``.venv-blender`` (``scripts/blender``; bench/blender_mesh_maps.py);
 without it only texbake's figures are printed.
@@ -85,38 +87,68 @@ def ao_rows(args, tmp: Path, blender: Path | None) -> list[tuple[str, str, str]]
              "target <= 0.03")]
 
 
-def spheres(tmp: Path) -> tuple[Path, Path]:
-    """The displaced high sphere and the low one, as OBJs (the low one with texbake's unwrap)."""
+def spheres(tmp: Path) -> tuple[str, Path, Path, float, float]:
+    """The displaced high sphere and the low one, as OBJs (the low one with texbake's unwrap),
+    the cage's extrusion and the rays' reach."""
     import trimesh
-
-    import texbake
 
     high = trimesh.creation.icosphere(subdivisions=6)
     v = high.vertices
     high.vertices = v * (1 + 0.04 * np.sin(6 * v[:, 0]) * np.sin(6 * v[:, 1]) * np.sin(6 * v[:, 2]))[:, None]
-    high.export(tmp / "high.obj")
     low = trimesh.creation.icosphere(subdivisions=3)
-    low.export(tmp / "low_plain.obj")
-    texbake.bake_mesh(tmp / "low_plain.obj", size=512, uv="unwrap", margin=2).save(tmp / "unwrapped", obj=True)
-    return tmp / "unwrapped" / "low_plain.obj", tmp / "high.obj"
+    return ("displaced icosphere (82k faces) onto 1.3k faces", *_pair(tmp, "sphere", high, low), 0.06, 0.12)
+
+
+def knurled_ring(tmp: Path) -> tuple[str, Path, Path, float, float]:
+    """A torus (radii 1 and 0.35, 384 x 192 sections) with a knurl of 24 x 6 bumps along its
+    tube's normal, +-0.02, onto a torus of 64 x 32 sections; as :func:`spheres`."""
+    import trimesh
+
+    high = trimesh.creation.torus(1.0, 0.35, major_sections=384, minor_sections=192)
+    v = high.vertices
+    theta = np.arctan2(v[:, 1], v[:, 0])
+    centre = np.column_stack([np.cos(theta), np.sin(theta), np.zeros(len(v))])
+    out = (v - centre) / np.linalg.norm(v - centre, axis=1, keepdims=True)
+    phi = np.arctan2(v[:, 2], np.hypot(v[:, 0], v[:, 1]) - 1.0)
+    high.vertices = v + (0.02 * np.sin(24 * theta) * np.sin(6 * phi))[:, None] * out
+    low = trimesh.creation.torus(1.0, 0.35, major_sections=64, minor_sections=32)
+    return (f"knurled torus ({len(high.faces) // 1000}k faces) onto {len(low.faces) / 1000:.1f}k faces", *_pair(tmp, "ring", high, low),
+            0.04, 0.08)
+
+
+def _pair(tmp: Path, name: str, high, low) -> tuple[Path, Path]:
+    """``(low OBJ with texbake's unwrap, high OBJ)`` written under ``tmp``."""
+    import texbake
+
+    high.export(tmp / f"{name}_high.obj")
+    low.export(tmp / f"{name}_low.obj")
+    texbake.bake_mesh(tmp / f"{name}_low.obj", size=512, uv="unwrap", margin=2).save(tmp / f"{name}_unwrapped", obj=True)
+    return tmp / f"{name}_unwrapped" / f"{name}_low.obj", tmp / f"{name}_high.obj"
 
 
 def high_to_low_rows(args, tmp: Path, blender: Path | None) -> list[tuple[str, str, str]]:
-    low, high = spheres(tmp)
-    size, extrusion, reach = args.size // 2, 0.06, 0.12
+    rows = []
+    for label, low, high, extrusion, reach in (spheres(tmp), knurled_ring(tmp)):
+        rows += _high_to_low(args, tmp, blender, label, low, high, extrusion, reach)
+    return rows
+
+
+def _high_to_low(args, tmp: Path, blender: Path | None, label: str, low: Path, high: Path, extrusion: float,
+                 reach: float) -> list[tuple[str, str, str]]:
+    size, out = args.size // 2, tmp / f"{high.stem}_normal"
     ours = [sys.executable, "-m", "texbake.cli", "bake", str(low), "--source", str(high), "--maps", "source_normal",
             "--front-distance", str(extrusion), "--back-distance", str(reach - extrusion), "--uv", "keep", "--texture", "none", "--size", str(size),
-            "--bits", "16", "--out", str(tmp / "normal")]
+            "--bits", "16", "--out", str(out)]
     t_ours = median_time(ours, args.runs)
-    figure = f"high to low normal map, displaced icosphere (82k faces) onto 1.3k faces, {size}², whole process"
+    figure = f"high to low normal map, {label}, {size}², whole process"
     if blender is None:
         return [(figure, f"{t_ours:.2f} s", "Blender not installed (scripts/blender)")]
-    theirs = [str(blender), str(ROOT / "bench" / "blender_mesh_maps.py"), "normal", str(low), str(high), str(tmp / "normal.npy"),
+    theirs = [str(blender), str(ROOT / "bench" / "blender_mesh_maps.py"), "normal", str(low), str(high), str(out) + ".npy",
               "--size", str(size), "--extrusion", str(extrusion), "--reach", str(reach)]
     t_theirs = median_time(theirs, args.runs)
-    n = 2.0 * read(tmp / "normal" / "source_normal.png")[..., :3] - 1.0
-    m = 2.0 * np.load(tmp / "normal.npy")[::-1, :, :3] - 1.0
-    covered = read(tmp / "normal" / "coverage.png")[..., 0] > 0.5
+    n = 2.0 * read(out / "source_normal.png")[..., :3] - 1.0
+    m = 2.0 * np.load(str(out) + ".npy")[::-1, :, :3] - 1.0
+    covered = read(out / "coverage.png")[..., 0] > 0.5
     both = inner(covered) & (np.linalg.norm(m, axis=2) > 0.5)
     a, b = n[both], m[both]
     cos = np.einsum("ij,ij->i", a, b) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
