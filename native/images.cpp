@@ -1,5 +1,5 @@
 // Image writing (texbake/output/images.py): 8-bit codes of float (or 0/1) pixels, sRGB
-// encoded exactly with a table and two thresholds a code.
+// encoded exactly with a table and two thresholds a code; 16-bit codes of data.
 #include <cmath>
 #include <stdexcept>
 #include <vector>
@@ -80,6 +80,25 @@ void encode8(Pixels<T> pixels, int64_t colour, In<uint8_t, nb::ndim<1>> table, I
   }, std::max<int64_t>(1, MIN_PIECE / std::max<int64_t>(w * c, 1)));
 }
 
+// out (h, w, c) uint16: round(65535 x) of pixels (h, w, c) first rounded to float32, NaN
+// taken as 0, the rest clipped to [0, 1] (numpy's rint of the float32 product: the same codes)
+template <class T>
+void encode16(Pixels<T> pixels, Out<uint16_t, nb::ndim<3>> out) {
+  const int64_t h = pixels.shape(0), w = pixels.shape(1), c = pixels.shape(2);
+  if (out.shape(0) != pixels.shape(0) || out.shape(1) != pixels.shape(1) || out.shape(2) != pixels.shape(2))
+    throw std::invalid_argument("encode16: out must have pixels' shape");
+  const auto px = pixels.view();
+  uint16_t* o = out.data();
+  parallel_for(h, [&](std::ptrdiff_t r0, std::ptrdiff_t r1) {
+    for (int64_t i = r0; i < r1; ++i) {
+      uint16_t* row = o + i * w * c;
+      for (int64_t j = 0; j < w; ++j) {
+        for (int64_t k = 0; k < c; ++k) row[j * c + k] = uint16_t(std::nearbyint(Codes::clipped(float(px(i, j, k))) * 65535.0f));
+      }
+    }
+  }, std::max<int64_t>(1, MIN_PIECE / std::max<int64_t>(w * c, 1)));
+}
+
 }  // namespace
 
 void bind_images(nb::module_& m) {
@@ -91,6 +110,9 @@ void bind_images(nb::module_& m) {
         nb::arg("below"), nb::arg("out").noconvert(), Release(), doc);
   m.def("encode8", &encode8<uint8_t>, nb::arg("pixels").noconvert(), nb::arg("colour"), nb::arg("table"), nb::arg("above"),
         nb::arg("below"), nb::arg("out").noconvert(), Release(), doc);
+  const char* doc16 = "out (h, w, c) uint16: round(65535 x) of pixels (h, w, c) as float32, NaN as 0, clipped to [0, 1].";
+  m.def("encode16", &encode16<float>, nb::arg("pixels").noconvert(), nb::arg("out").noconvert(), Release(), doc16);
+  m.def("encode16", &encode16<double>, nb::arg("pixels").noconvert(), nb::arg("out").noconvert(), Release(), doc16);
 }
 
 }  // namespace texbake

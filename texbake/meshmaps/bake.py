@@ -17,10 +17,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import _native
 from ..errors import ParameterError
 from ..sampling import Sampler, Scene, tiles, vertex_normals
 from .curvature import curvature_values, vertex_curvature
-from .highpoly import Rays, Source, match_parts, project, tangent_space
+from .highpoly import Rays, Source, match_parts, project
 from .ids import charts, id_values
 from .kinds import CHANNELS, RAY_KINDS, SOURCE_KINDS
 from .normals import encoded_normals
@@ -193,18 +194,20 @@ def bake_maps(context: MeshMapContext, sampler: Sampler, tile_texels: int = 1 <<
 
 def _high_values(c: MeshMapContext, h: HighContext, t: TexelPoints) -> dict[str, np.ndarray]:
     """The source_* maps at the texels ``t`` (``highpoly.project``)."""
-    corners = c.faces[t.face]
-    smooth = np.einsum("ni,nij->nj", t.bary, h.normals[corners])
-    smooth /= np.maximum(np.linalg.norm(smooth, axis=1, keepdims=True), 1e-300)
-    cage = None if h.rays.cage is None else np.einsum("ni,nij->nj", t.bary, h.rays.cage[corners])
+    face = np.ascontiguousarray(t.face, dtype=np.int64)
+    smooth = np.empty((len(face), 3))  # the unit interpolated normal, 0 where none (compiled: one pass)
+    _native.interpolated_normals(face, np.ascontiguousarray(t.bary, dtype=np.float64), np.ascontiguousarray(c.faces, dtype=np.int64),
+                                 np.ascontiguousarray(h.normals, dtype=np.float64), smooth)
+    cage = None if h.rays.cage is None else np.einsum("ni,nij->nj", t.bary, h.rays.cage[c.faces[t.face]])
     hit, depth, normal = project(h.source, h.rays, t.points, smooth, cage, c.part[t.face] if h.matches else None, h.matches)
     out = {"source_missed": (~hit).astype(np.float64)[:, None],
            "source_height": np.where(hit, np.clip(0.5 + 0.5 * depth / max(h.rays.front, h.rays.back), 0.0, 1.0), 0.5)[:, None]}
     if "source_normal" in c.kinds:
         if t.frame is None:
             raise ValueError("source_normal: the sampler has no tangent frames (BakeSettings.tangents)")
-        flat = np.tile([0.5, 0.5, 1.0], (len(hit), 1))
-        out["source_normal"] = np.where(hit[:, None], tangent_space(np.where(hit[:, None], normal, t.frame[:, 2]), t.frame, h.directx), flat)
+        codes = np.empty((len(hit), 3))  # tangent_space where hit, else flat (0.5, 0.5, 1): compiled, one pass
+        _native.tangent_codes(normal, np.ascontiguousarray(t.frame, dtype=np.float64), hit.view(np.uint8), h.directx, codes)
+        out["source_normal"] = codes
     return out
 
 

@@ -133,6 +133,11 @@ def _encode(pixels: np.ndarray, fmt: str, bits: int, given: str) -> np.ndarray:
             pixels = pixels.astype(np.float32)  # a band: bounded
         _native.encode8(pixels, colour if given == "linear" else 0, *_srgb8_tables(), out)
         return out
+    if given != "linear":  # no channel sRGB-encoded: compiled, one pass
+        if pixels.dtype not in (np.float32, np.float64):
+            pixels = pixels.astype(np.float32)
+        _native.encode16(pixels, out)
+        return out
     band = np.clip(np.nan_to_num(pixels.astype(np.float32), nan=0.0), 0.0, 1.0)
     if given == "linear":
         out[..., :colour] = np.rint(srgb_encode(band[..., :colour].astype(np.float64)) * top)

@@ -161,3 +161,47 @@ def test_texture_none_needs_maps_and_no_colour_settings(options, named):
     with pytest.raises(ParameterError) as caught:
         texbake.BakeSettings.build(texture="none", **options)
     assert caught.value.name == named, caught.value
+
+
+@pytest.mark.parametrize("directx", [False, True])
+def test_the_compiled_tangent_codes_are_tangent_space_where_hit_and_flat_elsewhere(directx):
+    from texbake import _native
+    from texbake.meshmaps.highpoly import tangent_space
+    from texbake.mesh.tangents import sample_frames
+
+    rng = np.random.default_rng(5)
+    n = 2000
+    corner_normals = rng.normal(size=(n, 3, 3))
+    corner_normals /= np.linalg.norm(corner_normals, axis=2, keepdims=True)
+    corner_tangents = np.concatenate([rng.normal(size=(n, 3, 3)), rng.choice([-1.0, 1.0], size=(n, 3, 1))], axis=2)
+    frame = sample_frames(corner_normals, corner_tangents, rng.dirichlet([1, 1, 1], size=n))
+    normals = rng.normal(size=(n, 3))
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    normals[:10] = 0.0  # no normal: (0, 0, 1)
+    hit = rng.random(n) < 0.8
+    codes = np.empty((n, 3))
+    _native.tangent_codes(normals, frame, hit.view(np.uint8), directx, codes)
+    expect = tangent_space(normals, frame, directx)
+    assert np.abs(codes[hit] - expect[hit]).max() < 1e-15  # float64 round-off, sums in another order
+    assert np.array_equal(codes[~hit], np.tile([0.5, 0.5, 1.0], ((~hit).sum(), 1)))
+    assert np.array_equal(codes[:10], np.tile([0.5, 0.5, 1.0], (10, 1)))  # no normal: flat, whichever the convention
+
+
+def test_the_compiled_interpolated_normals_are_the_unit_mean_of_the_corners():
+    from texbake import _native
+
+    rng = np.random.default_rng(6)
+    faces = rng.integers(0, 50, size=(80, 3))
+    normals = rng.normal(size=(50, 3))
+    normals[7] = 0.0
+    faces[3] = 7  # all three corners without a normal: 0
+    face = rng.integers(0, 80, size=3000)
+    face[:5] = 3
+    bary = rng.dirichlet([1, 1, 1], size=3000)
+    out = np.empty((3000, 3))
+    _native.interpolated_normals(face, bary, faces, normals, out)
+    smooth = np.einsum("ni,nij->nj", bary, normals[faces[face]])
+    smooth /= np.maximum(np.linalg.norm(smooth, axis=1, keepdims=True), 1e-300)
+    assert np.abs(out - smooth).max() < 1e-15 and np.array_equal(out[:5], np.zeros((5, 3)))
+    with pytest.raises(ValueError, match="outside"):
+        _native.interpolated_normals(np.array([80]), bary[:1], faces, normals, out[:1])

@@ -382,3 +382,18 @@ def test_an_unknown_format_is_refused_by_each_of_them(tmp_path):
             call()
     with pytest.raises(ValidationError, match="format"):
         BakeSettings(format="jpeg")
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_16_bit_data_codes_are_the_rounded_float32_products(tmp_path, dtype):
+    # the compiled 16-bit encoding of data (native/images.cpp) against numpy's: round half to
+    # even of 65535 x in float32, NaN 0, clipped; values on and beside the rounding thresholds
+    rng = np.random.default_rng(3)
+    codes = rng.integers(0, 65535, 4000)
+    x = np.concatenate([(codes + 0.5) / 65535, (codes + 0.5) / 65535 + 1e-9, rng.random(3990), [np.nan, np.inf, -np.inf, -0.5, 1.5, 0.0, 1.0, -0.0, 1e-300, 0.99999999]])
+    img = x.astype(dtype).reshape(-1, 10, 1).repeat(3, axis=2)
+    img[..., 1] *= 0.5  # three channels apart
+    expect = np.rint(np.clip(np.nan_to_num(img.astype(np.float32), nan=0.0), 0.0, 1.0) * np.float32(65535)).astype(np.uint16)
+    write_image(tmp_path / "a.png", img, bits=16, colorspace="data")
+    stored, _ = raw_pixels(tmp_path / "a.png", oiio.UINT16)
+    assert np.array_equal(stored, expect)
