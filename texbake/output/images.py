@@ -202,7 +202,7 @@ def write_image(path, pixels, *, fmt: str | None = None, bits: int | None = None
     # one transaction: write to a temporary name, flush, read back and compare, rename
     with replacing(path, _EXTENSION[fmt]) as tmp:
         if fmt == "png":
-            digests = _write_png(tmp, pixels, _png_header(c, np.dtype(dtype).str, stored), (fmt, bits, given))
+            digests = _write_png(tmp, pixels, _png_header(w, h, c, bits, stored), (fmt, bits, given))
         else:
             digests = _write_bands(path, tmp, pixels, _spec(pixels.shape, dtype, fmt, stored), (fmt, bits, given))
         _sync(tmp)
@@ -293,8 +293,7 @@ def _write_bands(path: Path, tmp: Path, pixels: np.ndarray, spec, encoding: tupl
 # one: pieces of the filtered rows deflated at once on two threads (zlib releases the GIL),
 # each but the last ended by a sync flush (a byte-aligned empty stored block), so that their
 # concatenation is one valid deflate stream; the Adler-32 of the whole closes it. The chunks
-# before it (colour chunks, eXIf, text) are OpenImageIO's own for the same spec, taken from a
-# 1x1 image written once per kind of image.
+# before it (colour chunks, eXIf, text) are the ones OpenImageIO writes for the same spec.
 
 _PNG_PIECE = 1 << 19  # filtered bytes deflated at a time: two threads busy, memory bounded
 _ZLIB_HEADER = b"\x78\x5e"  # deflate, 32K window, "fast" (levels 2-5): what zlib writes at level 4
@@ -305,25 +304,26 @@ def _png_chunk(kind: bytes, body: bytes) -> bytes:
     return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
 
 
-@functools.cache
-def _png_header(channels: int, dtype: str, stored: str) -> tuple[bytes, ...]:
-    """The chunks OpenImageIO writes before a PNG's pixel data (IHDR first, of a 1x1 image)
-    for ``channels`` of ``dtype`` (numpy's ``str``) in colour space ``stored``."""
-    with tempfile.TemporaryDirectory(prefix="texbake-png-") as folder:
-        probe = Path(folder) / "probe.png"
-        _write_bands(probe, probe, np.zeros((1, 1, channels), np.float32), _spec((1, 1, channels), np.dtype(dtype), "png", stored),
-                     ("png", 8 * np.dtype(dtype).itemsize, "data"))
-        data = probe.read_bytes()
-    chunks, p = [], len(PNG_SIGNATURE)
-    while p < len(data):
-        length, kind = struct.unpack_from(">I4s", data, p)
-        if kind in (b"IDAT", b"IEND"):
-            break
-        chunks.append(data[p : p + 12 + length])
-        p += 12 + length
-    if not chunks or chunks[0][4:8] != b"IHDR":
-        raise OutputError(f"OpenImageIO wrote a PNG without its header first ({len(data)} bytes)")
-    return tuple(chunks)
+# What OpenImageIO 3.x writes before a PNG's pixels for texbake's spec (_spec), chunk for
+# chunk: colour chunks (data: gAMA 1.0 alone; sRGB: sRGB, gAMA 1/2.2, cHRM), its Exif block
+# (the Software tag), a zero offset, the Software text and, for data, texbake's colour-space
+# text. tests/texbake/output/test_images.py holds them equal to what OpenImageIO writes.
+_PNG_COLOUR_CHUNKS = {
+    DATA: ((b"gAMA", bytes.fromhex("000186a0")),),
+    SRGB: ((b"sRGB", b"\x03"), (b"gAMA", bytes.fromhex("0000b18f")),
+           (b"cHRM", bytes.fromhex("00007a26000080840000fa00000080e8000075300000ea6000003a9800001770"))),
+}
+_PNG_TEXT_CHUNKS = ((b"eXIf", bytes.fromhex("4d4d002a0000001074657862616b6500000101310002000000080000000800000000")),
+                    (b"oFFs", bytes(9)), (b"tEXt", b"Software\x00texbake"))
+_PNG_COLOUR_TYPE = {1: 0, 2: 4, 3: 2, 4: 6}  # grey, grey + alpha, RGB, RGBA
+
+
+def _png_header(width: int, height: int, channels: int, bits: int, stored: str) -> bytes:
+    """The signature and the chunks before a PNG's pixel data, as OpenImageIO writes them
+    (:data:`_PNG_COLOUR_CHUNKS`), for ``channels`` of ``bits`` in colour space ``stored``."""
+    ihdr = struct.pack(">IIBBBBB", width, height, bits, _PNG_COLOUR_TYPE[channels], 0, 0, 0)
+    text = _PNG_TEXT_CHUNKS + (((b"tEXt", b"texbake:ColorSpace\x00data"),) if stored == DATA else ())
+    return PNG_SIGNATURE + b"".join(_png_chunk(kind, body) for kind, body in ((b"IHDR", ihdr), *_PNG_COLOUR_CHUNKS[stored], *text))
 
 
 def _deflated(piece: memoryview, last: bool) -> tuple[bytes, int]:
@@ -332,18 +332,16 @@ def _deflated(piece: memoryview, last: bool) -> tuple[bytes, int]:
     return z.compress(piece) + z.flush(zlib.Z_FINISH if last else zlib.Z_SYNC_FLUSH), zlib.adler32(piece)
 
 
-def _write_png(tmp: Path, pixels: np.ndarray, header: tuple[bytes, ...], encoding: tuple[str, int, str]) -> list[int]:
-    """Write ``pixels`` as a PNG to ``tmp``: ``header`` (:func:`_png_header`) with this
-    image's size, then its rows filtered "up", deflated a piece at a time on two threads,
-    a band encoded at a time (:func:`_encode` with ``encoding``); return the Adler-32 values
-    the stream may close with (:class:`_PngRows`, for the check)."""
+def _write_png(tmp: Path, pixels: np.ndarray, header: bytes, encoding: tuple[str, int, str]) -> list[int]:
+    """Write ``pixels`` as a PNG to ``tmp``: ``header`` (:func:`_png_header`), then its rows
+    filtered "up", deflated a piece at a time on two threads, a band encoded at a time
+    (:func:`_encode` with ``encoding``); return the Adler-32 values the stream may close
+    with (:class:`_PngRows`, for the check)."""
     h, w, _ = pixels.shape
-    ihdr = header[0]
-    chunks = [_png_chunk(b"IHDR", struct.pack(">II", w, h) + ihdr[16:21]), *header[1:]]
     rows, band = _PngRows(), _band_rows(w)
     adler = 1
     with open(tmp, "wb") as f, ThreadPoolExecutor(2, thread_name_prefix="texbake-deflate") as pool:
-        f.write(PNG_SIGNATURE + b"".join(chunks))
+        f.write(header)
         prefix = _ZLIB_HEADER
         for r in range(0, h, band):
             filtered = rows.add(_encode(pixels[r : r + band], *encoding))
@@ -425,12 +423,11 @@ def _verify(tmp: Path, digests: list[int], shape: tuple[int, int, int], dtype, f
     its stream may close with), without decoding it. Others read back a band at a time:
     each band of ``shape`` pixels of ``dtype`` must have the CRC-32 in ``digests`` it was
     written with."""
-    import OpenImageIO as oiio
-
     h, w, c = shape
     if fmt == "png":
         _check_png_chunks(tmp, (w, h), digests)
         return
+    import OpenImageIO as oiio
     if fmt == "tif":
         _check_tiff_layout(tmp)
     inp = _open(tmp)

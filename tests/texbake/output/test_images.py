@@ -397,3 +397,21 @@ def test_16_bit_data_codes_are_the_rounded_float32_products(tmp_path, dtype):
     write_image(tmp_path / "a.png", img, bits=16, colorspace="data")
     stored, _ = raw_pixels(tmp_path / "a.png", oiio.UINT16)
     assert np.array_equal(stored, expect)
+
+
+@pytest.mark.parametrize("channels", [1, 2, 3, 4])
+@pytest.mark.parametrize("bits", [8, 16])
+@pytest.mark.parametrize("stored", ["data", "srgb_rec709_scene"])
+def test_the_png_header_is_the_one_openimageio_writes(tmp_path, channels, bits, stored):
+    # texbake writes a PNG's chunks before its pixels itself (and its stream on two cores):
+    # they must be OpenImageIO's for the same spec, byte for byte (its writer, _write_bands)
+    import struct
+
+    dtype = np.uint8 if bits == 8 else np.uint16
+    probe = tmp_path / "probe.png"
+    imageio._write_bands(probe, probe, np.zeros((3, 5, channels), np.float32), imageio._spec((3, 5, channels), dtype, "png", stored),
+                         ("png", bits, "data"))
+    data, p = probe.read_bytes(), 8
+    while data[p + 4 : p + 8] != b"IDAT":
+        p += 12 + struct.unpack_from(">I", data, p)[0]
+    assert imageio._png_header(5, 3, channels, bits, stored) == data[:p]
