@@ -46,9 +46,8 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     key = group_rows(vertices)[1]
     tri = vertices[faces]
     area_normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    acc = np.zeros((key.max() + 1, 3))
-    for corner in range(3):
-        np.add.at(acc, key[faces[:, corner]], area_normal)
+    corners = key[faces.T.ravel()]  # corner 0 of every face, then 1, then 2: np.add.at's order, its sums
+    acc = np.column_stack([np.bincount(corners, np.tile(area_normal[:, a], 3), key.max() + 1) for a in range(3)])
     length = np.linalg.norm(acc, axis=1, keepdims=True)
     acc = np.divide(acc, length, out=np.zeros_like(acc), where=length > 0)
     return acc[key]

@@ -10,6 +10,8 @@ The face hit is not used.
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
 from .rays import Scene
@@ -22,7 +24,17 @@ class SourceMesh:
     """
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray):
-        self._scene = Scene(vertices, faces)  # re-centred and scaled to a unit box for float32
+        self._mesh = (vertices, faces)
+        self._built: Scene | None = None
+        self._lock = threading.Lock()  # tile threads cast at once
+
+    @property
+    def _scene(self) -> Scene:
+        """Built at the first ray (a bake of the source_* mesh maps alone casts none here)."""
+        with self._lock:
+            if self._built is None:
+                self._built = Scene(*self._mesh)  # re-centred and scaled to a unit box for float32
+            return self._built
 
     def project(self, points: np.ndarray, normals: np.ndarray, distance: float):
         """Nearest source hit along ``+normal`` or ``-normal`` within ``distance``.
