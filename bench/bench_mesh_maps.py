@@ -16,8 +16,10 @@ Run: scripts/run python bench/bench_mesh_maps.py [--size 2048] [--rays 64] [--di
    pair: a torus (radii 1 and 0.35, 384 x 192 sections, 147k faces) knurled with 24 x 6
    bumps of +-0.02 along its tube's normal, onto a torus of 64 x 32 sections (4.1k faces).
 
-Blender runs from ``.venv-blender`` (``scripts/blender``; bench/blender_mesh_maps.py);
-without it only texbake's figures are printed.
+Both fill a margin of 16 texels round the charts (texbake's default; Blender's bake margin
+set to it, as bench/bench_blender.py does). Blender runs from ``.venv-blender``
+(``scripts/blender``; bench/blender_mesh_maps.py); without it only texbake's figures are
+printed.
 """
 
 from __future__ import annotations

@@ -6,8 +6,8 @@
 ``ao``: the ``AO`` pass of the OBJ into its own UVs, ``--rays`` Cycles samples a texel (one
 AO ray each), the world's AO distance ``--distance``. ``normal``: "Selected to Active" from
 HIGH onto LOW's UVs, tangent space (OpenGL: +Y), the cage extruded ``--extrusion`` and rays
-``--reach`` long. Both shade smooth, bake on the CPU with 2 threads and no margin into a
-float image, and save its pixels, ``(size, size, 4)`` float32, row 0 at the bottom, as .npy.
+``--reach`` long. Both shade smooth, bake on the CPU with 2 threads and fill a ``--margin``
+texels wide (16: texbake's default, as bench/blender_bake.py's) into a float image, and save its pixels, ``(size, size, 4)`` float32, row 0 at the bottom, as .npy.
 Prints the bake's seconds (import to saved image) on its last line.
 """
 
@@ -41,7 +41,7 @@ def target_image(obj, size: int):
     return image
 
 
-def cycles(samples: int) -> None:
+def cycles(samples: int, margin: int) -> None:
     scene = bpy.context.scene
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"
@@ -49,7 +49,7 @@ def cycles(samples: int) -> None:
     scene.cycles.use_denoising = False
     scene.render.threads_mode = "FIXED"
     scene.render.threads = 2
-    scene.render.bake.margin = 0
+    scene.render.bake.margin = margin
 
 
 def main() -> None:
@@ -61,6 +61,7 @@ def main() -> None:
     ap.add_argument("--distance", type=float, default=1.0)
     ap.add_argument("--extrusion", type=float, default=0.05)
     ap.add_argument("--reach", type=float, default=0.1)
+    ap.add_argument("--margin", type=int, default=16)
     args = ap.parse_args()
     bpy.ops.wm.read_factory_settings(use_empty=True)
     start = time.perf_counter()
@@ -72,7 +73,7 @@ def main() -> None:
         if bpy.context.scene.world is None:
             bpy.context.scene.world = bpy.data.worlds.new("world")
         bpy.context.scene.world.light_settings.distance = args.distance
-        cycles(args.rays)
+        cycles(args.rays, args.margin)
         bpy.ops.object.bake(type="AO")
     else:
         low_path, high_path, out = args.paths
@@ -83,7 +84,7 @@ def main() -> None:
         high.select_set(True)
         low.select_set(True)
         bpy.context.view_layer.objects.active = low
-        cycles(1)
+        cycles(1, args.margin)
         bake = bpy.context.scene.render.bake
         bake.use_selected_to_active, bake.cage_extrusion, bake.max_ray_distance = True, args.extrusion, args.reach
         bpy.ops.object.bake(type="NORMAL", normal_space="TANGENT", use_selected_to_active=True, cage_extrusion=args.extrusion,

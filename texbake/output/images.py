@@ -345,7 +345,7 @@ def _write_png(tmp: Path, pixels: np.ndarray, header: bytes, encoding: tuple[str
         prefix = _ZLIB_HEADER
         for r in range(0, h, band):
             filtered = rows.add(_encode(pixels[r : r + band], *encoding))
-            flat = memoryview(filtered).cast("B")
+            flat = memoryview(filtered.data).cast("B")
             step = max(1, _PNG_PIECE // filtered.shape[1]) * filtered.shape[1]  # whole rows
             last = r + band >= h
             starts = range(0, len(flat), step)

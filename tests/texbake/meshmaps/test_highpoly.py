@@ -166,8 +166,8 @@ def test_texture_none_needs_maps_and_no_colour_settings(options, named):
 @pytest.mark.parametrize("directx", [False, True])
 def test_the_compiled_tangent_codes_are_tangent_space_where_hit_and_flat_elsewhere(directx):
     from texbake import _native
-    from texbake.meshmaps.highpoly import tangent_space
     from texbake.mesh.tangents import sample_frames
+    from texbake.meshmaps.highpoly import tangent_space
 
     rng = np.random.default_rng(5)
     n = 2000
