@@ -1,4 +1,6 @@
-"""Image maps in and out with OpenImageIO, written atomically and checked.
+"""Image maps in and out, written atomically and checked: EXR and TIFF through OpenImageIO,
+PNG by texbake itself (OpenImageIO's chunks, the pixel stream deflated on two threads; see
+``_write_png``), every format read through OpenImageIO.
 
 Pixels come in as ``(h, w, c)`` float values, row 0 at the top, c = 1, 2, 3 or 4 (the
 last channel of 2 or 4 is alpha, never colour-encoded). Colour policy by format:
