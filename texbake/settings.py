@@ -34,22 +34,21 @@ from pydantic import (
     BaseModel,
     ConfigDict,
     Field,
+    GetCoreSchemaHandler,
+    GetJsonSchemaHandler,
     PlainSerializer,
-    PlainValidator,
     StrictBool,
+    TypeAdapter,
     ValidationError,
     create_model,
     field_validator,
     model_validator,
 )
+from pydantic_core import core_schema
 
 from .errors import MaterialError, MtlxError, ParameterError, TextureError
 from .formats import bits_problem, format_name
-from .materials.builtins import BUILTINS
-from .materials.model import Material, parse_material
-from .materials.packing import PackTemplate, parse_packing
 from .meshmaps.kinds import KINDS
-from .textures.spec import TEXTURES, TextureSpec, parse_spec
 from .validation import describe
 
 NO_TEXTURE = "none"  # the texture of a bake of mesh maps only
@@ -61,6 +60,8 @@ def _texture(value: Any):
     lookups of its own: the mesh maps' are the bake's)."""
     if value is None or value == NO_TEXTURE:
         return None
+    from .textures.spec import parse_spec
+
     try:
         return parse_spec(value)
     except TextureError as exc:
@@ -71,6 +72,8 @@ def _material(value: Any):
     """A built-in material's name, JSON text or a material object; never a path."""
     if value is None:
         return None
+    from .materials.model import parse_material
+
     try:
         return parse_material(value)
     except (MaterialError, MtlxError) as exc:
@@ -88,6 +91,8 @@ def _packing(value: Any):
             value = json.loads(value)
         except json.JSONDecodeError as exc:
             raise ValueError(f"not valid JSON: {exc.msg}") from None
+    from .materials.packing import parse_packing
+
     items = value if isinstance(value, (list, tuple)) else [value]
     try:
         templates = [parse_packing(item) for item in items]
@@ -105,21 +110,62 @@ def _finite(value: float) -> float:
     return value
 
 
-TextureName = Literal[tuple(TEXTURES)]  # type: ignore[valid-type]  # the registry's names, as an enum
+class _Takes:
+    """A field validated by a plain function, whose JSON Schema is that of ``takes()``: the
+    type of what it accepts, made when a schema is first asked for (the service's, an
+    error's), not when the settings are imported. Pydantic's ``PlainValidator`` builds
+    its ``json_schema_input_type`` at once: here that is every texture spec and the material
+    model, validators and all, which a bake of mesh maps alone never uses."""
+
+    def __init__(self, validate, takes) -> None:
+        self.validate, self.takes = validate, takes
+
+    def __get_pydantic_core_schema__(self, source: Any, handler: GetCoreSchemaHandler) -> core_schema.CoreSchema:
+        return core_schema.no_info_plain_validator_function(self.validate)
+
+    def __get_pydantic_json_schema__(self, schema: core_schema.CoreSchema, handler: GetJsonSchemaHandler) -> dict:
+        if handler.mode != "validation":  # what it serialises to: the serializer's own schema
+            return handler(schema)
+        return handler(_input_schema(self.takes))
+
+
+@functools.cache
+def _input_schema(takes) -> core_schema.CoreSchema:
+    return TypeAdapter(takes()).core_schema
+
+
+def _texture_input():
+    from .textures.spec import TEXTURES, TextureSpec
+
+    return Union[Literal[tuple(TEXTURES)], Literal["none"], TextureSpec]  # noqa: UP007  # values, not annotations
+
+
+def _material_input():
+    from .materials.builtins import BUILTINS
+    from .materials.model import Material
+
+    return Union[Literal[tuple(BUILTINS)], Material, None]  # noqa: UP007
+
+
+def _packing_input():
+    from .materials.packing import PackTemplate
+
+    return Union[list[Union[Literal["orm", "hdrp-mask"], PackTemplate]], None]  # noqa: UP007
+
+
 Texture = Annotated[
     Any,
-    PlainValidator(_texture, json_schema_input_type=Union[TextureName, Literal["none"], TextureSpec]),  # noqa: UP007  # values, not annotations
+    _Takes(_texture, _texture_input),  # a name, "none" or a spec
     PlainSerializer(lambda spec: None if spec is None else spec.model_dump(mode="json"), return_type=Union[dict, None]),  # noqa: UP007
 ]
-MaterialName = Literal[tuple(BUILTINS)]  # type: ignore[valid-type]  # the built-ins' names, as an enum
 MaterialSetting = Annotated[
     Any,
-    PlainValidator(_material, json_schema_input_type=Union[MaterialName, Material, None]),  # noqa: UP007  # values, not annotations
+    _Takes(_material, _material_input),  # a built-in's name or a material
     PlainSerializer(lambda m: None if m is None else m.model_dump(mode="json"), return_type=Union[dict, None]),  # noqa: UP007
 ]
 Packing = Annotated[
     Any,
-    PlainValidator(_packing, json_schema_input_type=Union[list[Union[Literal["orm", "hdrp-mask"], PackTemplate]], None]),  # noqa: UP007
+    _Takes(_packing, _packing_input),  # built-in names or templates
     PlainSerializer(lambda ts: None if ts is None else [t.model_dump(mode="json") for t in ts], return_type=Union[list, None]),  # noqa: UP007
 ]
 Finite = Annotated[float, AfterValidator(_finite)]

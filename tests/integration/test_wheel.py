@@ -50,4 +50,4 @@ def test_the_wheel_holds_texbake_and_its_data_only(tmp_path):
     assert len(native) == 1, names  # the compiled kernels, built from native/
     assert {n for n in names if n.startswith("texbake/")} - native == package_files(ROOT), "the wheel's texbake/ differs from the tree's"
     assert "texbake/py.typed" in names and "texbake/service/static/index.html" in names
-    assert "[console_scripts]\ntexbake = texbake.cli:main\n" in entry_points
+    assert "[console_scripts]\ntexbake = texbake.cli:run\n" in entry_points

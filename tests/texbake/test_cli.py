@@ -404,3 +404,21 @@ def test_a_manifest_line_gives_two_materials_two_textures(tmp_path):
     assert np.array_equal(read_image(tmp_path / "b" / "wheels_albedo.png"), read_image(out / "wheels_albedo.png"))
     r = run_cli("bake", tmp_path / "cart.glb", "--materials", '{"wheel": {}}', "--no-cache", "--out", tmp_path / "c")
     assert r.returncode == 2 and re.search(r"^texbake: error: materials: .*cart.glb has no material 'wheel'; its materials: ", r.stderr)
+
+
+def test_the_program_ends_after_every_exit_handler_keeping_its_code_and_output(tmp_path):
+    import subprocess
+    import sys
+
+    # as a library a command uses registers an exit handler; output left in stdout's buffer;
+    # an object whose finaliser only the interpreter's teardown would run
+    code = ("import atexit, sys\nfrom texbake import cli\nmark = sys.argv[1]\n"
+            "atexit.register(lambda: open(mark, 'w').write('ran'))\n"
+            "class Teardown:\n    def __del__(self):\n        print('torn down')\n"
+            "kept = Teardown()\nsys.stdout.write('buffered ')\n"
+            "sys.argv = ['texbake', 'bake', sys.argv[2], '--out', sys.argv[3]]\ncli.run()\n")
+    done = subprocess.run([sys.executable, "-c", code, str(tmp_path / "mark"), str(tmp_path / "nope.obj"), str(tmp_path / "o")],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and "nope.obj: no such file" in done.stderr
+    assert (tmp_path / "mark").read_text() == "ran"
+    assert done.stdout == "buffered "  # flushed; and no teardown ran after the last handler

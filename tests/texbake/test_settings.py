@@ -137,3 +137,31 @@ def test_a_material_setting_holds_the_whole_material_and_round_trips():
     assert BakeSettings.build(s, material=None).packing is None  # the default packing goes with the material
     assert BakeSettings.build(s, size=32).material == s.material
     assert not BakeSettings(material={"base_color": 0.5}).normal_map and BakeSettings(bump="noise").normal_map
+
+
+def test_settings_of_a_mesh_maps_bake_import_no_texture_nor_material_model():
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom texbake.settings import BakeSettings\n"
+            "BakeSettings(texture='none', maps=['source_normal'], size=64)\n"
+            "print(sorted(m for m in ('texbake.textures.spec', 'texbake.materials.model') if m in sys.modules))\n"
+            "BakeSettings(texture='marble')\n"
+            "print(sorted(m for m in ('texbake.textures.spec', 'texbake.materials.model') if m in sys.modules))\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines() == ["[]", "['texbake.textures.spec']"]
+
+
+def test_the_schema_names_what_the_texture_material_and_packing_fields_take():
+    from texbake.materials.builtins import BUILTINS
+    from texbake.textures.spec import TEXTURES
+
+    schema = BakeSettings.model_json_schema()
+    texture = schema["properties"]["texture"]["anyOf"]
+    assert texture[0]["enum"] == list(TEXTURES) and texture[1] == {"const": "none", "type": "string"}
+    assert set(texture[2]["discriminator"]["mapping"]) == set(TEXTURES) and "Marble" in schema["$defs"]
+    material = schema["properties"]["material"]["anyOf"]
+    assert material[0]["enum"] == list(BUILTINS) and material[1] == {"$ref": "#/$defs/Material"}
+    packing = schema["properties"]["packing"]["anyOf"][0]["items"]["anyOf"]
+    assert packing == [{"enum": ["orm", "hdrp-mask"], "type": "string"}, {"$ref": "#/$defs/PackTemplate"}]

@@ -17,6 +17,7 @@ at least 0.3 % of the value).
 from __future__ import annotations
 
 from contextlib import nullcontext
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -26,8 +27,10 @@ from ..sampling import Samples, Tile
 from ..settings import BakeSettings
 from ..textures.mapping import TextureMapping
 from .bump import LUMINANCE, normal_map
-from .material import MaterialMaps
 from .shading import lit
+
+if TYPE_CHECKING:
+    from .material import MaterialMaps
 
 HALF_TEXELS = 8192 * 8192  # larger images written as 8 bits are held as float16
 
@@ -37,7 +40,11 @@ class Maps:
 
     def __init__(self, settings: BakeSettings, mapping: TextureMapping):
         spec, (width, height) = settings.texture, settings.width_height
-        self.material = None if settings.material is None else MaterialMaps(settings, mapping)
+        self.material: MaterialMaps | None = None
+        if settings.material is not None:
+            from .material import MaterialMaps  # the material model: only a material's bake imports it
+
+            self.material = MaterialMaps(settings, mapping)
         if self.material is not None:
             self.colours: dict = {}
             widths = dict(self.material.widths)

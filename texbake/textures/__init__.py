@@ -15,13 +15,21 @@ but its arguments.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
+from .._lazy import lazy_names
 from .context import EvalContext, Placement
 from .mapping import place_and_evaluate
-from .spec import TEXTURES, TextureSpec, Transform, parse_spec
+
+if TYPE_CHECKING:
+    from .spec import TEXTURES, TextureSpec, Transform, parse_spec
 
 __all__ = ["TEXTURES", "EvalContext", "Placement", "TextureSpec", "Transform", "evaluate", "parse_spec"]
+# the specs' models on first use: the pipeline places a field (mapping) in every bake, a
+# bake of mesh maps alone evaluates no texture
+__getattr__ = lazy_names(__name__, dict.fromkeys(("TEXTURES", "TextureSpec", "Transform", "parse_spec"), "spec"))
 
 
 def evaluate(spec, points, footprint=None, *, bounds=None, max_octaves=None) -> np.ndarray:
@@ -58,6 +66,8 @@ def evaluate(spec, points, footprint=None, *, bounds=None, max_octaves=None) -> 
     TextureError
         The spec is not a known texture or has an unknown or out-of-range parameter.
     """
+    from .spec import parse_spec
+
     spec = parse_spec(spec)
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     f = None if footprint is None else np.asarray(footprint, dtype=np.float64).reshape(-1, 2, 3)
