@@ -154,9 +154,51 @@ std::tuple<Ints, Ints, Doubles> split_normals(In<double, shape<-1, 3>> vertices,
   return {owned(std::move(source), {k2}), owned(std::move(out_faces), {size_t(m), 3}), owned(std::move(normals), {k2, 3})};
 }
 
+// out (g, 3): the unit normal of each vertex group (group (k,) of the vertices, ids 0..g-1):
+// the sum, over the corners at its vertices, of their face's unit normal times the face's
+// angle there, atan2(|e1 x e2|, e1 . e2); summed corner 0 of every face, then 1, then 2 (as
+// np.bincount adds the numpy formula's); 0 for a group of zero-area faces only
+void angle_normals(In<double, shape<-1, 3>> vertices, In<int64_t, shape<-1, 3>> faces_in, In<int64_t, nb::ndim<1>> group,
+                   Out<double, shape<-1, 3>> out) {
+  const int64_t k = vertices.shape(0), m = faces_in.shape(0), g = out.shape(0);
+  const int64_t *faces = faces_in.data(), *id = group.data();
+  if (int64_t(group.shape(0)) != k) throw std::invalid_argument("angle_normals: group must have a row a vertex");
+  for (int64_t c = 0; c < 3 * m; ++c) {
+    if (faces[c] < 0 || faces[c] >= k) throw nb::index_error("angle_normals: a face index outside the vertices");
+  }
+  for (int64_t i = 0; i < k; ++i) {
+    if (id[i] < 0 || id[i] >= g) throw nb::index_error("angle_normals: a group id outside out's rows");
+  }
+  nb::gil_scoped_release unlocked;
+  const double* v = vertices.data();
+  double* n = out.data();
+  std::fill(n, n + 3 * g, 0.0);
+  const std::vector<double> weighted = weighted_normals(v, faces, m);
+  for (int corner = 0; corner < 3; ++corner) {
+    for (int64_t f = 0; f < m; ++f) {
+      const int64_t* t = faces + 3 * f;
+      const double *p = v + 3 * t[corner], *a = v + 3 * t[(corner + 1) % 3], *b = v + 3 * t[(corner + 2) % 3];
+      const double* w = &weighted[3 * f];
+      const double twice_area = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+      if (!(twice_area > 0)) continue;
+      const double dot = (a[0] - p[0]) * (b[0] - p[0]) + (a[1] - p[1]) * (b[1] - p[1]) + (a[2] - p[2]) * (b[2] - p[2]);
+      const double scale = std::atan2(twice_area, dot) / twice_area;
+      double* x = n + 3 * id[t[corner]];
+      for (int j = 0; j < 3; ++j) x[j] += w[j] * scale;
+    }
+  }
+  for (int64_t i = 0; i < g; ++i) {
+    double* x = n + 3 * i;
+    const double length = std::sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
+    for (int j = 0; j < 3; ++j) x[j] = length > 0 ? x[j] / length : 0.0;
+  }
+}
+
 }  // namespace
 
 void bind_normals(nb::module_& m) {
+  m.def("angle_normals", &angle_normals, nb::arg("vertices"), nb::arg("faces"), nb::arg("group"), nb::arg("out").noconvert(),
+        "out (g, 3): each vertex group's unit normal, its corners' face normals weighted by their angles (0 where none).");
   m.def("split_normals", &split_normals, nb::arg("vertices"), nb::arg("faces"), nb::arg("cos_angle"),
         "(source (k2,) int64, faces (m, 3) int64, normals (k2, 3) float64): vertices split into one per (vertex, fan "
         "of corners joined across edges whose faces' normals meet at cosines >= cos_angle), with their fans' normals.");

@@ -69,7 +69,10 @@ class Source:
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
     def __post_init__(self) -> None:
-        self.normals = vertex_normals(np.asarray(self.vertices, dtype=np.float64), np.asarray(self.faces, dtype=np.int64))
+        # weighted by corner angle, as the DCC tools (Blender, Maya) shade a smooth mesh: on an
+        # irregular scan (an ogre of 124k faces onto 3.7k) the median angle to Blender's normal
+        # map went from 0.39° with area weights to 0.08°
+        self.normals = vertex_normals(np.asarray(self.vertices, dtype=np.float64), np.asarray(self.faces, dtype=np.int64), weights="angle")
 
     def scene(self, parts: tuple[int, ...] | None) -> tuple[Scene, np.ndarray]:
         """``(scene, corners (k, 3) int64 of the source faces it holds, in its order)``: of

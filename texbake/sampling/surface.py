@@ -37,13 +37,23 @@ class SurfaceSamples:
     frame: np.ndarray | None = None  # (n, 3, 3) float64 rows T, B, N of the output mesh's tangent frame
 
 
-def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Area-weighted ``(n, 3)`` unit vertex normals, shared by coincident vertices.
+def vertex_normals(vertices: np.ndarray, faces: np.ndarray, *, weights: str = "area") -> np.ndarray:
+    """``(n, 3)`` unit vertex normals, shared by coincident vertices: the sum of the faces'
+    normals, each weighted by its area (``weights="area"``) or by its angle at the vertex
+    (``"angle"``: what Blender and Maya give a smooth mesh, so a high-poly source's normals
+    are the ones its author saw; on an irregular scan the two differ by degrees).
 
     Vertices split at UV seams still get one normal per position, so normals (and the
     transfer rays cast along them) do not break at seams.
     """
     key = group_rows(vertices)[1]
+    if weights == "angle":  # compiled: the numpy of area weights, three times over, took 58 ms on 147k faces
+        acc = np.empty((int(key.max()) + 1 if len(key) else 0, 3))
+        _native.angle_normals(np.ascontiguousarray(vertices, dtype=np.float64), np.ascontiguousarray(faces, dtype=np.int64),
+                              np.ascontiguousarray(key, dtype=np.int64), acc)
+        return acc[key]
+    if weights != "area":
+        raise ValueError(f"weights: expected 'area' or 'angle', got {weights!r}")
     tri = vertices[faces]
     area_normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     corners = key[faces.T.ravel()]  # corner 0 of every face, then 1, then 2: np.add.at's order, its sums
