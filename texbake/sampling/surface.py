@@ -47,7 +47,7 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray, *, weights: str = "a
     transfer rays cast along them) do not break at seams.
     """
     key = group_rows(vertices)[1]
-    if weights == "angle":  # compiled: the numpy of area weights, three times over, took 58 ms on 147k faces
+    if weights == "angle":  # compiled: in numpy (an angle a corner, three passes) it took 58 ms on 147k faces
         acc = np.empty((int(key.max()) + 1 if len(key) else 0, 3))
         _native.angle_normals(np.ascontiguousarray(vertices, dtype=np.float64), np.ascontiguousarray(faces, dtype=np.int64),
                               np.ascontiguousarray(key, dtype=np.int64), acc)

@@ -51,6 +51,7 @@ def test_upload_is_queued_once(client, meshes):
     ({"bits": 7}, "settings.bits"),
     ({"format": "exr", "bits": 8}, "exr takes 16 or 32 bits"),
     ({"margin": -1}, "settings.margin"),
+    ({"texture": "none", "maps": ["ao", "source_normal"]}, "settings.maps: source_normal bake a source mesh onto the uploaded one"),
 ])
 def test_bad_settings_name_the_field(client, meshes, settings, field):
     r = post(client, meshes / "suzanne.ply", settings)

@@ -15,6 +15,7 @@ from pydantic import BeforeValidator, Json
 
 from texbake.errors import ParameterError
 from texbake.memory import check_fits
+from texbake.meshmaps.kinds import SOURCE_KINDS
 
 from ...core import crud
 from ...core.config import get_settings
@@ -73,6 +74,9 @@ def _bake_settings(parsed: BakeSettings | None, settings) -> BakeSettings:
     """The job's settings within this server's limits (which only tighten the bake's own);
     the face limit, when the client sets none, is this server's."""
     parsed = parsed or BakeSettings()
+    if wanted := [kind for kind in parsed.maps or () if kind in SOURCE_KINDS]:  # a job uploads one mesh (and its files)
+        raise HTTPException(422, detail=f"settings.maps: {', '.join(wanted)} bake a source mesh onto the uploaded one, and a job "
+                                        "takes no source mesh: bake them with `texbake bake --source` or the library")
     limits = {"size": (max(parsed.width_height), settings.max_size), "samples": (parsed.samples, settings.max_samples),
               "max_faces": (parsed.max_faces if "max_faces" in parsed.model_fields_set else 0, settings.max_faces),
               "frames": (len(parsed.frames or ()), settings.max_frames)}
