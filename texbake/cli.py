@@ -653,7 +653,8 @@ def _end() -> None:
         return
     for stream in (sys.stdout, sys.stderr):
         try:
-            stream.flush()
+            if stream is not None:  # None: started with that descriptor closed
+                stream.flush()
         except (OSError, ValueError):  # a closed pipe: what was written there is gone either way
             pass
     os._exit(ended["code"])

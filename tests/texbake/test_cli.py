@@ -422,3 +422,13 @@ def test_the_program_ends_after_every_exit_handler_keeping_its_code_and_output(t
     assert done.returncode == 2 and "nope.obj: no such file" in done.stderr
     assert (tmp_path / "mark").read_text() == "ran"
     assert done.stdout == "buffered "  # flushed; and no teardown ran after the last handler
+
+
+def test_the_program_ends_quietly_with_its_output_closed():
+    import subprocess
+    import sys
+
+    # started with descriptor 1 closed (`texbake --version >&-`): Python's sys.stdout is None
+    done = subprocess.run([sys.executable, "-m", "texbake.cli", "--version"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                          text=True, timeout=120, preexec_fn=lambda: os.close(1))
+    assert done.returncode == 0 and done.stderr == ""
