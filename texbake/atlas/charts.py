@@ -410,55 +410,77 @@ def _simplified(points: np.ndarray, tolerance: float) -> np.ndarray:
     return _native.simplified(np.ascontiguousarray(points, dtype=np.float64), float(tolerance))
 
 
-def outline_triangles(uv: np.ndarray, faces: np.ndarray, tolerance: float = 0.0, *,
-                      want: float | None = None, areas_out: list | None = None) -> np.ndarray | None:
-    """``(t, 3)`` triangles of (nearly) the same region as one chart's ``(m, 3)`` faces into
-    ``(k, 2)`` ``uv``, on vertices of its outline only, simplified within ``tolerance``
-    (Douglas-Peucker) and ear-cut (mapbox_earcut): a few well-shaped triangles for a
-    region a fan of slivers covers. None when the outline is not simple loops (a vertex
-    where the border touches itself) or the triangles' area differs from the chart's by
-    more than the simplification allows (the chart overlaps itself). ``want``: the faces'
-    UV area when already summed (``uv_areas(uv, faces).sum()``); ``areas_out``: a list the
-    triangles' UV areas are appended to (the packing proxies check them, and this runs
-    once per chart)."""
+def outlines_triangles(uv: np.ndarray, faces: np.ndarray, starts: np.ndarray, tolerance: float,
+                       want: np.ndarray) -> tuple[list[np.ndarray | None], list[np.ndarray | None]]:
+    """:func:`outline_triangles` of many charts at once: chart ``c`` is ``faces[starts[c]:
+    starts[c + 1]]`` (charts sharing no vertex), ``want[c]`` its faces' UV area. The loops are
+    walked and simplified for all charts in two compiled calls, each chart's ear-cut alone:
+    the same triangles, a tenth of the time on a CAD part's thousand charts. Returns each
+    chart's triangles (or None) and their UV areas (or None)."""
     import mapbox_earcut
 
-    found = _native.outline_loops(np.ascontiguousarray(faces, dtype=np.int64))  # edges no neighbour shares, walked
-    if found is None:
-        return None
-    ring, lengths = found
-    loops = np.split(ring, np.cumsum(lengths)[:-1])
-    # np.roll(x, -1) as a concatenation, the same values: this runs once per chart, and
-    # roll's own overhead was most of the packing proxies' time on counter.unitsmm.STL
-    points = [uv[loop] for loop in loops]
-    after = [np.concatenate((p[1:], p[:1])) for p in points]
-
-    def signed(i: int) -> float:
-        p, q = points[i], after[i]
-        return 0.5 * float(np.sum(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]))
-    if len(loops) > 1:  # the outer one (counter-clockwise, largest) first
-        order = sorted(range(len(loops)), key=signed, reverse=True)
-        loops, points, after = [loops[i] for i in order], [points[i] for i in order], [after[i] for i in order]
     from ..mesh import uv_areas
 
-    if want is None:
-        want = uv_areas(uv, faces).sum()
-    perimeter = 0.0
-    for p, q in zip(points, after, strict=True):
-        d = p - q  # np.linalg.norm(d, axis=1) is this sqrt of the row sums of squares
-        perimeter += float(np.sqrt((d * d).sum(axis=1)).sum())
-    if tolerance * perimeter > 0.01 * want:  # a thin chart: simplified, it could lose its width
-        tolerance = 0.0
-    if tolerance > 0:
-        loops = [loop[_simplified(p, tolerance)] for loop, p in zip(loops, points, strict=True)]
-    ring = np.concatenate(loops)
-    tri = mapbox_earcut.triangulate_float64(uv[ring].astype(np.float64), np.cumsum([len(x) for x in loops]).astype(np.uint32))
-    if len(tri) == 0:
-        return None
-    tri = ring[np.asarray(tri, dtype=np.int64).reshape(-1, 3)]
-    got = uv_areas(uv, tri)
-    if abs(got.sum() - want) > 1e-9 * max(want, 1e-300) * len(faces) + tolerance * perimeter:
-        return None
-    if areas_out is not None:
-        areas_out.append(got)
-    return tri
+    k = len(starts) - 1
+    tris: list[np.ndarray | None] = [None] * k
+    got: list[np.ndarray | None] = [None] * k
+    ring, lengths, loops = _native.outlines(np.ascontiguousarray(faces, dtype=np.int64),
+                                            np.ascontiguousarray(starts, dtype=np.int64))
+    if not len(ring):
+        return tris, got
+    simple = np.flatnonzero(loops >= 0)
+    loop_chart = np.repeat(simple, loops[simple])
+    loop_start = np.cumsum(lengths) - lengths
+    p = uv[ring].astype(np.float64)
+    after = np.arange(1, len(ring) + 1)
+    after[loop_start + lengths - 1] = loop_start  # each loop's last point is followed by its first
+    q = p[after]
+    signed = 0.5 * np.add.reduceat(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1], loop_start)
+    d = p - q
+    perimeter = np.bincount(loop_chart, np.add.reduceat(np.sqrt((d * d).sum(axis=1)), loop_start), minlength=k)
+    want = np.asarray(want, dtype=np.float64)
+    tol = np.where(tolerance * perimeter > 0.01 * want, 0.0, tolerance)  # a thin chart: simplified, it could lose its width
+    kept, counts = _native.simplified_loops(p, lengths, tol[loop_chart])
+    kept_start = (np.cumsum(counts) - counts).tolist()
+    counts_list = counts.tolist()
+    first_loop = np.cumsum(loops[simple]) - loops[simple]
+    for c, first, n in zip(simple.tolist(), first_loop.tolist(), loops[simple].tolist(), strict=True):
+        if n == 1:
+            at = ring[kept[kept_start[first]:kept_start[first] + counts_list[first]]]
+            ends = np.array([len(at)], dtype=np.uint32)
+        else:  # the outer loop (counter-clockwise, largest) first
+            order = (first + np.argsort(-signed[first:first + n], kind="stable")).tolist()
+            at = ring[np.concatenate([kept[kept_start[i]:kept_start[i] + counts_list[i]] for i in order])]
+            ends = np.cumsum([counts_list[i] for i in order]).astype(np.uint32)
+        tri = mapbox_earcut.triangulate_float64(uv[at].astype(np.float64), ends)
+        if len(tri):
+            tris[c] = at[np.asarray(tri, dtype=np.int64).reshape(-1, 3)]
+    made = [c for c in simple.tolist() if tris[c] is not None]
+    if not made:
+        return tris, got
+    every = np.concatenate([tris[c] for c in made])
+    areas_all = uv_areas(uv, every)
+    sizes = [len(tris[c]) for c in made]
+    total = np.add.reduceat(areas_all, np.cumsum(sizes) - sizes)
+    faces_of = np.diff(starts)
+    for c, a, piece in zip(made, total.tolist(), np.split(areas_all, np.cumsum(sizes)[:-1]), strict=True):
+        if abs(a - want[c]) > 1e-9 * max(want[c], 1e-300) * faces_of[c] + tol[c] * perimeter[c]:
+            tris[c] = None  # the chart overlaps itself
+        else:
+            got[c] = piece
+    return tris, got
+
+
+def outline_triangles(uv: np.ndarray, faces: np.ndarray, tolerance: float = 0.0) -> np.ndarray | None:
+    """``(t, 3)`` triangles of (nearly) the same region as one chart's ``(m, 3)`` faces into
+    ``(k, 2)`` ``uv``, on vertices of its outline only, simplified within ``tolerance``
+    (Douglas-Peucker; not for a thin chart, whose width it could take) and ear-cut
+    (mapbox_earcut): a few well-shaped triangles for a region a fan of slivers covers. None
+    when the outline is not simple loops (a vertex where the border touches itself) or the
+    triangles' area differs from the chart's by more than the simplification allows (the
+    chart overlaps itself). One chart of :func:`outlines_triangles`."""
+    from ..mesh import uv_areas
+
+    faces = np.asarray(faces, dtype=np.int64)
+    want = np.array([uv_areas(uv, faces).sum()])
+    return outlines_triangles(uv, faces, np.array([0, len(faces)]), tolerance, want)[0][0]

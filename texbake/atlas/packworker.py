@@ -48,14 +48,18 @@ BRUTE_DIV = 2  # brute-force packings run at this fraction of the texture's reso
 BRUTE_DIV_SIZE = 512  # ... from this many texels up (below, the padding's rounding costs more than the time saved)
 
 
-def pack(meshes: list, size: int, padding: int, brute: bool = False):
+def pack(meshes: list, size: int, padding: int, brute: bool = False, at: float | None = None):
     """Pack the charts of UV meshes (``(uv, faces)`` pairs, one texel density) together.
 
     Each UV mesh is added on its own (``add_uv_mesh`` merges charts of one mesh that
     touch or overlap, so charts of different patches must not share one). The atlas is
     packed at an explicit texel density, the largest found (within 2 %, in at most three passes) that fits
-    ``size`` texels, so that ``padding`` is at least that many texels of the texture. Returns per mesh
-    ``(vmapping, indices, uv)`` with ``uv`` in the unit square, and an info dict.
+    ``size`` texels, so that ``padding`` is at least that many texels of the texture; or,
+    ``at`` given, in one pass at that density (relative to the one that would fill half
+    the square: the parent's search, :func:`texbake.atlas.pack._searched`). Returns per mesh
+    ``(vmapping, indices, uv)`` with ``uv`` in the unit square, and an info dict
+    (``fill``: the atlas' larger side over the texture's, over 1 where nothing fitted;
+    ``density``: the one packed at, as ``at`` takes it).
     ``brute``: xatlas' brute-force placement (every position tried for each chart), at
     1/``BRUTE_DIV`` of the resolution from ``BRUTE_DIV_SIZE`` texels up.
     """
@@ -87,12 +91,13 @@ def pack(meshes: list, size: int, padding: int, brute: bool = False):
     area = sum(float(uv_areas(uv, faces).sum()) for uv, faces in meshes)
     scale = size * np.sqrt(0.5 / max(area, 1e-30))
     meshes = [((uv.astype(np.float64) * scale).astype(np.float32), faces) for uv, faces in meshes]
-    tpu, fits = 1.0, None
+    tpu, fits = (1.0, None) if at is None else (at, None)
     # Each pass costs the same (0.04-0.16 s on the bench meshes), but a looser window is not
     # free: within 10 % would save a quarter of the packing CPU and cost capsule.obj 0.059 of
     # utilisation, cow.obj 0.045 (xatlas' greedy layout moves with the density); a first pass at
     # half resolution to find the density, or rotate_charts off, did no better.
-    for _ in range(3):  # the largest density that fits, within 2 %
+    passes = 3 if at is None else 1
+    for i in range(passes):  # the largest density that fits, within 2 %
         atlas = run(tpu)
         side = max(atlas.width, atlas.height)
         if side <= size:
@@ -101,7 +106,8 @@ def pack(meshes: list, size: int, padding: int, brute: bool = False):
                 break
         elif fits is not None:
             break
-        tpu *= 0.99 * size / side
+        if i + 1 < passes:
+            tpu *= 0.99 * size / side
     atlas, tpu = fits or (atlas, tpu)
     if atlas.atlas_count != 1:
         raise RuntimeError(f"xatlas made {atlas.atlas_count} atlases, expected 1")
@@ -109,7 +115,8 @@ def pack(meshes: list, size: int, padding: int, brute: bool = False):
     for i in range(len(meshes)):
         vmapping, indices, uv = atlas[i]
         out.append((vmapping, indices, _square(atlas, uv)))
-    info = {"width": int(atlas.width), "height": int(atlas.height), "texels_per_unit": float(tpu * scale * div)}
+    info = {"width": int(atlas.width), "height": int(atlas.height), "texels_per_unit": float(tpu * scale * div),
+            "fill": max(int(atlas.width), int(atlas.height)) / size, "density": float(tpu)}
     return out, info
 
 

@@ -287,3 +287,120 @@ def test_an_outline_that_touches_itself_is_refused():
     square = np.array([[0, 1, 2], [1, 3, 2]])
     tri = outline_triangles(np.array([[0, 0], [1, 0], [0, 1], [1, 1]], dtype=float), square)
     assert tri is not None and len(tri) == 2
+
+
+def _outline_reference(faces):
+    """The walk of texbake's one-chart kernel before the batched one (a hash set of the
+    directed edges), in Python: ``(ring, lengths)`` or None."""
+    turns = ((0, 1), (1, 2), (2, 0))
+    directed = {(int(f[a]), int(f[b])) for f in faces for a, b in turns}
+    after, starts = {}, []
+    for f in faces:
+        for a, b in turns:
+            x, y = int(f[a]), int(f[b])
+            if (y, x) in directed:
+                continue
+            if x in after:
+                return None
+            after[x] = y
+            starts.append(x)
+    if not starts:
+        return None
+    seen, ring, lengths = set(), [], []
+    for s in starts:
+        if s in seen:
+            continue
+        v, n = s, 0
+        while v not in seen:
+            seen.add(v)
+            ring.append(v)
+            n += 1
+            if v not in after:
+                return None
+            v = after[v]
+        if v != s:
+            return None
+        lengths.append(n)
+    return ring, lengths
+
+
+def _patch(rng, offset):
+    """A grid of quads (two triangles each) on its own vertices from ``offset``, a cell left
+    out now and then (a hole, or a notch on the border), its faces shuffled."""
+    w, h = rng.integers(1, 6, size=2)
+    ids = offset + np.arange((w + 1) * (h + 1)).reshape(h + 1, w + 1)
+    quads = [(ids[r, c], ids[r, c + 1], ids[r + 1, c + 1], ids[r + 1, c]) for r in range(h) for c in range(w)]
+    if len(quads) > 2 and rng.random() < 0.5:
+        quads.pop(int(rng.integers(len(quads))))
+    faces = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))])
+    return faces[rng.permutation(len(faces))], offset + (w + 1) * (h + 1)
+
+
+def test_outlines_walk_each_chart_as_it_is_walked_alone():
+    from texbake import _native
+
+    rng = np.random.default_rng(8)
+    kinds = set()
+    for _ in range(200):
+        charts, offset = [], 0
+        for _ in range(rng.integers(1, 6)):
+            if rng.random() < 0.7:
+                faces, offset = _patch(rng, offset)
+            else:  # a soup: repeated, reversed and non-manifold edges, seldom simple loops
+                n = int(rng.integers(3, 12))
+                faces, offset = offset + rng.integers(0, n, size=(rng.integers(1, 10), 3)), offset + n
+            charts.append(faces.astype(np.int64))
+        ring, lengths, loops = _native.outlines(np.concatenate(charts), np.cumsum([0] + [len(c) for c in charts]))
+        at = first = 0
+        for c, faces in enumerate(charts):
+            want, alone = _outline_reference(faces), _native.outline_loops(faces)
+            kinds.add(want is None)
+            if want is None:
+                assert loops[c] == -1 and alone is None
+                continue
+            assert loops[c] == len(want[1]) and alone is not None
+            got_lengths = lengths[first:first + loops[c]].tolist()
+            assert got_lengths == want[1] == alone[1].tolist()
+            assert ring[at:at + sum(got_lengths)].tolist() == want[0] == alone[0].tolist()
+            at, first = at + sum(got_lengths), first + loops[c]
+        assert at == len(ring) and first == len(lengths)
+    assert kinds == {True, False}  # simple outlines and refused ones both met
+
+
+def test_simplified_loops_simplify_each_loop_as_it_is_simplified_alone():
+    from texbake import _native
+
+    rng = np.random.default_rng(9)
+    for _ in range(50):
+        loops = [rng.normal(size=(rng.integers(3, 60), 2)) for _ in range(rng.integers(1, 8))]
+        tolerances = rng.choice([0.0, 0.05, 0.5], size=len(loops))
+        kept, counts = _native.simplified_loops(np.concatenate(loops), np.array([len(p) for p in loops]), tolerances)
+        offset = at = 0
+        for p, tol, count in zip(loops, tolerances, counts.tolist(), strict=True):
+            want = _simplified_reference(p, tol) if tol > 0 else np.arange(len(p))  # no tolerance: the loop whole
+            assert kept[at:at + count].tolist() == (offset + want).tolist()
+            offset, at = offset + len(p), at + count
+        assert at == len(kept)
+
+
+def test_the_outlines_of_many_charts_are_each_chart_s_own():
+    from texbake.atlas.charts import outline_triangles, outlines_triangles
+    from texbake.atlas.uvcheck import chart_labels
+
+    v, f = load_mesh(MESHES / "gear_cad.stl").vertices, load_mesh(MESHES / "gear_cad.stl").faces
+    c = planar_charts(v, f)
+    label = chart_labels(c.faces, len(c.uv))
+    order = np.argsort(label, kind="stable")
+    count = np.bincount(label)
+    starts = np.r_[0, np.cumsum(count)]
+    want = np.bincount(label, uv_areas(c.uv, c.faces))
+    for tolerance in (0.0, 0.01):
+        tris, areas = outlines_triangles(c.uv, c.faces[order], starts, tolerance, want)
+        made = 0
+        for k in range(len(count)):
+            alone = outline_triangles(c.uv, c.faces[order][starts[k]:starts[k + 1]], tolerance)
+            assert (tris[k] is None) == (alone is None) == (areas[k] is None)
+            if alone is not None:
+                made += 1
+                assert np.array_equal(tris[k], alone) and np.array_equal(areas[k], uv_areas(c.uv, alone))
+        assert made > 0.5 * len(count)  # most charts outlined (measured: all but the ones touching themselves)

@@ -28,8 +28,8 @@ flag, how = sys.argv[1], sys.argv[2]
 real = worker.pack
 
 
-def spoiled(meshes, size, padding, brute=False):
-    out, info = real(meshes, size, padding, brute)
+def spoiled(meshes, size, padding, *how_packed):
+    out, info = real(meshes, size, padding, *how_packed)
     mine = f"{flag}-{os.getpid()}"  # each worker's first: both packings of a small mesh (u, v swapped)
     if os.path.exists(mine):
         return out, info
