@@ -18,9 +18,9 @@ share of covered texels under two faces. A back face (:class:`texbake.atlas.char
 whose corners have its front face's UVs is the same surface on the same texels: it is left
 out of the scores (texbake maps double-sided faces so; Smart UV gives them charts of their
 own, which count). The targets: utilisation >= 0.9x Smart UV's, spread <= Smart UV's +
-0.02, overlap < 1 %, no grid fallback; each miss is named in the last column (the time,
-against 2x Smart UV's + 0.3 s, is printed but not a target here: a cold process pays the
-packing workers' start).
+0.02, overlap < 1 %, no grid fallback, and an atlas time <= 2x Smart UV's + 0.3 s (medians,
+in a warm process: the packing workers started by an unwrap before the first timed one, as
+in a service's bake process or a batch); each miss is named in the last column.
 
 Blender runs in its own venv (``bpy`` pins numpy 1.26, OpenImageIO needs numpy 2):
 ``--blender`` names its Python, by default ``.venv-blender/bin/python`` when it exists
@@ -159,9 +159,10 @@ def row(name: str, f: np.ndarray, args, reference) -> tuple[list[str], list[str]
         missed.append(f"util {ratio:.2f}x")
     if s["spread"] > b["spread"] + 0.02:
         missed.append(f"spread +{s['spread'] - b['spread']:.3f}")
-    slow = " (time > 2x+0.3 s)" if seconds > 2 * suv_seconds + 0.3 else ""
+    if seconds > 2 * suv_seconds + 0.3:
+        missed.append(f"time {seconds:.2f} s > {2 * suv_seconds + 0.3:.2f} s")
     cells += [str(b["charts"]), f"{b['utilisation']:.3f}", f"{b['spread']:.3f}", f"{b['overlap']:.2%}",
-              f"{suv_seconds:.2f}{slow}", f"{ratio:.2f}"]
+              f"{suv_seconds:.2f}", f"{ratio:.2f}"]
     return cells, missed
 
 
@@ -199,7 +200,7 @@ def main() -> None:
         print("| " + " | ".join(c.replace("|", "/") for c in r) + " |")
     print(f"\nunwrap at {args.size}^2, median of {args.runs}, charting {args.charting}; {len(rows) - len(failed)} of "
           f"{len(rows)} meshes meet the targets (util >= 0.9x Smart UV's, spread <= Smart UV's + 0.02, overlap < 1 %, "
-          "no grid)" + (f"; missed: {', '.join(failed)}" if failed else ""))
+          "no grid, time <= 2x Smart UV's + 0.3 s)" + (f"; missed: {', '.join(failed)}" if failed else ""))
 
 if __name__ == "__main__":
     main()

@@ -29,6 +29,12 @@ CRUMB_FACES, CRUMB_LIMIT = 16, 55.0  # charts of fewer faces join a neighbour wi
 CRUMB_FLAT = 0.1  # with less of their area flat (within 2 degrees of its direction) than this
 FLAT_REGION = 0.01  # a coplanar region of this share of the surface or more is flat ("auto" charting)
 XATLAS_FACES = 6_000  # "auto" charting leaves meshes of more faces to planar charts
+# An outline is simplified only where the area the simplification may change (its tolerance
+# times the perimeter: the slack the area check then allows) is under this share of the
+# chart's area, a width of eight tolerances: a thinner chart could lose its width and the
+# check not see it. (A hundredth kept every chart under 12 texels wide whole: a CAD part's
+# outlines of arcs, counter.unitsmm.STL's, then packed a fifth slower.)
+SIMPLIFY_SLACK = 0.25
 
 
 @dataclass
@@ -439,7 +445,7 @@ def outlines_triangles(uv: np.ndarray, faces: np.ndarray, starts: np.ndarray, to
     d = p - q
     perimeter = np.bincount(loop_chart, np.add.reduceat(np.sqrt((d * d).sum(axis=1)), loop_start), minlength=k)
     want = np.asarray(want, dtype=np.float64)
-    tol = np.where(tolerance * perimeter > 0.01 * want, 0.0, tolerance)  # a thin chart: simplified, it could lose its width
+    tol = np.where(tolerance * perimeter > SIMPLIFY_SLACK * want, 0.0, tolerance)  # a thin chart is kept whole
     kept, counts = _native.simplified_loops(p, lengths, tol[loop_chart])
     kept_start = (np.cumsum(counts) - counts).tolist()
     counts_list = counts.tolist()
@@ -474,7 +480,7 @@ def outlines_triangles(uv: np.ndarray, faces: np.ndarray, starts: np.ndarray, to
 def outline_triangles(uv: np.ndarray, faces: np.ndarray, tolerance: float = 0.0) -> np.ndarray | None:
     """``(t, 3)`` triangles of (nearly) the same region as one chart's ``(m, 3)`` faces into
     ``(k, 2)`` ``uv``, on vertices of its outline only, simplified within ``tolerance``
-    (Douglas-Peucker; not for a thin chart, whose width it could take) and ear-cut
+    (Douglas-Peucker; not for a thin chart: ``SIMPLIFY_SLACK``) and ear-cut
     (mapbox_earcut): a few well-shaped triangles for a region a fan of slivers covers. None
     when the outline is not simple loops (a vertex where the border touches itself) or the
     triangles' area differs from the chart's by more than the simplification allows (the

@@ -69,9 +69,15 @@ LOOK_CHARTS = 256
 LOOK_DENSER = 1.02
 PACKINGS = 3  # packing passes at most: the first, and again for what it distorted or collapsed
 WARM_BYTES = 256 << 20  # a worker holding more memory after an unwrap is ended, not kept warm
-PATCH_FACES = 2000  # faces per patch of the parallel unwrap
+# Faces per patch of the parallel unwrap: a patch of 1000 faces takes xatlas about 0.03 s of
+# CPU time, and xatlas' charting grows faster than its faces (quadknot.obj's 2,880 in one
+# piece: 0.43 s; in patches of 1000: 0.14 s), so meshes of more than 2000 faces are charted in
+# patches on every worker. Of the bench's seven such meshes, utilisation went up on four
+# (quadknot 0.346 -> 0.504, busted 0.563 -> 0.631, beetle 0.456 -> 0.510, ballA) and down by
+# under 0.02 on three (spot, cow, Duck).
+PATCH_FACES = 1000
 # What charting one patch may take before it is ended and charted again by a fresh worker
-# (once): a patch of PATCH_FACES faces takes xatlas about 0.05 s of CPU time, and one
+# (once): a patch of 2000 faces took xatlas about 0.05 s of CPU time, and one such
 # patch in a CI run sat 120 s without an answer (it charted at once in every other run).
 PATCH_JOB_SECONDS = 20.0
 CHART_ITERATIONS = 1  # xatlas ChartOptions.max_iterations: more iterations take longer for no better atlas on the meshes here
