@@ -1,5 +1,7 @@
-// Planar charts' loops (texbake/atlas/charts.py): the faces that share an edge, a chart's
-// outline as loops of vertices, and Douglas-Peucker simplification of one loop. Each gives
+// Planar charts' loops (texbake/atlas/charts.py): the faces that share an edge, the charts'
+// outlines as loops of vertices, and Douglas-Peucker simplification of the loops, for one
+// chart or one loop, or for all of them in one call (the packing proxies of a CAD part's
+// thousand charts: one call each had cost more than the work). Each gives
 // what the numpy it replaced gave, element for element and in the same order (the atlas must
 // not change with the port), in time linear in its input where numpy sorted or looped in
 // Python.

@@ -8,7 +8,7 @@ at most ``ANGLE_LIMIT``. The charts are laid out side by side, apart, one UV mes
 xatlas' packer (``texbake.atlas.packworker.pack``), which places them all at one density.
 
 numpy and the compiled kernels (:mod:`texbake.mesh.components`, :mod:`texbake.atlas.uvcheck`, and
-``native/charts.cpp``: the faces sharing an edge, a chart's outline and its simplification).
+``native/charts.cpp``: the faces sharing an edge, the charts' outlines and their simplification).
 """
 
 from __future__ import annotations

@@ -14,8 +14,8 @@ from texbake.atlas import make_atlas, uv_problem
 from texbake.atlas import pack as atlas_pack
 from texbake.atlas.charts import outline_triangles
 from texbake.atlas.pack import MIN_PROXY_AREA, _place, _proxy
-from texbake.workers import Pool
 from texbake.mesh import uv_areas
+from texbake.workers import Pool
 
 # The real worker, whose first "pack" reply has one UV vertex of the first mesh moved, or
 # the first face's corners put on one point (a flag file per worker says it was done):
