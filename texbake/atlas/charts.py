@@ -461,15 +461,14 @@ def outlines_triangles(uv: np.ndarray, faces: np.ndarray, starts: np.ndarray, to
         tri = mapbox_earcut.triangulate_float64(uv[at].astype(np.float64), ends)
         if len(tri):
             tris[c] = at[np.asarray(tri, dtype=np.int64).reshape(-1, 3)]
-    made = [c for c in simple.tolist() if tris[c] is not None]
+    made = [(c, t) for c, t in enumerate(tris) if t is not None]
     if not made:
         return tris, got
-    every = np.concatenate([tris[c] for c in made])
-    areas_all = uv_areas(uv, every)
-    sizes = [len(tris[c]) for c in made]
+    areas_all = uv_areas(uv, np.concatenate([t for _, t in made]))
+    sizes = np.array([len(t) for _, t in made], dtype=np.int64)
     total = np.add.reduceat(areas_all, np.cumsum(sizes) - sizes)
     faces_of = np.diff(starts)
-    for c, a, piece in zip(made, total.tolist(), np.split(areas_all, np.cumsum(sizes)[:-1]), strict=True):
+    for (c, _), a, piece in zip(made, total.tolist(), np.split(areas_all, np.cumsum(sizes)[:-1]), strict=True):
         if abs(a - want[c]) > 1e-9 * max(want[c], 1e-300) * faces_of[c] + tol[c] * perimeter[c]:
             tris[c] = None  # the chart overlaps itself
         else:

@@ -32,7 +32,7 @@ import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import NamedTuple, cast
 
 import numpy as np
 
@@ -433,7 +433,7 @@ def _searched(pool: Pool, packed: list, size: int, padding: int, brute: bool, de
     :func:`texbake.workers.Pool.run`'s: the fullest packing that fitted (the largest
     density over side), else the smallest; a worker's failure as it is."""
     tried: dict[float, float] = {}  # density -> fill (the atlas' side over the texture's)
-    replies: dict[float, object] = {}
+    replies: dict[float, tuple] = {}
     densities = FIRST_DENSITIES[:pool.n]
 
     def fullest() -> float | None:
@@ -444,7 +444,8 @@ def _searched(pool: Pool, packed: list, size: int, padding: int, brute: bool, de
                                   strict=True):
             if not ok:
                 return ok, value
-            tried[t], replies[t] = value[1]["fill"], value
+            reply = cast(tuple, value)  # (per mesh (vmapping, indices, uv), info)
+            tried[t], replies[t] = reply[1]["fill"], reply
         if any(0.98 <= fill <= 1 for fill in tried.values()):
             break
         below = max((t for t in tried if tried[t] <= 1), default=None)
