@@ -16,7 +16,9 @@ workers chart in parallel, each patch brought to one texel density). Packing: fa
 chart collapsed or that were left out, and charts under ``MIN_EXTENT`` texels across, get
 a small chart per face (laid flat as in :mod:`texbake.atlas.fallback`), and all charts
 are packed together in a single xatlas packing pass at the texture's resolution and
-padding (one ``add_uv_mesh`` per mesh of charts). Large charts are packed by a proxy,
+padding (one ``add_uv_mesh`` per mesh of charts; its texel density searched on every
+worker at once, and planar charts it leaves far emptier than their boxes need looked at
+again by brute force). Large charts are packed by a proxy,
 the triangulation of their outline, and refitted to where the packer placed it
 (:func:`_place`). A chart the packing distorts, or a face it collapses, is packed again
 (by its own triangles; as a face of its own), the charting kept; each such pass is
@@ -61,8 +63,8 @@ SEARCH_HEDGE = 0.985
 SEARCH_ROUNDS = 3
 # A second look by brute force (xatlas tries every position, at half the resolution) at the
 # density found, for planar charts (boxes: CAD faces) that the greedy packing left far
-# emptier than their boxes need: trimesh's boolean.glb, 200 charts, 0.706 -> 0.785, for one
-# pass at the cost of one greedy pass there; brute force on hundreds of curved charts takes
+# emptier than their boxes need: trimesh's boolean.glb, 200 charts, 0.706 -> 0.774, for one
+# pass at about the cost of one greedy pass there; brute force on hundreds of curved charts takes
 # seconds (gear_cad.stl, 928 charts: 0.2 s a pass), so at most LOOK_CHARTS charts.
 LOOK_SHARE = 0.9
 LOOK_CHARTS = 256
