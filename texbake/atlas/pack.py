@@ -304,6 +304,7 @@ def _pack(pos, faces, meshes, size, padding, pool, deadline, steps: list[str], b
     swapped, the fuller one kept. A chart that the packing distorts or a face that it
     collapses is packed again, only it changed (by its own triangles; as faces of their
     own), in up to ``PACKINGS`` passes in all; each such pass is added to ``steps``.
+    ``boxy``: planar charts (:func:`_best_packing`'s second look).
     """
     meshes = [_compact(*mesh) for mesh in meshes]
     texel = np.sqrt(sum(float(uv_areas(uv, idx).sum()) for _, _, uv, idx in meshes) / 0.5) / size  # UV units, roughly
@@ -437,10 +438,6 @@ def _searched(pool: Pool, packed: list, size: int, padding: int, brute: bool, de
     tried: dict[float, float] = {}  # density -> fill (the atlas' side over the texture's)
     replies: dict[float, tuple] = {}
     densities = FIRST_DENSITIES[:pool.n]
-
-    def fullest() -> float | None:
-        return max((t for t in tried if tried[t] <= 1), key=lambda t: t / tried[t], default=None)
-
     for _ in range(SEARCH_ROUNDS):
         for t, (ok, value) in zip(densities, pool.run([("pack", (packed, size, padding, brute, t)) for t in densities]),
                                   strict=True):
@@ -461,8 +458,8 @@ def _searched(pool: Pool, packed: list, size: int, padding: int, brute: bool, de
         densities = tuple(d for d in (t, t * SEARCH_HEDGE)[:pool.n] if all(abs(d - e) > 1e-3 * e for e in tried))
         if not densities:
             break
-    best = fullest()
-    return True, replies[best if best is not None else min(tried)]
+    best = max((t for t in tried if tried[t] <= 1), key=lambda t: t / tried[t], default=min(tried))
+    return True, replies[best]
 
 
 def _repacked(distorted: np.ndarray, collapsed: np.ndarray, meshes) -> str:

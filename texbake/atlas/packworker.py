@@ -91,7 +91,7 @@ def pack(meshes: list, size: int, padding: int, brute: bool = False, at: float |
     area = sum(float(uv_areas(uv, faces).sum()) for uv, faces in meshes)
     scale = size * np.sqrt(0.5 / max(area, 1e-30))
     meshes = [((uv.astype(np.float64) * scale).astype(np.float32), faces) for uv, faces in meshes]
-    tpu, fits = (1.0, None) if at is None else (at, None)
+    tpu, fits = 1.0 if at is None else at, None
     # Each pass costs the same (0.04-0.16 s on the bench meshes), but a looser window is not
     # free: within 10 % would save a quarter of the packing CPU and cost capsule.obj 0.059 of
     # utilisation, cow.obj 0.045 (xatlas' greedy layout moves with the density); a first pass at
