@@ -27,13 +27,23 @@ point samples): on partly covered texels and where the colour curves within a te
 two checkerboard halves differ by more than noise, and at 64-256^2 that read up to 5.4
 times the error. Measured (``texbake.checks.sweep``, Suzanne, marble and checker, 64-512^2,
 1 filtered, 4, 16 point, 64 filtered samples, three seeds each): estimate / RMSE
-0.61-1.37. The cost: 16 samples on each of up to ``PROBE_TEXELS`` texels for a 1-sample
-bake (about 6 % of one at 1024^2, more than the bake itself below about 128^2).
+0.61-1.37.
+
+The cost: a 1-sample bake's probe is 64 point samples (8 x 8) a probed texel, so 4096
+texels are 262k samples, more than a 512^2 bake's own (about 140k). The drawn texels are
+therefore probed in rounds, a quarter, a half, then all, until the MSE's standard error is
+at most ``PROBE_PRECISION`` (0.2) of it. Marble and turbulence, whose error is spread
+over the texels, stop after 1,000-1,800 texels (a 512^2 marble's estimate 90 -> 30 ms
+in a batch); checker and wood, whose error sits on cell and ring borders, go on to all
+4096. An error on far fewer texels than the first round holds (under about 1 in 1,000
+of the covered texels at the default) may be missed by it, and the estimate then reads
+low; the rounds do not change an image small enough to be probed whole.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import cast
 
 import numpy as np
 
@@ -41,6 +51,10 @@ from ..sampling import Tile, sample_offsets, sample_uv
 
 PROBE_TEXELS = 4096  # texels probed (at most; all of them when there are up to 4 times as many)
 PROBE_GRID = 4  # the probe samples a jittered PROBE_GRID x PROBE_GRID grid per texel
+# The drawn texels are probed in rounds (shares of each stratum) until the MSE's standard
+# error is at most PROBE_PRECISION of it (the RMSE then within about 10 %, one sigma).
+PROBE_ROUNDS = (0.25, 0.5, 1.0)
+PROBE_PRECISION = 0.2
 
 HOW = {
     "probe": "RMSE against the converged texel means, linear colour, from a point-sampled float64 probe of the "
@@ -112,19 +126,20 @@ def _strata(covered: np.ndarray, band: int):
         yield r0, r1, (edge, covered[r0:r1] & ~edge)
 
 
-def _pick(covered: np.ndarray, stratum: int, ranks: np.ndarray, band: int) -> np.ndarray:
+def _pick(strata, width: int, stratum: int, ranks: np.ndarray) -> np.ndarray:
     """Flat texel indices of the sorted ``ranks``-th texels of a stratum (0: edges, 1:
-    inside), in row-major order."""
-    out, seen, w = [], 0, covered.shape[1]
-    for r0, _, masks in _strata(covered, band):
+    inside; ``strata()`` iterates :func:`_strata`), in row-major order."""
+    out, seen = [], 0
+    for r0, _, masks in strata():
         where = np.flatnonzero(masks[stratum])
         mine = ranks[(ranks >= seen) & (ranks < seen + len(where))]
-        out.append(where[mine - seen] + r0 * w)
+        out.append(where[mine - seen] + r0 * width)
         seen += len(where)
     return np.concatenate(out) if out else np.zeros(0, dtype=np.int64)
 
 
 BAND = 1024  # rows of the coverage looked at a time
+HELD = 1 << 24  # texels up to which the strata's masks are made once and held (32 MB), not again per stratum
 
 
 def probe_estimate(
@@ -136,6 +151,7 @@ def probe_estimate(
     texels: int = PROBE_TEXELS,
     grid: int = PROBE_GRID,
     edge_grid: int | None = None,
+    precision: float = PROBE_PRECISION,
 ) -> dict:
     """The ``probe`` estimate of the error of ``image`` (``(h, w, c)``, ``covered``: ``(h, w)`` bool).
 
@@ -153,27 +169,68 @@ def probe_estimate(
     ``se`` from the strata's spreads; ``rmse`` is ``sqrt(max(MSE, se))`` (never 0 when
     the probe sees an error: an MSE below its own uncertainty reads as that),
     ``rmse_interval`` is ``sqrt`` of ``MSE -+ 2 se`` (about 95 %).
+
+    Drawn texels are probed in rounds, a random share of each stratum at a time
+    (``PROBE_ROUNDS``), until ``se <= precision * MSE`` (0: all of them, in one round); an image whose
+    texels are all drawn is probed whole.
     """
     height, width = covered.shape
     rng = np.random.default_rng([seed, 0x9E37])  # not the bake's own jitter
+    held = list(_strata(covered, BAND)) if covered.size <= HELD else None
+    strata = (lambda: held) if held is not None else (lambda: _strata(covered, BAND))
     sizes = [0, 0]  # texels in each stratum, counted band by band
-    for *_, masks in _strata(covered, BAND):
+    for *_, masks in strata():
         sizes = [n + int(m.sum()) for n, m in zip(sizes, masks, strict=True)]
     total = sum(sizes)
     if total == 0:
         return {"method": "probe", "how": HOW["probe"], "rmse": 0.0, "rmse_interval": [0.0, 0.0], "texels": 0,
                 "probe_grid": [grid, edge_grid or grid], "probe_rmse": 0.0, "probe_noise": 0.0}
+    rounds: tuple[float, ...] = PROBE_ROUNDS if precision > 0 else (1.0,)
     if total <= 4 * texels:  # a small image: probe every texel (no sampling error)
-        texels = total
+        texels, rounds = total, (1.0,)
     take_edge = min(sizes[0], texels // 2) if texels < total else sizes[0]
     counts = [take_edge, min(sizes[1], texels - take_edge)]
+    sides = (edge_grid or grid, grid)
+    picks: list[np.ndarray | None] = [None, None]  # per stratum: its drawn texels, in the order they are probed
+    done = [0, 0]
+    found: list[list[tuple[np.ndarray, np.ndarray]]] = [[], []]  # per stratum: (d2, n2) of each round's texels
+    for share in rounds:
+        for k, (size, m) in enumerate(zip(sizes, counts, strict=True)):
+            if m == 0:
+                continue
+            if picks[k] is None:  # drawn in the first round (the random stream as one round draws it)
+                drawn = _pick(strata, width, k, np.sort(rng.choice(size, size=m, replace=False)))
+                picks[k] = drawn if len(rounds) == 1 else drawn[rng.permutation(m)]
+            upto = int(np.ceil(share * m))
+            if upto > done[k]:
+                pick = cast(np.ndarray, picks[k])
+                found[k].append(_probe_texels(reference_at, image, pick[done[k]:upto], sides[k], int(rng.integers(2**31))))
+                done[k] = upto
+        result = _pooled(found, sizes, total)
+        if result["se"] <= precision * result["mse"]:
+            break
+    mse, se = result["mse"], result["se"]
+    return {
+        "method": "probe",
+        "how": HOW["probe"],
+        "rmse": float(np.sqrt(max(mse, se, 0.0))),
+        "rmse_interval": [float(np.sqrt(max(mse - 2 * se, 0.0))), float(np.sqrt(max(mse + 2 * se, 0.0)))],
+        "texels": result["probed"],
+        "probe_grid": [grid, edge_grid or grid],
+        "probe_rmse": float(np.sqrt(result["d2"])),  # bake against the probe, probe noise included
+        "probe_noise": float(np.sqrt(result["n2"])),
+    }
+
+
+def _pooled(found, sizes: list[int], total: int) -> dict:
+    """The stratified means (``mse``, ``d2``, ``n2``), the MSE's standard error ``se`` and the
+    texels ``probed``, from each stratum's ``(d2, n2)`` arrays so far."""
     mse = var = d2_all = n2_all = 0.0
     probed = 0
-    for stratum, (size, m, side) in enumerate(zip(sizes, counts, (edge_grid or grid, grid), strict=True)):
-        if m == 0:
+    for size, parts in zip(sizes, found, strict=True):
+        if not parts:
             continue
-        pick = _pick(covered, stratum, np.sort(rng.choice(size, size=m, replace=False)), BAND)
-        d2, n2 = _probe_texels(reference_at, image, pick, side, int(rng.integers(2**31)))
+        d2, n2 = (np.concatenate([part[i] for part in parts]) for i in (0, 1))
         ok = ~np.isnan(d2)
         e = (d2 - n2)[ok]
         if len(e) == 0:
@@ -185,17 +242,7 @@ def probe_estimate(
         n2_all += weight * float(n2[ok].mean())
         if len(e) > 1:  # no finite-population correction: each e also carries the probe's own noise
             var += weight**2 * float(e.var(ddof=1)) / len(e)
-    se = float(np.sqrt(var))
-    return {
-        "method": "probe",
-        "how": HOW["probe"],
-        "rmse": float(np.sqrt(max(mse, se, 0.0))),
-        "rmse_interval": [float(np.sqrt(max(mse - 2 * se, 0.0))), float(np.sqrt(max(mse + 2 * se, 0.0)))],
-        "texels": probed,
-        "probe_grid": [grid, edge_grid or grid],
-        "probe_rmse": float(np.sqrt(d2_all)),  # bake against the probe, probe noise included
-        "probe_noise": float(np.sqrt(n2_all)),
-    }
+    return {"mse": mse, "se": float(np.sqrt(var)), "d2": d2_all, "n2": n2_all, "probed": probed}
 
 
 def _probe_texels(reference_at, image: np.ndarray, pick: np.ndarray, side: int, seed: int):
