@@ -31,6 +31,7 @@ namespace texbake::noise {
 
 constexpr double FAR = 4.0e18;       // |coordinate| past which it is wrapped (no fraction left; int64 still holds it)
 constexpr double DROP_CELLS = 8.0;   // octaves with cells under 1/DROP_CELLS of the footprint are not evaluated
+constexpr double QUAD_CELLS = 1.0 / 20.0;  // octaves whose footprint spans this much of a cell or more: at its quarters (textures.cpp)
 constexpr std::ptrdiff_t BLOCK = 128;
 
 struct Tables {

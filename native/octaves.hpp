@@ -31,6 +31,7 @@ struct Block {
   alignas(64) double x0[BLOCK], x1[BLOCK], x2[BLOCK], x3[BLOCK];  // the lerps along x of the cell's four rows
   alignas(64) uint32_t row[BLOCK];     // the cell's lattice row in hash4: (iy mod 256) * 256 + iz mod 256
   alignas(64) uint64_t corner[BLOCK];  // the address of noise2[ix mod 256]: a row h's corners are h and h + 1 on from it
+  alignas(64) double n[BLOCK];         // each point's own octave count (octave_block<_, true>), a double for the vectorised compare
 };
 
 // the block of points from start (scaled and offset; footprints scaled: 0 where width is
@@ -175,27 +176,34 @@ inline void block_loads(Block& b, const Tables& t, bool avx2) {
 #endif
 }
 
-// the lerps along y and z, and the sum (an octave a point does not keep: its mean)
-template <bool FILTERED>
-TEXBAKE_INLINE void block_sum(Block& b, double amp, double sign, double mean) {
+// the lerps along y and z, and the sum (an octave a point does not keep: its mean). COUNTED:
+// octave k is added only to the points whose own count (b.n) is past it, a select rather
+// than a branch, so that the loop vectorises (and acc is left as it was, not acc + 0)
+template <bool FILTERED, bool COUNTED = false>
+TEXBAKE_INLINE void block_sum(Block& b, double amp, double sign, double mean, double k = 0.0) {
   for (std::ptrdiff_t i = 0; i < BLOCK; ++i) {
     const double x0 = b.x0[i], x1 = b.x1[i], x2 = b.x2[i], x3 = b.x3[i];
     const double y0 = x0 + b.ty[i] * (x1 - x0);
     const double y1 = x2 + b.ty[i] * (x3 - x2);
     const double v = sign * (y0 + b.tz[i] * (y1 - y0)) - (sign - 1.0);
+    double sum;
     if (FILTERED) {
       const double f = b.f[i];
-      b.acc[i] += amp * (f == 0.0 ? mean : (f >= 1.0 ? v : f * v + (1.0 - f) * mean));
+      sum = b.acc[i] + amp * (f == 0.0 ? mean : (f >= 1.0 ? v : f * v + (1.0 - f) * mean));
     } else {
-      b.acc[i] += amp * v;
+      sum = b.acc[i] + amp * v;
     }
+    b.acc[i] = COUNTED && !(k < b.n[i]) ? b.acc[i] : sum;
   }
 }
 
 // b.acc: the octave sums of the block's points through the derived tables; a block without
 // footprints skips the shares (every point keeps every octave whole), an octave that no
-// point keeps skips the loads (b's buffers hold finite values from before: read, unused)
-template <int INTERP>
+// point keeps skips the loads (b's buffers hold finite values from before: read, unused).
+// COUNTED: each point's sum stops at its own count (b.n; o.count the block's most, o.top
+// its frequency), its octaves those of a sum of that many: the quarter kernel's points in
+// one block whatever their first quarter octave
+template <int INTERP, bool COUNTED = false>
 TEXBAKE_INLINE void octave_block(Block& b, const Octaves& o) {
   bool filtered = false;
   for (std::ptrdiff_t i = 0; i < BLOCK; ++i) {
@@ -221,9 +229,9 @@ TEXBAKE_INLINE void octave_block(Block& b, const Octaves& o) {
       block_loads(b, o.t, o.avx2);
     }
     if (filtered) {
-      block_sum<true>(b, amp, o.sign, o.mean);
+      block_sum<true, COUNTED>(b, amp, o.sign, o.mean, double(k));
     } else {
-      block_sum<false>(b, amp, o.sign, o.mean);
+      block_sum<false, COUNTED>(b, amp, o.sign, o.mean, double(k));
     }
     amp *= o.gain;
     freq *= o.lacunarity;
@@ -262,6 +270,76 @@ TEXBAKE_INLINE std::ptrdiff_t block_octaves(const Octaves& o, const double* poin
   }
   if (far) point_octaves(o, points, width, start, m, true, b.acc);
   return m;
+}
+
+// A block's worth of points whose octave sums each have a scale, offset, width and octave
+// count of their own (the quarter kernel's, textures.cpp), staged for sample_octaves. Each
+// point's sum is bit for bit the one octave_sum would give it called with its own values
+struct Samples {
+  alignas(64) double p[3 * BLOCK];
+  alignas(64) double scale[BLOCK], offset[BLOCK], width[BLOCK];
+  alignas(64) double top[BLOCK];  // top_frequency(count): which points are past FAR, as octave_sum's Octaves decides
+  int count[BLOCK];
+  std::ptrdiff_t m;
+};
+
+// load_block over staged samples, each scaled by its own scale and offset
+TEXBAKE_INLINE void load_samples(const Samples& s, Block& b, int& far) {
+  far = 0;
+  for (std::ptrdiff_t i = 0; i < s.m; ++i) {
+    const double x = s.p[3 * i] * s.scale[i] + s.offset[i], y = s.p[3 * i + 1] * s.scale[i] + s.offset[i];
+    const double z = s.p[3 * i + 2] * s.scale[i] + s.offset[i];
+    const bool kept = (std::fabs(x) * s.top[i] < FAR) & (std::fabs(y) * s.top[i] < FAR) & (std::fabs(z) * s.top[i] < FAR);
+    b.x[i] = kept ? x : 0.0, b.y[i] = kept ? y : 0.0, b.z[i] = kept ? z : 0.0;
+    far += !kept;
+  }
+  for (std::ptrdiff_t i = 0; i < s.m; ++i) {
+    b.w[i] = s.width[i] * std::fabs(s.scale[i]);
+    b.n[i] = double(s.count[i]);
+  }
+  for (std::ptrdiff_t i = s.m; i < BLOCK; ++i) b.x[i] = b.y[i] = b.z[i] = b.w[i] = b.n[i] = 0.0;
+}
+
+// sample i scaled and offset, as load_samples does; returns whether it is within FAR at its top octave
+inline bool sample_at(const Samples& s, std::ptrdiff_t i, double& x, double& y, double& z) {
+  const double* p = s.p + 3 * i;
+  x = p[0] * s.scale[i] + s.offset[i], y = p[1] * s.scale[i] + s.offset[i], z = p[2] * s.scale[i] + s.offset[i];
+  return near(std::fabs(x), std::fabs(y), std::fabs(z), s.top[i]);
+}
+
+// sample i's octave sum by itself (point_octaves')
+inline double sample_point(Octaves o, const Samples& s, std::ptrdiff_t i) {
+  double x, y, z;
+  sample_at(s, i, x, y, z);
+  o.count = s.count[i];
+  return octave_point(o, x, y, z, s.width[i] * std::fabs(s.scale[i]), std::fabs(x), std::fabs(y), std::fabs(z));
+}
+
+// b.acc[:s.m]: the samples' octave sums (block_octaves, each with its own scale, offset and
+// count; o's count and top are the block's most: tops[c] is top_frequency(c))
+TEXBAKE_INLINE void sample_octaves(Octaves o, const Samples& s, const double* tops, Block& b) {
+  int most = 0;
+  for (std::ptrdiff_t i = 0; i < s.m; ++i) most = std::max(most, s.count[i]);
+  if (most == 0) {  // nothing to sum (the caller reads none of it)
+    std::fill(b.acc, b.acc + s.m, 0.0);
+    return;
+  }
+  o.count = most, o.top = tops[most];
+  if (!o.tables()) {
+    for (std::ptrdiff_t i = 0; i < s.m; ++i) b.acc[i] = sample_point(o, s, i);
+    return;
+  }
+  int far = 0;
+  load_samples(s, b, far);
+  if (o.interp == 1) {
+    octave_block<1, true>(b, o);
+  } else {
+    octave_block<0, true>(b, o);
+  }
+  double x, y, z;
+  for (std::ptrdiff_t i = 0; far && i < s.m; ++i) {
+    if (!sample_at(s, i, x, y, z)) b.acc[i] = sample_point(o, s, i);
+  }
 }
 
 // the highest of the octaves' frequencies (lacunarity^k, as the loops compute them)

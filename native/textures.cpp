@@ -1,6 +1,7 @@
 // The texture kernels (texbake/textures/): octave sums of lattice and Perlin noise filtered
-// by the footprint, the marble in one pass, colour maps, the filtered checkerboard, the
-// bake's affine placement. Each takes NumPy arrays and writes into out (allocated by the
+// by the footprint (whole, or at its four quarters), the marble in one pass (point-sampled,
+// or filtered at the quarters), colour maps, the filtered checkerboard, the bake's affine
+// placement. Each takes NumPy arrays and writes into out (allocated by the
 // caller, so that nothing here needs the GIL), releases the GIL and runs on one thread a
 // core (parallel_for; the octave sums and the marble in chunks the threads take in turn,
 // parallel_chunks). A point's value depends on nothing but the point: not on the piece
@@ -146,6 +147,213 @@ TEXBAKE_INLINE void marble_range(const Marble& k, const double* points, const do
 TEXBAKE_VARIANTS(marble_range, (const Marble& k, const double* points, const double* width, double* out, ptrdiff_t lo, ptrdiff_t hi),
                  (k, points, width, out, lo, hi))
 
+// Octave sums at a footprint's four quarters (noise.quarter_octave_sums): the octaves before a
+// point's first quarter octave k0 (the first whose footprint spans QUAD_CELLS of its cell) at
+// its centre over the whole width, the rest at each quarter over half of it. Those are the sum
+// of their own whose octave 0 is k0: scale and offset times lacunarity^k0, times gain^k0, so
+// that every point's values are bit for bit the octave_sum calls the numpy version made
+struct Quarters {
+  Octaves o;                            // count: the octaves evaluated
+  const double *shift, *weight, *tops;  // by k0 (0..count): lacunarity^k0, gain^k0 (as Python's **), top_frequency(k0)
+  bool add_capped;                      // the capped octaves' mean added (unsigned sums with octaves capped)
+  double capped;
+};
+
+// first_quarter_octave's loop, its frequencies multiplied out as the kernel's (a NaN width: 0)
+inline int first_quarter(const Octaves& o, double width) {
+  const double w = std::fabs(o.scale) * width;
+  int first = 0;
+  double freq = 1.0;
+  for (int k = 0; k < o.count; ++k) {
+    first += w * freq < noise::QUAD_CELLS;
+    freq *= o.lacunarity;
+  }
+  return first;
+}
+
+// the four quarters' centres of a footprint (noise.quarter_points' arithmetic, QUARTERS' order)
+inline void stage_quarters(const double* p, const double* dx, const double* dy, double* q) {
+  for (int c = 0; c < 3; ++c) {
+    const double both = 0.25 * (dx[c] + dy[c]), across = 0.25 * (dx[c] - dy[c]);
+    q[c] = p[c] - both, q[3 + c] = p[c] + across, q[6 + c] = p[c] - across, q[9 + c] = p[c] + both;
+  }
+}
+
+// a block of points: their first quarter octaves, and their coarse sums in b.acc
+TEXBAKE_INLINE void coarse_block(const Quarters& k, const double* points, const double* width, ptrdiff_t start, ptrdiff_t m,
+                                 noise::Samples& s, int* first, Block& b) {
+  s.m = m;
+  for (ptrdiff_t i = 0; i < m; ++i) {
+    first[i] = first_quarter(k.o, width[start + i]);
+    std::copy(points + 3 * (start + i), points + 3 * (start + i + 1), s.p + 3 * i);
+    s.scale[i] = k.o.scale, s.offset[i] = k.o.offset, s.width[i] = width[start + i];
+    s.count[i] = first[i], s.top[i] = k.tops[first[i]];
+  }
+  noise::sample_octaves(k.o, s, k.tops, b);
+}
+
+// the fine octaves' sums of m points from start (at most BLOCK / 4) at their four quarters, in
+// b.acc (4 a point)
+TEXBAKE_INLINE void fine_block(const Quarters& k, const double* points, const double* dpdx, const double* dpdy, const double* width,
+                               ptrdiff_t start, ptrdiff_t m, const int* first, noise::Samples& s, Block& b) {
+  s.m = 4 * m;
+  for (ptrdiff_t i = 0; i < m; ++i) {
+    const ptrdiff_t j = start + i;
+    stage_quarters(points + 3 * j, dpdx + 3 * j, dpdy + 3 * j, s.p + 12 * i);
+    const int k0 = first[i], count = k.o.count - k0;
+    for (ptrdiff_t c = 4 * i; c < 4 * i + 4; ++c) {
+      s.scale[c] = k.o.scale * k.shift[k0], s.offset[c] = k.o.offset * k.shift[k0], s.width[c] = 0.5 * width[j];
+      s.count[c] = count, s.top[c] = k.tops[count];
+    }
+  }
+  noise::sample_octaves(k.o, s, k.tops, b);
+}
+
+// a block's buffers for quarter_block: sums[c][i] the quarter c's sum of the block's point i
+struct QuarterBlock {
+  Block b;
+  noise::Samples s;
+  alignas(64) double coarse[noise::BLOCK];
+  alignas(64) double sums[4][noise::BLOCK];
+  int first[noise::BLOCK];
+};
+
+// q.sums: the quarters' sums of the block of points from start (m of them): the centres' coarse
+// octaves in one block, the quarters' fine ones in four
+TEXBAKE_INLINE void quarter_block(const Quarters& k, const double* points, const double* dpdx, const double* dpdy, const double* width,
+                                  ptrdiff_t start, ptrdiff_t m, QuarterBlock& q) {
+  constexpr ptrdiff_t PART = noise::BLOCK / 4;
+  coarse_block(k, points, width, start, m, q.s, q.first, q.b);
+  std::copy(q.b.acc, q.b.acc + m, q.coarse);
+  for (ptrdiff_t part = 0; part < m; part += PART) {
+    const ptrdiff_t mp = std::min(PART, m - part);
+    fine_block(k, points, dpdx, dpdy, width, start + part, mp, q.first + part, q.s, q.b);
+    for (ptrdiff_t i = part; i < part + mp; ++i) {
+      const int k0 = q.first[i];
+      for (ptrdiff_t c = 0; c < 4; ++c) {  // the numpy version's sums, in its order
+        double v = k0 > 0 ? q.coarse[i] : 0.0;
+        if (k0 < k.o.count) v = v + k.weight[k0] * q.b.acc[4 * (i - part) + c];
+        q.sums[c][i] = k.add_capped ? v + k.capped : v;
+      }
+    }
+  }
+}
+
+// out (4, n): the quarters' sums of points [lo, hi)
+TEXBAKE_INLINE void quarter_range(const Quarters& k, const double* points, const double* dpdx, const double* dpdy, const double* width,
+                                  double* out, ptrdiff_t n, ptrdiff_t lo, ptrdiff_t hi) {
+  QuarterBlock q{};
+  for (ptrdiff_t start = lo; start < hi; start += noise::BLOCK) {
+    const ptrdiff_t m = std::min(noise::BLOCK, hi - start);
+    quarter_block(k, points, dpdx, dpdy, width, start, m, q);
+    for (ptrdiff_t c = 0; c < 4; ++c) std::copy(q.sums[c], q.sums[c] + m, out + c * n + start);
+  }
+}
+TEXBAKE_VARIANTS(quarter_range, (const Quarters& k, const double* points, const double* dpdx, const double* dpdy, const double* width,
+                                 double* out, ptrdiff_t n, ptrdiff_t lo, ptrdiff_t hi),
+                 (k, points, dpdx, dpdy, width, out, n, lo, hi))
+
+// noise.octave_spread's table (quarters): the turbulence's spread inside a quarter at log
+// widths (lattice cells) from log lo to log hi, looked up as numpy does (np.log, np.interp)
+struct Spreads {
+  const double *at, *spread;  // np.interp's xp and fp
+  ptrdiff_t count;
+  double lo, hi, scale;       // scale: |scale|, a width's cells
+};
+
+// np.interp(x, at, spread): the interval numpy's search finds (at[j] <= x < at[j + 1], the
+// last at the last knot) from a guess on the even spacing, and its arithmetic
+inline double interp(const Spreads& t, double x) {
+  const ptrdiff_t last = t.count - 1;
+  if (std::isnan(x)) return x;
+  if (x < t.at[0]) return t.spread[0];
+  if (x > t.at[last]) return t.spread[last];
+  ptrdiff_t j = std::min(last, std::max(ptrdiff_t(0), ptrdiff_t((x - t.at[0]) / (t.at[last] - t.at[0]) * double(last))));
+  while (j > 0 && x < t.at[j]) --j;
+  while (j < last && !(x < t.at[j + 1])) ++j;
+  if (j == last || t.at[j] == x) return t.spread[j];
+  const double slope = (t.spread[j + 1] - t.spread[j]) / (t.at[j + 1] - t.at[j]);
+  double v = slope * (x - t.at[j]) + t.spread[j];
+  if (std::isnan(v)) {  // numpy's other direction
+    v = slope * (x - t.at[j + 1]) + t.spread[j + 1];
+    if (std::isnan(v) && t.spread[j] == t.spread[j + 1]) v = t.spread[j];
+  }
+  return v;
+}
+
+// octave_spread(width, quarters=True): below the table the finest octave's spread, in
+// proportion to the width; 0 at no width, NaN at NaN
+inline double octave_spread(const Spreads& t, double width) {
+  const double w = t.scale * width;
+  if (!(w > 0.0)) return std::isnan(w) ? colour::NaN : 0.0;
+  if (w < t.lo) return t.spread[0] * w / t.lo;
+  return interp(t, std::log(std::min(w, t.hi)));
+}
+
+// the filtered marble at the footprints' quarters (colour.quarter_marble_colours): each
+// quarter's phase frequency * x + amplitude * turbulence, its spread that of the box over
+// half the width and the turbulence's inside the quarter, the mean of the four wave colours;
+// a point with no spread the point-sampled marble's colour
+struct QuarterMarble {
+  Quarters q;
+  int axis;
+  double frequency, amplitude, norm;
+  Spreads spreads;
+  colour::Sines sines;
+  colour::Waves waves;
+};
+
+constexpr double QUARTER_A[4] = {-0.25, 0.25, -0.25, 0.25}, QUARTER_B[4] = {-0.25, -0.25, 0.25, 0.25};  // noise.QUARTERS
+
+// the phase's spread in each quarter of a footprint width wide (the numpy version's arithmetic)
+inline double phase_spread(const QuarterMarble& k, double width) {
+  const double turbulence = octave_spread(k.spreads, width) / k.norm;
+  const double box = k.frequency * 0.5 * width, wobble = k.amplitude * turbulence;
+  return std::sqrt(box * box / 12.0 + wobble * wobble);
+}
+
+// colour.marble_colours point-sampled at p (marble's sine_block for one point)
+inline void sampled_marble(const QuarterMarble& k, const double* p, double* out) {
+  const Octaves& o = k.q.o;
+  const double x = p[0] * o.scale + o.offset, y = p[1] * o.scale + o.offset, z = p[2] * o.scale + o.offset;
+  const double sum = noise::octave_point(o, x, y, z, 0.0 * std::fabs(o.scale), std::fabs(x), std::fabs(y), std::fabs(z));
+  const double phase = k.frequency * p[k.axis] + k.amplitude * ((sum + k.q.capped) / k.norm);
+  int32_t row;
+  double fraction;
+  colour::sine_row(k.sines, phase, row, fraction);
+  colour::sine_colour(k.sines, row, fraction, out);
+}
+
+// point j's colour, its quarters' sums q.sums[c][i]: the four colours summed in order, as
+// numpy's mean over the first axis adds them
+inline void quarter_marble_colour(const QuarterMarble& k, const double* points, const double* dpdx, const double* dpdy,
+                                  const double* width, ptrdiff_t j, const QuarterBlock& q, ptrdiff_t i, double* out) {
+  const double spread = phase_spread(k, width[j]);
+  if (spread == 0.0) return sampled_marble(k, points + 3 * j, out);
+  const double p = points[3 * j + k.axis], dx = dpdx[3 * j + k.axis], dy = dpdy[3 * j + k.axis];
+  double total[3], colour[3];
+  for (int c = 0; c < 4; ++c) {
+    const double x = p + QUARTER_A[c] * dx + QUARTER_B[c] * dy;  // not stage_quarters' sums: the numpy version's phase
+    const double phase = k.frequency * x + k.amplitude * (q.sums[c][i] / k.norm);
+    colour::wave_colour(k.waves, phase, spread, c == 0 ? total : colour);
+    for (int ch = 0; c > 0 && ch < 3; ++ch) total[ch] += colour[ch];
+  }
+  for (int ch = 0; ch < 3; ++ch) out[ch] = total[ch] / 4.0;
+}
+
+TEXBAKE_INLINE void quarter_marble_range(const QuarterMarble& k, const double* points, const double* dpdx, const double* dpdy,
+                                         const double* width, double* out, ptrdiff_t lo, ptrdiff_t hi) {
+  QuarterBlock q{};
+  for (ptrdiff_t start = lo; start < hi; start += noise::BLOCK) {
+    const ptrdiff_t m = std::min(noise::BLOCK, hi - start);
+    quarter_block(k.q, points, dpdx, dpdy, width, start, m, q);
+    for (ptrdiff_t i = 0; i < m; ++i) quarter_marble_colour(k, points, dpdx, dpdy, width, start + i, q, i, out + 3 * (start + i));
+  }
+}
+TEXBAKE_VARIANTS(quarter_marble_range, (const QuarterMarble& k, const double* points, const double* dpdx, const double* dpdy,
+                                        const double* width, double* out, ptrdiff_t lo, ptrdiff_t hi),
+                 (k, points, dpdx, dpdy, width, out, lo, hi))
+
 inline double square_wave(double cell) { return 1.0 - 2.0 * (cell - 2.0 * std::floor(0.5 * cell)); }
 
 // the integral from 0 to t of the square wave (+1 on [0, 1), -1 on [1, 2), period 2)
@@ -248,6 +456,71 @@ void octave_sum(const Points& points, const Values& width, const Values& noise, 
   const auto range = octave_range_variants.at(current_isa());
   double* dst = out.data();
   parallel_chunks(n, [&](ptrdiff_t lo, ptrdiff_t hi) { range(o, p, w, dst, lo, hi); }, CHUNK);
+}
+
+// the quarter kernels' octaves and their tables by k0; std::pow is the pow Python's float **
+// int calls (the exponent as a double), so shift and weight are the numpy version's bits
+struct QuarterTables {
+  std::vector<double> shift, weight, tops;
+  QuarterTables(int count, double lacunarity, double gain) : shift(count + 1), weight(count + 1), tops(count + 1) {
+    for (int k0 = 0; k0 <= count; ++k0) {
+      shift[k0] = std::pow(lacunarity, double(k0)), weight[k0] = std::pow(gain, double(k0));
+      tops[k0] = noise::top_frequency(k0, lacunarity);
+    }
+  }
+  Quarters quarters(const Octaves& o, std::optional<double> capped) const {
+    return {o, shift.data(), weight.data(), tops.data(), capped.has_value(), capped.value_or(0.0)};
+  }
+};
+
+void footprint_rows(ptrdiff_t n, const Points& dpdx, const Points& dpdy, const Values& width) {
+  same_rows(n, dpdx.shape(0), "dpdx");
+  same_rows(n, dpdy.shape(0), "dpdy");
+  same_rows(n, width.shape(0), "width");
+}
+
+void quarter_octave_sums(const Points& points, const Points& dpdx, const Points& dpdy, const Values& width, const Values& noise,
+                         const In<int64_t, nb::ndim<1>>& index, const Values& noise2, const In<uint32_t, nb::ndim<1>>& hash4, int basis,
+                         int interp, int count, double lacunarity, double gain, bool signed_, double basis_mean, double scale,
+                         double offset, std::optional<double> capped, Out<double, nb::shape<4, -1>> out) {
+  const ptrdiff_t n = points.shape(0);
+  footprint_rows(n, dpdx, dpdy, width);
+  same_rows(n, out.shape(1), "out");
+  count = std::max(count, 0);  // none evaluated (as the numpy version's empty loops)
+  const QuarterTables tables(count, lacunarity, gain);
+  const Quarters k = tables.quarters(octaves(noise_tables(noise, index, noise2, hash4), basis, interp, count, lacunarity, gain, signed_,
+                                             basis_mean, scale, offset), capped);
+  const double *p = points.data(), *dx = dpdx.data(), *dy = dpdy.data(), *w = width.data();
+  const auto range = quarter_range_variants.at(current_isa());
+  double* dst = out.data();
+  // a point is about four of octave_sum's
+  parallel_chunks(n, [&](ptrdiff_t lo, ptrdiff_t hi) { range(k, p, dx, dy, w, dst, n, lo, hi); }, CHUNK / 4, MIN_PIECE / 4);
+}
+
+void quarter_marble(const Points& points, const Points& dpdx, const Points& dpdy, const Values& width, const Values& noise,
+                    const In<int64_t, nb::ndim<1>>& index, const Values& noise2, const In<uint32_t, nb::ndim<1>>& hash4, int basis,
+                    int interp, int count, double lacunarity, double gain, double basis_mean, double scale, double offset,
+                    std::optional<double> capped, int axis, double frequency, double amplitude, double norm, const Values& spread_at,
+                    const Values& spreads, double spread_lo, double spread_hi, const In<double, nb::shape<-1, 3>>& sines,
+                    const In<double, nb::shape<-1, -1, 3>>& waves, double max_spread, OutColours out) {
+  const ptrdiff_t n = points.shape(0);
+  footprint_rows(n, dpdx, dpdy, width);
+  same_rows(n, out.shape(0), "out");
+  if (axis < 0 || axis > 2 || sines.shape(0) < 2 || waves.shape(0) < 2 || waves.shape(1) < 1 || spreads.shape(0) < 2 ||
+      spread_at.shape(0) != spreads.shape(0))
+    throw std::invalid_argument("quarter_marble: axis in {0, 1, 2}, at least 2 sine rows and 2 spreads, a log width a spread");
+  count = std::max(count, 0);
+  const QuarterTables tables(count, lacunarity, gain);
+  const QuarterMarble k{tables.quarters(octaves(noise_tables(noise, index, noise2, hash4), basis, interp, count, lacunarity, gain, false,
+                                                basis_mean, scale, offset), capped),
+                        axis, frequency, amplitude, norm,
+                        {spread_at.data(), spreads.data(), ptrdiff_t(spreads.shape(0)), spread_lo, spread_hi, std::fabs(scale)},
+                        {sines.data(), ptrdiff_t(sines.shape(0)) - 1},
+                        {waves.data(), ptrdiff_t(waves.shape(0)), ptrdiff_t(waves.shape(1)), max_spread}};
+  const double *p = points.data(), *dx = dpdx.data(), *dy = dpdy.data(), *w = width.data();
+  const auto range = quarter_marble_range_variants.at(current_isa());
+  double* dst = out.data();
+  parallel_chunks(n, [&](ptrdiff_t lo, ptrdiff_t hi) { range(k, p, dx, dy, w, dst, lo, hi); }, CHUNK / 4, MIN_PIECE / 4);
 }
 
 void marble(const Points& points, const Values& width, const Values& noise, const In<int64_t, nb::ndim<1>>& index,
@@ -353,6 +626,20 @@ void bind_textures(nb::module_& m) {
         "out[i]: the sum of octaves gain^k n(lacunarity^k q), q = points[i] * scale + offset, each shrunk towards its mean by "
         "the share of it a box filter over the footprint width[i] * |scale| keeps (width None: point sampling; "
         "texbake.textures.noise.octave_sum).");
+  m.attr("QUAD_CELLS") = texbake::noise::QUAD_CELLS;
+  m.def("quarter_octave_sums", &t::quarter_octave_sums, arg("points"), arg("dpdx"), arg("dpdy"), arg("width"), arg("noise"),
+        arg("index"), arg("noise2"), arg("hash4"), arg("basis"), arg("interpolation"), arg("octaves"), arg("lacunarity"), arg("gain"),
+        arg("signed"), arg("basis_mean"), arg("scale"), arg("offset"), arg("capped").none(), arg("out").noconvert(), release,
+        "out (4, n): the octave sums at the four quarters of each footprint points[i] + a dpdx[i] + b dpdy[i], the octaves "
+        "whose footprint spans QUAD_CELLS of a cell or more at the quarters over half the width, the coarser at the centre; "
+        "capped (None: none) added to each (texbake.textures.noise.quarter_octave_sums).");
+  m.def("quarter_marble", &t::quarter_marble, arg("points"), arg("dpdx"), arg("dpdy"), arg("width"), arg("noise"), arg("index"),
+        arg("noise2"), arg("hash4"), arg("basis"), arg("interpolation"), arg("octaves"), arg("lacunarity"), arg("gain"),
+        arg("basis_mean"), arg("scale"), arg("offset"), arg("capped").none(), arg("axis"), arg("frequency"), arg("amplitude"),
+        arg("norm"), arg("spread_at"), arg("spreads"), arg("spread_lo"), arg("spread_hi"), arg("sines"), arg("waves"),
+        arg("max_spread"), arg("out").noconvert(), release,
+        "out (n, 3): the filtered marble's colours, the mean of its footprint quarters' wave colours "
+        "(texbake.textures.colour.quarter_marble_colours).");
   m.def("marble", &t::marble, arg("points"), arg("width").none(), arg("noise"), arg("index"), arg("noise2"), arg("hash4"), arg("basis"),
         arg("interpolation"), arg("octaves"), arg("lacunarity"), arg("gain"), arg("basis_mean"), arg("scale"), arg("offset"),
         arg("axis"), arg("frequency"), arg("amplitude"), arg("capped"), arg("norm"), arg("sines"), arg("waves"), arg("max_spread"),

@@ -1,7 +1,7 @@
 """Colour maps: a spline colour curve tabulated once, looked up per point; and the mean
 colour of a filtered wave, tabulated against its phase spread; and the marble's colour in
-one pass (:func:`marble_colours`). The tables are made here, the lookups are compiled C++
-(``native/colour.hpp``, bound as ``texbake._native``).
+one pass (:func:`marble_colours`, :func:`quarter_marble_colours`). The tables are made
+here, the lookups are compiled C++ (``native/colour.hpp``, bound as ``texbake._native``).
 
 A filtered texture gives the mean of its scalar over the texel; the colour map of that
 mean is not the mean colour (a wide footprint would converge to colour(mean), not
@@ -155,8 +155,9 @@ def marble_colours(points, width, knots, colour_list, *, axis=0, frequency=6.0, 
     return out
 
 
-def quarter_marble_colours(points, dpdx, dpdy, width, knots, colour_list, *, axis=0, frequency=6.0, amplitude=4.0,
-                           max_octaves=None, **turbulence_args) -> np.ndarray:
+def quarter_marble_colours(points, dpdx, dpdy, width, knots, colour_list, *, axis=0, frequency=6.0, amplitude=4.0, scale=1.0,
+                           offset=0.0, octaves=8, lacunarity=2.0, gain=0.5, basis="value", interpolation="linear", seed=0,
+                           max_octaves=None) -> np.ndarray:
     """``(n, 3)`` filtered marble colours at ``(n, 3)`` points with footprints ``p + a dpdx +
     b dpdy`` (``a``, ``b`` in [-1/2, 1/2]; ``width`` ``(n,)``): the mean of the four
     quarters' colours, each :func:`wave_colours` of the quarter's phase (its centre's
@@ -164,26 +165,28 @@ def quarter_marble_colours(points, dpdx, dpdy, width, knots, colour_list, *, axi
     the box of ``frequency * x`` over half the width, ``(frequency width / 2)^2 / 12``,
     and the turbulence's own spread inside the quarter (``noise.octave_spread``) times
     ``amplitude``, as independent variances. The mean of the colours, not the colour of the
-    mean: the veins near a texel's size part the quarters. (The point-sampled marble goes
-    through the fused kernel, :func:`marble_colours`; this path is numpy over the
-    compiled octave sums.)
-    """
-    from .noise import QUARTERS, octave_count, octave_spread
-    from .solid import quarter_turbulence
+    mean: the veins near a texel's size part the quarters. A footprint with no spread (no
+    width) has the point-sampled colour (:func:`marble_colours`).
 
-    w = np.asarray(width, dtype=np.float64).reshape(-1)
-    turb = quarter_turbulence(points, dpdx, dpdy, w, max_octaves=max_octaves, **turbulence_args)
-    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    dx, dy = (np.asarray(d, dtype=np.float64).reshape(-1, 3)[:, axis] for d in (dpdx, dpdy))
-    x = np.stack([p[:, axis] + a * dx + b * dy for a, b in QUARTERS])  # the quarters' centres along the axis
-    phase = frequency * x + amplitude * turb
-    spread_args = {k: v for k, v in turbulence_args.items() if k != "offset"}
-    norm = octave_count(turbulence_args.get("octaves", 8), turbulence_args.get("gain", 0.5)).norm
-    turb_spread = octave_spread(w, max_octaves=max_octaves, quarters=True, **spread_args) / norm
-    spread = np.sqrt((frequency * 0.5 * w) ** 2 / 12.0 + (amplitude * turb_spread) ** 2)
-    out = wave_colours(knots, colour_list, phase.reshape(-1), np.tile(spread, 4)).reshape(4, -1, 3).mean(axis=0)
-    point = spread == 0  # a zero footprint: the point-sampled colour exactly (the sine's own table, not the waves')
-    if point.any():
-        out[point] = marble_colours(p[point], None, knots, colour_list, axis=axis,
-                                    frequency=frequency, amplitude=amplitude, max_octaves=max_octaves, **turbulence_args)
+    In one compiled pass (``native/textures.cpp`` ``quarter_marble``: the quarters' octave
+    sums, the spread's table looked up as ``np.interp`` does, the wave colours and their
+    mean), the numpy version's arithmetic (``tests/texbake/textures/test_quarters.py``
+    keeps it as the reference).
+    """
+    from .noise import BASES, INTERPOLATIONS, _derived_tables, _spread_table, basis_mean, octave_count, tables
+
+    p = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    dx = np.ascontiguousarray(dpdx, dtype=np.float64).reshape(-1, 3)
+    dy = np.ascontiguousarray(dpdy, dtype=np.float64).reshape(-1, 3)
+    w = np.ascontiguousarray(width, dtype=np.float64).reshape(-1)
+    key = (tuple(knots), tuple(tuple(c) for c in colour_list))
+    sines, waves = sine_table(*key), wave_table(*key)
+    cap = octave_count(octaves, gain, max_octaves, basis=basis, seed=seed)
+    lo, hi, log_widths, spreads = _spread_table(int(octaves), basis, interpolation, float(lacunarity), float(gain), int(seed),
+                                                max_octaves, True)
+    out = np.empty((len(p), 3))
+    _native.quarter_marble(p, dx, dy, w, *tables(seed), *_derived_tables(seed), BASES.index(basis), INTERPOLATIONS.index(interpolation),
+                           cap.evaluated, float(lacunarity), float(gain), basis_mean(basis, seed), float(scale), float(offset),
+                           cap.capped if cap.evaluated < octaves else None, int(axis), float(frequency), float(amplitude),
+                           float(cap.norm), log_widths, spreads, float(lo), float(hi), sines, waves, MAX_SPREAD, out)
     return out

@@ -39,7 +39,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import _native
-from .._native import DROP_CELLS, box_keep, fade_factor
+from .._native import DROP_CELLS, QUAD_CELLS, box_keep, fade_factor
 
 __all__ = ["BASES", "DROP_CELLS", "INTERPOLATIONS", "QUAD_CELLS", "QUARTERS", "OctaveCount", "basis_mean", "box_keep", "fade_factor", "noise", "octave_count",
            "octave_sum", "quarter_octave_sums", "quarter_points", "tables"]
@@ -133,7 +133,7 @@ def octave_sum(
     return out
 
 
-QUAD_CELLS = 1.0 / 20.0  # footprint width, in an octave's lattice cells, from which it is evaluated at the four quarters
+# QUAD_CELLS (1/20, native/noise.hpp): footprint width, in an octave's lattice cells, from which it is evaluated at the four quarters
 QUARTERS = np.array([[-0.25, -0.25], [0.25, -0.25], [-0.25, 0.25], [0.25, 0.25]])  # the quarters' centres, in (dpdx, dpdy)
 
 
@@ -145,8 +145,8 @@ def quarter_points(points: np.ndarray, dpdx: np.ndarray, dpdy: np.ndarray) -> np
 
 
 def _quarters_by_point(points: np.ndarray, dpdx: np.ndarray, dpdy: np.ndarray) -> np.ndarray:
-    """:func:`quarter_points` laid out ``(n, 4, 3)``: a run of points' quarters is one
-    contiguous block (no copy to hand to the kernel)."""
+    """:func:`quarter_points` laid out ``(n, 4, 3)``, a point's four together (the
+    arithmetic ``native/textures.cpp`` ``stage_quarters`` repeats)."""
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     dx, dy = np.asarray(dpdx, dtype=np.float64).reshape(-1, 3), np.asarray(dpdy, dtype=np.float64).reshape(-1, 3)
     both, across = 0.25 * (dx + dy), 0.25 * (dx - dy)  # QUARTERS: -both, +across, -across, +both
@@ -198,38 +198,24 @@ def quarter_octave_sums(
     through a colour map, is the footprint's mean colour, closer than one filtered sample's
     where octaves near the footprint's size vary inside it.
 
-    The octaves from ``k0`` on are the sum ``gain^k0 sum_j gain^j noise(lacunarity^j
-    (lacunarity^k0 (scale p + offset)))``: one :func:`octave_sum` call for each ``k0`` the
-    points have (at most ``octaves`` + 1), the compiled kernel unchanged.
+    The octaves from ``k0`` on (:func:`first_quarter_octave`) are the sum ``gain^k0 sum_j
+    gain^j noise(lacunarity^j (lacunarity^k0 (scale p + offset)))``: per point, one compiled
+    pass (``native/textures.cpp`` ``quarter_octave_sums``) sums the octaves before ``k0`` at the
+    centre and those from it at each quarter, as an :func:`octave_sum` of ``octaves - k0``
+    octaves with scale and offset times ``lacunarity^k0``, times ``gain^k0``, added to the
+    centre's: bit for bit the :func:`octave_sum` calls by runs of one ``k0`` it replaces
+    (``tests/texbake/textures/test_quarters.py`` keeps them as its reference).
     """
     p = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    dx = np.ascontiguousarray(dpdx, dtype=np.float64).reshape(-1, 3)
+    dy = np.ascontiguousarray(dpdy, dtype=np.float64).reshape(-1, 3)
     w = np.ascontiguousarray(width, dtype=np.float64).reshape(-1)
     cap = octave_count(octaves, gain, max_octaves, basis=basis, seed=seed)
-    first = first_quarter_octave(w, cap.evaluated, lacunarity, scale)
-    # the points in runs of one k0 (one gather, one scatter back: slices in between, not copies)
-    order = np.argsort(first, kind="stable")
-    first, p, w = first[order], p[order], w[order]
-    quarters = _quarters_by_point(p, np.asarray(dpdx, dtype=np.float64).reshape(-1, 3)[order],
-                                  np.asarray(dpdy, dtype=np.float64).reshape(-1, 3)[order])
-    runs = np.flatnonzero(np.diff(first)) + 1
-    sums = functools.partial(octave_sum, basis=basis, interpolation=interpolation, lacunarity=lacunarity, gain=gain,
-                             signed=signed, seed=seed)
-    by_point = np.zeros((len(p), 4))
-    for lo, hi in zip(np.concatenate([[0], runs]), np.concatenate([runs, [len(p)]]), strict=True):
-        k0 = int(first[lo]) if hi > lo else 0
-        if hi <= lo:
-            continue
-        if k0 > 0:  # the coarse octaves, once at the centre
-            by_point[lo:hi] = sums(p[lo:hi], w[lo:hi], octaves=k0, scale=scale, offset=offset)[:, None]
-        if k0 < cap.evaluated:  # the fine ones at each quarter, filtered at half the width
-            shift = float(lacunarity) ** k0
-            fine = sums(quarters[lo:hi].reshape(-1, 3), np.repeat(0.5 * w[lo:hi], 4), octaves=cap.evaluated - k0,
-                        scale=scale * shift, offset=offset * shift)
-            by_point[lo:hi] += float(gain) ** k0 * fine.reshape(-1, 4)
+    capped = cap.capped if cap.evaluated < octaves and not signed else None  # signed octaves have mean 0
     out = np.empty((4, len(p)))
-    out[:, order] = by_point.T
-    if cap.evaluated < octaves and not signed:  # the capped octaves add their mean (signed octaves have mean 0)
-        out += cap.capped
+    _native.quarter_octave_sums(p, dx, dy, w, *tables(seed), *_derived_tables(seed), BASES.index(basis),
+                                INTERPOLATIONS.index(interpolation), cap.evaluated, float(lacunarity), float(gain), bool(signed),
+                                basis_mean(basis, seed), float(scale), float(offset), capped, out)
     return out
 
 
@@ -283,21 +269,22 @@ def octave_spread(width: np.ndarray, *, octaves: int, basis: str = "value", inte
     the octaves it evaluates at the quarters filtered by half the width, the coarser ones
     (evaluated at the centre) by the whole of it."""
     w = np.abs(float(scale)) * np.asarray(width, dtype=np.float64).reshape(-1)
-    lo, hi, table = _spread_table(int(octaves), basis, interpolation, float(lacunarity), float(gain), int(seed), max_octaves,
-                                  bool(quarters))
+    lo, hi, log_widths, table = _spread_table(int(octaves), basis, interpolation, float(lacunarity), float(gain), int(seed), max_octaves,
+                                              bool(quarters))
     at = np.log(np.clip(w, lo, hi))  # the table over log width (8 octaves a point otherwise: 6x the turbulence's own time)
-    out = np.interp(at, np.linspace(np.log(lo), np.log(hi), len(table)), table)
+    out = np.interp(at, log_widths, table)
     out = np.where(w < lo, table[0] * w / lo, out)  # the finest octave's spread, proportional to the width below the table
     return np.where(w > 0, out, np.where(np.isnan(w), np.nan, 0.0))
 
 
 @functools.lru_cache(maxsize=64)
 def _spread_table(octaves: int, basis: str, interpolation: str, lacunarity: float, gain: float, seed: int,
-                  max_octaves: int | None, quarters: bool = False) -> tuple[float, float, np.ndarray]:
-    """``(lo, hi, spreads (SPREAD_WIDTHS,))``: :func:`octave_spread` at widths (lattice
-    cells) spaced evenly in log from ``lo`` to ``hi`` (below: no octave is filtered; above:
-    every one is dropped); ``quarters``: in a quarter (octaves from :data:`QUAD_CELLS` of a
-    cell on at half the width)."""
+                  max_octaves: int | None, quarters: bool = False) -> tuple[float, float, np.ndarray, np.ndarray]:
+    """``(lo, hi, log widths (SPREAD_WIDTHS,), spreads (SPREAD_WIDTHS,))``: :func:`octave_spread`
+    at widths (lattice cells) spaced evenly in log from ``lo`` to ``hi`` (below: no octave is
+    filtered; above: every one is dropped), and those widths' logs (what ``np.interp`` looks
+    them up over, here and in ``native/textures.cpp``); ``quarters``: in a quarter (octaves
+    from :data:`QUAD_CELLS` of a cell on at half the width)."""
     lo, hi = 1e-3 / lacunarity ** max(octaves - 1, 0), 8.0 * DROP_CELLS
     w = np.exp(np.linspace(np.log(lo), np.log(hi), SPREAD_WIDTHS))
     cap = octave_count(octaves, gain, max_octaves, basis=basis, seed=seed)
@@ -308,7 +295,8 @@ def _spread_table(octaves: int, basis: str, interpolation: str, lacunarity: floa
             s = np.where(s < QUAD_CELLS, s, 0.5 * s)
         share = box_share(s) if k < cap.evaluated else np.zeros(len(w))
         variance += gain ** (2 * k) * (1.0 - share * share)
-    return lo, hi, np.sqrt(np.maximum(variance, 0.0) * octave_variance(basis, interpolation, seed))
+    spreads = np.sqrt(np.maximum(variance, 0.0) * octave_variance(basis, interpolation, seed))
+    return lo, hi, np.linspace(np.log(lo), np.log(hi), len(spreads)), spreads
 
 
 SPREAD_WIDTHS = 4096  # widths in an octave spread's table: linear interpolation in log width errs < 1e-4 of the spread

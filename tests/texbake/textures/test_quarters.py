@@ -1,14 +1,18 @@
 """The filtered turbulence and marble at a footprint's four quarters (issue 27):
-``noise.quarter_octave_sums``, the mean of the quarters' colours, against point samples."""
+``noise.quarter_octave_sums``, the mean of the quarters' colours, against point samples;
+the compiled quarter kernels against the numpy versions they replaced."""
+
+import itertools
 
 import numpy as np
 import pytest
 
+from texbake import _native
 from texbake.textures import evaluate, parse_spec
 from texbake.textures import noise as N
-from texbake.textures.colour import marble_colours
+from texbake.textures.colour import marble_colours, quarter_marble_colours, wave_colours
 from texbake.textures.solid import quarter_turbulence, turbulence
-from texbake.textures.spec import filtered_colours, turbulence_args
+from texbake.textures.spec import MARBLE_COLOURS, WOOD_COLOURS, filtered_colours, turbulence_args
 
 
 def _patch(texels: int, width: float, tilt: float = 0.0):
@@ -82,6 +86,124 @@ def test_the_octave_cap_and_signed_sums_carry_over_to_the_quarters():
     assert np.allclose(capped, three + N.basis_mean("value") * sum(0.5**k for k in range(3, 8)), rtol=0, atol=1e-14)
     signed = N.quarter_octave_sums(p, dx, dy, w, octaves=8, signed=True, scale=4.0)
     assert signed.min() < 0 < signed.max()
+
+
+def _quarter_sums_by_runs(points, dpdx, dpdy, width, *, octaves, basis, interpolation, lacunarity, gain, signed, seed,
+                          max_octaves, scale, offset):
+    """The numpy version the compiled ``quarter_octave_sums`` replaced, kept as its reference:
+    the points sorted by their first quarter octave k0, one ``octave_sum`` call a run of one
+    k0 for the coarse octaves at the centre, one for the fine ones at the quarters."""
+    p = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    w = np.ascontiguousarray(width, dtype=np.float64).reshape(-1)
+    cap = N.octave_count(octaves, gain, max_octaves, basis=basis, seed=seed)
+    first = N.first_quarter_octave(w, cap.evaluated, lacunarity, scale)
+    order = np.argsort(first, kind="stable")
+    first, p, w = first[order], p[order], w[order]
+    quarters = N.quarter_points(p, np.asarray(dpdx)[order], np.asarray(dpdy)[order]).transpose(1, 0, 2)
+    runs = np.flatnonzero(np.diff(first)) + 1
+    sums = dict(basis=basis, interpolation=interpolation, lacunarity=lacunarity, gain=gain, signed=signed, seed=seed)
+    by_point = np.zeros((len(p), 4))
+    for lo, hi in zip(np.concatenate([[0], runs]), np.concatenate([runs, [len(p)]]), strict=True):
+        k0 = int(first[lo])
+        if k0 > 0:
+            by_point[lo:hi] = N.octave_sum(p[lo:hi], w[lo:hi], octaves=k0, scale=scale, offset=offset, **sums)[:, None]
+        if k0 < cap.evaluated:
+            shift = float(lacunarity) ** k0
+            fine = N.octave_sum(quarters[lo:hi].reshape(-1, 3), np.repeat(0.5 * w[lo:hi], 4), octaves=cap.evaluated - k0,
+                                scale=scale * shift, offset=offset * shift, **sums)
+            by_point[lo:hi] += float(gain) ** k0 * fine.reshape(-1, 4)
+    out = np.empty((4, len(p)))
+    out[:, order] = by_point.T
+    if cap.evaluated < octaves and not signed:
+        out += cap.capped
+    return out
+
+
+def _footprints(n=1200, seed=11):
+    """``(points, dpdx, dpdy, width)``: points in [0, 1), near 1e6 and past the kernel's FAR at
+    the top octaves, footprints from 1e-6 to 10 wide (every first quarter octave), zero,
+    negative and NaN widths, NaN points and edges, the kinds mixed inside each block."""
+    rng = np.random.default_rng(seed)
+    p = rng.random((n, 3))
+    p[n // 4 : n // 2] += 1e6 * rng.choice([-1.0, 1.0], size=(n // 2 - n // 4, 1))
+    p[n // 2 : n // 2 + 30] *= 1e17
+    p[-8:-4, 1] = np.nan
+    size = 10.0 ** rng.uniform(-6, 1, size=n)
+    dx, dy = rng.normal(size=(n, 3)) * size[:, None], rng.normal(size=(n, 3)) * size[:, None]
+    w = np.sqrt(np.maximum((dx * dx).sum(1), (dy * dy).sum(1)))
+    w[::97] = dx[::97] = dy[::97] = 0.0
+    w[5::101] = np.nan
+    w[9::89] *= -1.0
+    dx[7::103, 2] = np.nan
+    return p, dx, dy, w
+
+
+@pytest.mark.parametrize("basis,interpolation", [("value", "linear"), ("value", "cubic"), ("value", "catmull-rom"), ("perlin", "linear")])
+def test_the_compiled_quarters_are_the_numpy_versions_bits(basis, interpolation):
+    # one pass a point, no sorting: the same operations per point as the octave_sum calls by
+    # runs of one k0 (lacunarity^k0 and gain^k0 as Python's float ** int), on every
+    # instruction set the kernels are built for
+    p, dx, dy, w = _footprints()
+    cases = list(itertools.product((False, True), (None, 3), ((2.0, 0.5), (1.9, 0.6), (2.37, 0.43)), ((1.0, 0.0), (4.0, 0.3))))
+    isas = _native.instruction_sets()
+    try:
+        for signed, max_octaves, (lacunarity, gain), (scale, offset) in cases:
+            args = dict(octaves=8, basis=basis, interpolation=interpolation, lacunarity=lacunarity, gain=gain, signed=signed,
+                        seed=0, max_octaves=max_octaves, scale=scale, offset=offset)
+            cap = N.octave_count(8, gain, max_octaves)
+            assert set(N.first_quarter_octave(w, cap.evaluated, lacunarity, scale).tolist()) == set(range(cap.evaluated + 1))
+            reference = _quarter_sums_by_runs(p, dx, dy, w, **args)
+            for isa in isas:
+                _native.use_instruction_set(isa)
+                got = N.quarter_octave_sums(p, dx, dy, w, **args)
+                assert np.array_equal(got.view(np.uint64), reference.view(np.uint64)), (isa, args)
+    finally:
+        _native.use_instruction_set(None)
+
+
+def _quarter_marble_by_numpy(points, dpdx, dpdy, width, knots, colour_list, *, axis, frequency, amplitude, max_octaves,
+                             **turbulence_args):
+    """The numpy version the compiled ``quarter_marble`` replaced, kept as its reference: the
+    quarters' phases and spreads in numpy, ``wave_colours`` on all four, their mean."""
+    w = np.asarray(width, dtype=np.float64).reshape(-1)
+    turb = quarter_turbulence(points, dpdx, dpdy, w, max_octaves=max_octaves, **turbulence_args)
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    dx, dy = (np.asarray(d, dtype=np.float64).reshape(-1, 3)[:, axis] for d in (dpdx, dpdy))
+    x = np.stack([p[:, axis] + a * dx + b * dy for a, b in N.QUARTERS])
+    phase = frequency * x + amplitude * turb
+    spread_args = {k: v for k, v in turbulence_args.items() if k != "offset"}
+    norm = N.octave_count(turbulence_args["octaves"], turbulence_args["gain"]).norm
+    turb_spread = N.octave_spread(w, max_octaves=max_octaves, quarters=True, **spread_args) / norm
+    spread = np.sqrt((frequency * 0.5 * w) ** 2 / 12.0 + (amplitude * turb_spread) ** 2)
+    out = wave_colours(knots, colour_list, phase.reshape(-1), np.tile(spread, 4)).reshape(4, -1, 3).mean(axis=0)
+    point = spread == 0
+    out[point] = marble_colours(p[point], None, knots, colour_list, axis=axis, frequency=frequency, amplitude=amplitude,
+                                max_octaves=max_octaves, **turbulence_args)
+    return out
+
+
+@pytest.mark.parametrize("basis,interpolation", [("value", "linear"), ("value", "cubic"), ("value", "catmull-rom"), ("perlin", "linear")])
+def test_the_compiled_quarter_marble_is_the_numpy_versions(basis, interpolation):
+    # the spread's table looked up as np.interp does, np.log as std::log (numpy's own SIMD log
+    # may differ from libm's by an ulp: hence 1e-15, not the bits; measured 0 on AVX2); the
+    # point-sampled colour where the spread is 0 (no width, or one whose spread underflows)
+    p, dx, dy, w = _footprints()
+    w[11::113] = 1e-200
+    cases = itertools.product((None, 3), ((2.0, 0.5), (1.9, 0.6)), ((4.0, 0.0), (1.0, 0.3)),
+                              ((0, 12.0, 4.0), (2, 6.0, 0.0), (1, 0.0, 4.0)), (MARBLE_COLOURS, WOOD_COLOURS))
+    isas = _native.instruction_sets()
+    try:
+        for max_octaves, (lacunarity, gain), (scale, offset), (axis, frequency, amplitude), colours in cases:
+            args = dict(axis=axis, frequency=frequency, amplitude=amplitude, max_octaves=max_octaves, octaves=8, basis=basis,
+                        interpolation=interpolation, lacunarity=lacunarity, gain=gain, scale=scale, offset=offset, seed=0)
+            reference = _quarter_marble_by_numpy(p, dx, dy, w, colours.knots, colours.colours, **args)
+            for isa in isas:
+                _native.use_instruction_set(isa)
+                got = quarter_marble_colours(p, dx, dy, w, colours.knots, colours.colours, **args)
+                assert np.array_equal(np.isnan(got), np.isnan(reference)), (isa, args)
+                assert np.nanmax(np.abs(got - reference)) <= 1e-15, (isa, args)
+    finally:
+        _native.use_instruction_set(None)
 
 
 def test_the_quarters_spread_is_the_half_widths_for_the_fine_octaves():
