@@ -33,8 +33,8 @@ The cost: a 1-sample bake's probe is 64 point samples (8 x 8) a probed texel, so
 texels are 262k samples, more than a 512^2 bake's own (about 140k). The drawn texels are
 therefore probed in rounds, a quarter, a half, then all, until the MSE's standard error is
 at most ``PROBE_PRECISION`` (0.2) of it. Marble and turbulence, whose error is spread
-over the texels, stop after 1,000-1,800 texels (a 512^2 marble's estimate 90 -> 30 ms
-in a batch); checker and wood, whose error sits on cell and ring borders, go on to all
+over the texels, stop after 1,000-1,800 texels (bench_batch's 50 meshes, marble 512^2: 124 -> 38 ms
+a mesh); checker and wood, whose error sits on cell and ring borders, go on to all
 4096. An error on far fewer texels than the first round holds (under about 1 in 1,000
 of the covered texels at the default) may be missed by it, and the estimate then reads
 low; the rounds do not change an image small enough to be probed whole.
