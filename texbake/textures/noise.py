@@ -140,22 +140,12 @@ QUARTERS = np.array([[-0.25, -0.25], [0.25, -0.25], [-0.25, 0.25], [0.25, 0.25]]
 def quarter_points(points: np.ndarray, dpdx: np.ndarray, dpdy: np.ndarray) -> np.ndarray:
     """``(4, n, 3)`` float64: the centres of the four quarters of each footprint
     parallelogram ``p + a dpdx + b dpdy`` (``a``, ``b`` in [-1/2, 1/2]) cut in 2x2, in
-    :data:`QUARTERS`' order; each quarter is the parallelogram of ``dpdx / 2``, ``dpdy / 2``."""
-    return _quarters_by_point(points, dpdx, dpdy).transpose(1, 0, 2)
-
-
-def _quarters_by_point(points: np.ndarray, dpdx: np.ndarray, dpdy: np.ndarray) -> np.ndarray:
-    """:func:`quarter_points` laid out ``(n, 4, 3)``, a point's four together (the
-    arithmetic ``native/textures.cpp`` ``stage_quarters`` repeats)."""
+    :data:`QUARTERS`' order; each quarter is the parallelogram of ``dpdx / 2``, ``dpdy / 2``
+    (the arithmetic ``native/textures.cpp`` ``stage_quarters`` repeats)."""
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     dx, dy = np.asarray(dpdx, dtype=np.float64).reshape(-1, 3), np.asarray(dpdy, dtype=np.float64).reshape(-1, 3)
     both, across = 0.25 * (dx + dy), 0.25 * (dx - dy)  # QUARTERS: -both, +across, -across, +both
-    out = np.empty((len(p), 4, 3))
-    np.subtract(p, both, out=out[:, 0])
-    np.add(p, across, out=out[:, 1])
-    np.subtract(p, across, out=out[:, 2])
-    np.add(p, both, out=out[:, 3])
-    return out
+    return np.stack([p - both, p + across, p - across, p + both])
 
 
 def first_quarter_octave(width: np.ndarray, count: int, lacunarity: float, scale: float = 1.0) -> np.ndarray:
