@@ -192,10 +192,14 @@ def _bake_one(mesh: str, out: str, given: dict, source: str | None = None, worke
 def _batch_process(parent: int) -> None:
     """A batch's bake process ends with the batch (killed, it left them baking and their
     warm packing workers waiting): the workers' own mechanism, with the batch as parent."""
+    from multiprocessing.util import Finalize
+
+    from .atlas.pack import close_warm
     from .workers import PARENT_ENV, die_with_parent
 
     os.environ[PARENT_ENV] = str(parent)
     die_with_parent()
+    Finalize(None, close_warm, exitpriority=0)  # a forked process's exit runs these, not atexit's
 
 
 def _batch_item(mesh: str, out: str, given: dict, cache: str | None) -> tuple[str, float, dict | str]:
@@ -412,6 +416,15 @@ def _expand(inputs: list[str]) -> list[tuple[str, dict]]:
     return items
 
 
+def _largest_first(job: tuple) -> int:
+    """Sort key of a batch job ``(mesh, ...)``: the largest files first, so that the last
+    bakes, while the other processes have nothing left, are the shortest."""
+    try:
+        return -os.path.getsize(job[0])
+    except OSError:
+        return 0
+
+
 def _is_mesh(path) -> bool:
     """A mesh file by its extension (not an OBJ's .mtl or textures, nor a hidden file)."""
     from .mesh.load import FORMATS
@@ -456,26 +469,32 @@ def batch(
     used: set[str] = set()
     jobs_list = [(mesh, str(_unique_folder(out, Path(mesh).stem, used)), {**base, **extra}) for mesh, extra in items]
     rows = []
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn"), initializer=_batch_process,
-                             initargs=(os.getpid(),)) as pool, Progress(
-        "[progress.description]{task.description}", BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-        console=Console(stderr=True),
-    ) as progress:
-        task = progress.add_task("baking", total=len(jobs_list))
-        folder_of_cache = _cache_folder(cache, no_cache)
+    # The bake processes are forked from this one with the pipeline imported here once, not
+    # in each of them (0.3 CPU-s a process). The pool forks them all at its first submit,
+    # before its own thread and the progress bar's start; the only other thread here is
+    # OpenBLAS', which is fork-safe. Elsewhere than Linux they are spawned.
+    context = get_context("fork" if sys.platform == "linux" else "spawn")
+    if context.get_start_method() == "fork":
+        from . import pipeline  # noqa: F401
+    folder_of_cache = _cache_folder(cache, no_cache)
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=_batch_process,
+                             initargs=(os.getpid(),)) as pool:
         started = {pool.submit(_batch_item, mesh, folder, settings, folder_of_cache): (mesh, folder)
-                   for mesh, folder, settings in jobs_list}
-        for future in as_completed(started):
-            mesh, folder = started[future]
-            try:
-                status, seconds, outcome = future.result()
-            except Exception as exc:  # a crash in one item must not stop the batch
-                status, seconds, outcome = "failed", math.nan, f"{type(exc).__name__}: {exc}"
-            report = outcome if isinstance(outcome, dict) else {}
-            rows.append({"mesh": mesh, "status": status, "seconds": seconds, "out": folder if report else None,
-                         "atlas": report.get("atlas", {}).get("method"), "warnings": report.get("warnings", []),
-                         "covered": report.get("texels", {}).get("covered"), "error": None if report else outcome})
-            progress.advance(task)
+                   for mesh, folder, settings in sorted(jobs_list, key=_largest_first)}
+        with Progress("[progress.description]{task.description}", BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                      console=Console(stderr=True)) as progress:
+            task = progress.add_task("baking", total=len(jobs_list))
+            for future in as_completed(started):
+                mesh, folder = started[future]
+                try:
+                    status, seconds, outcome = future.result()
+                except Exception as exc:  # a crash in one item must not stop the batch
+                    status, seconds, outcome = "failed", math.nan, f"{type(exc).__name__}: {exc}"
+                report = outcome if isinstance(outcome, dict) else {}
+                rows.append({"mesh": mesh, "status": status, "seconds": seconds, "out": folder if report else None,
+                             "atlas": report.get("atlas", {}).get("method"), "warnings": report.get("warnings", []),
+                             "covered": report.get("texels", {}).get("covered"), "error": None if report else outcome})
+                progress.advance(task)
     rows.sort(key=lambda r: r["mesh"])
     if as_json:
         typer.echo(json.dumps([{k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in r.items()}

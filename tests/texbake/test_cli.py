@@ -108,6 +108,42 @@ def test_a_killed_batch_takes_its_bake_processes_and_their_workers_with_it(meshe
             p.kill()
 
 
+# Run as a subreaper (PR_SET_CHILD_SUBREAPER), so that a process the batch's processes leave
+# behind comes to this one rather than to init: after the batch, its children here are those.
+SUBREAPER = """
+import ctypes, json, subprocess, sys, time
+import psutil
+ctypes.CDLL(None, use_errno=True).prctl(36, 1, 0, 0, 0)
+code = subprocess.run(sys.argv[1:], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL).returncode
+time.sleep(1.0)
+left = []
+for p in psutil.Process().children():
+    try:
+        left.append(" ".join(p.cmdline()) or p.name())
+    except psutil.Error:  # a zombie: ended, never waited for
+        left.append(f"pid {p.pid}, ended, not waited for")
+print(json.dumps({"code": code, "left": left}))
+"""
+
+
+def test_a_finished_batch_waits_for_its_packing_workers(meshes, tmp_path):
+    # The bake processes are forked, and a forked process leaves by os._exit, without
+    # atexit: its warm packing workers must still be ended and waited for, else they are
+    # orphans (and their CPU time is missing from the batch's, which bench_batch reads).
+    import subprocess
+    import sys
+
+    for k in range(2):
+        shutil.copy(meshes / "bunny.ply", tmp_path / f"bunny{k}.ply")
+    cmd = [sys.executable, "-m", "texbake.cli", "batch", str(tmp_path / "*.ply"), "--out", str(tmp_path / "o"), "--jobs", "2",
+           "--no-cache", "--size", "256"]
+    r = subprocess.run([sys.executable, "-c", SUBREAPER, *cmd], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    found = json.loads(r.stdout)
+    assert found["code"] == 0
+    assert found["left"] == []
+
+
 WALL_STAGES = ("load", "atlas", "normals", "prepare", "tiles (wall)", "estimate", "margin")  # one after another: the bake
 
 

@@ -151,6 +151,16 @@ def start_workers(count: int, deadline: float) -> Iterator[Pool]:
         _warm_lock.release()
 
 
+def close_warm() -> None:
+    """End this process's warm workers now, and wait for them (a process forked by
+    ``multiprocessing`` leaves by ``os._exit``: its ``atexit`` handlers do not run)."""
+    global _warm
+    with _warm_lock:
+        if _warm is not None:
+            _warm.close()
+            _warm = None
+
+
 def _describe(why: str, deadline: float) -> str:
     """What a worker's failure ``why`` (``texbake.workers``: "timeout", "exit code N", or an error) means for the unwrap."""
     if why == "timeout":
