@@ -3,6 +3,7 @@
 // these their parallelism: each call is one tile's, on the calling thread.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <vector>
 
@@ -353,8 +354,9 @@ inline int clip_side(const double* in, int n, double* out, int axis, double sign
   return m;
 }
 
-// area, first and second moments of triangle tri (3 points, local coordinates) cut to the texel
-inline void add_clipped(const double* tri, Moments& sum) {
+// area, first and second moments of triangle tri (3 points, local coordinates) cut to the texel;
+// the cut polygon's corners appended to corners when given
+inline void add_clipped(const double* tri, Moments& sum, std::vector<double>* corners = nullptr) {
   double a[32], b[32];
   std::copy_n(tri, 6, a);
   int n = 3;
@@ -363,6 +365,7 @@ inline void add_clipped(const double* tri, Moments& sum) {
   n = clip_side(a, n, b, 1, 1.0);
   n = clip_side(b, n, a, 1, -1.0);
   if (n < 3) return;
+  if (corners != nullptr) corners->insert(corners->end(), a, a + 2 * n);
   Moments m;
   for (int i = 0; i < n; ++i) {
     const double x0 = a[2 * i], y0 = a[2 * i + 1], x1 = a[2 * ((i + 1) % n)], y1 = a[2 * ((i + 1) % n) + 1];
@@ -379,6 +382,58 @@ inline void add_clipped(const double* tri, Moments& sum) {
 }
 
 constexpr int CLIP_FACES = 64;  // faces of one chart a texel's cut visits at most
+
+// the moments of the part of a texel that face f's chart covers: the faces reached from f
+// across UV edges, each cut to the texel (local(g, tri): face g in texel-local coordinates);
+// the cut pieces' corners appended to corners when given
+template <typename Local>
+Moments chart_part(const Atlas& atlas, const int64_t* across, int64_t f, const Local& local, std::vector<double>* corners = nullptr) {
+  int64_t seen[CLIP_FACES];
+  int count = 0, next = 0;
+  seen[count++] = f;
+  Moments sum;
+  double tri[6];
+  while (next < count) {
+    const int64_t g = seen[next++];
+    local(g, tri);
+    const double before = sum.a;
+    add_clipped(tri, sum, corners);
+    if (sum.a <= before && g != f) continue;  // off the texel: not crossed further
+    for (int c = 0; c < 3; ++c) {
+      const int64_t o = across[3 * g + c];
+      if (o < 0 || o >= atlas.m || std::find(seen, seen + count, o) != seen + count || count == CLIP_FACES) continue;
+      seen[count++] = o;
+    }
+  }
+  return sum;
+}
+
+// the convex hull of points (n pairs), counter-clockwise (Andrew's monotone chain), into hull;
+// returns its corner count
+inline int convex_hull(std::vector<double>& points, double* hull, int most) {
+  const size_t n = points.size() / 2;
+  std::vector<std::pair<double, double>> p(n);
+  for (size_t i = 0; i < n; ++i) p[i] = {points[2 * i], points[2 * i + 1]};
+  std::sort(p.begin(), p.end());
+  p.erase(std::unique(p.begin(), p.end()), p.end());
+  if (p.size() < 3) return 0;
+  std::vector<std::pair<double, double>> h(2 * p.size());
+  size_t k = 0;
+  auto cross = [](const std::pair<double, double>& o, const std::pair<double, double>& a, const std::pair<double, double>& b) {
+    return (a.first - o.first) * (b.second - o.second) - (a.second - o.second) * (b.first - o.first);
+  };
+  for (size_t i = 0; i < p.size(); ++i) {
+    while (k >= 2 && cross(h[k - 2], h[k - 1], p[i]) <= 0) --k;
+    h[k++] = p[i];
+  }
+  for (size_t i = p.size() - 1, t = k + 1; i > 0; --i) {
+    while (k >= t && cross(h[k - 2], h[k - 1], p[i - 1]) <= 0) --k;
+    h[k++] = p[i - 1];
+  }
+  const int corners = int(k) - 1;
+  for (int i = 0; i < std::min(corners, most); ++i) hull[2 * i] = h[i].first, hull[2 * i + 1] = h[i].second;
+  return corners;
+}
 
 // Per sample (face, bary) of one sample a texel: the part of its texel that its chart covers
 // (only texels in border, border_texels' sorted list, can be partly covered)
@@ -430,22 +485,7 @@ int64_t footprint_clip(In<int32_t, nb::ndim<1>> face, In<double, shape<-1, 3>> b
       }
     }
     if (whole) continue;
-    int64_t seen[CLIP_FACES];
-    int count = 0, next = 0;
-    seen[count++] = f;
-    Moments sum;
-    while (next < count) {
-      const int64_t g = seen[next++];
-      local(g, tri);
-      const double before = sum.a;
-      add_clipped(tri, sum);
-      if (sum.a <= before && g != f) continue;  // off the texel: not crossed further
-      for (int c = 0; c < 3; ++c) {
-        const int64_t o = across.data()[3 * g + c];
-        if (o < 0 || o >= atlas.m || std::find(seen, seen + count, o) != seen + count || count == CLIP_FACES) continue;
-        seen[count++] = o;
-      }
-    }
+    const Moments sum = chart_part(atlas, across.data(), f, local);
     if (!(sum.a < 1.0 - 1e-9) || !(sum.a > 1e-12)) continue;  // covered (or a cut too small to trust)
     const double mx = sum.x / sum.a, my = sum.y / sum.a;
     // 12 x the covariance: the identity for the whole texel; its square root is the box's edges
@@ -458,6 +498,56 @@ int64_t footprint_clip(In<int32_t, nb::ndim<1>> face, In<double, shape<-1, 3>> b
     ++partial;
   }
   return partial;
+}
+
+constexpr int HULL = 8;  // corners of a cut texel's convex hull kept (more: no hull)
+
+// Per partly covered sample (face, bary; shift, edges: footprint_clip's for it): the convex
+// hull of the part of its texel that its chart covers, its corners (a, b) in the box's own
+// frame (the point p + a dpdx' + b dpdy' of the cut footprint: local = shift + E (a, b)),
+// counter-clockwise, the rest of its HULL rows NaN; all NaN where the hull has more corners,
+// the box no area, or the texel is whole.
+void footprint_hull(In<int32_t, nb::ndim<1>> face, In<double, shape<-1, 3>> bary, In<double, shape<-1, 2>> uv,
+                    In<int64_t, shape<-1, 3>> faces, In<int64_t, shape<-1, 3>> across, int64_t width, int64_t height,
+                    In<double, shape<-1, 2>> shift, In<double, shape<-1, 4>> edges, Out<double, shape<-1, HULL, 2>> hull) {
+  const int64_t n = face.shape(0);
+  const Atlas atlas(uv, faces);
+  if (int64_t(bary.shape(0)) != n || int64_t(shift.shape(0)) != n || int64_t(edges.shape(0)) != n ||
+      int64_t(hull.shape(0)) != n || int64_t(across.shape(0)) != atlas.m)
+    throw std::invalid_argument("footprint_hull: face, bary, shift, edges, hull of n rows; across of m");
+  const double w = double(width), h = double(height), nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> corners;
+  double local_hull[2 * HULL];
+  for (int64_t i = 0; i < n; ++i) {
+    double* out = hull.data() + 2 * HULL * i;
+    std::fill(out, out + 2 * HULL, nan);
+    const int64_t f = face.data()[i];
+    if (f < 0) continue;
+    if (f >= atlas.m) throw std::invalid_argument("footprint_hull: a face outside the atlas");
+    const double* b = bary.data() + 3 * i;
+    double pu = 0, pv = 0;
+    for (int c = 0; c < 3; ++c) pu += b[c] * atlas.corner(f, c)[0], pv += b[c] * atlas.corner(f, c)[1];
+    const double col = std::floor(pu * w), row = std::floor((1.0 - pv) * h);
+    auto local = [&](int64_t g, double* tri) {
+      for (int c = 0; c < 3; ++c) {
+        tri[2 * c] = atlas.corner(g, c)[0] * w - (col + 0.5);
+        tri[2 * c + 1] = (1.0 - atlas.corner(g, c)[1]) * h - (row + 0.5);
+      }
+    };
+    corners.clear();
+    const Moments sum = chart_part(atlas, across.data(), f, local, &corners);
+    const double* e = edges.data() + 4 * i;
+    const double det = e[0] * e[3] - e[1] * e[2];
+    if (!(sum.a < 1.0 - 1e-9) || !(sum.a > 1e-12) || !(std::fabs(det) > 1e-12)) continue;
+    const int k = convex_hull(corners, local_hull, HULL);
+    if (k < 3 || k > HULL) continue;
+    const double* sh = shift.data() + 2 * i;
+    for (int c = 0; c < k; ++c) {  // (a, b) = E^-1 (local - shift)
+      const double x = local_hull[2 * c] - sh[0], y = local_hull[2 * c + 1] - sh[1];
+      out[2 * c] = (e[3] * x - e[1] * y) / det;
+      out[2 * c + 1] = (-e[2] * x + e[0] * y) / det;
+    }
+  }
 }
 
 }  // namespace
@@ -496,6 +586,10 @@ void bind_lookup(nb::module_& m) {
         nb::arg("area").noconvert(), Release(),
         "The part of each sample's texel its chart covers, as a box of its mean and covariance: shift (n, 2), edges "
         "(n, 4: columns its edges, texel units), area (n,); returns the number of partly covered samples.");
+  m.def("footprint_hull", &footprint_hull, nb::arg("face"), nb::arg("bary"), nb::arg("uv"), nb::arg("faces"), nb::arg("across"),
+        nb::arg("width"), nb::arg("height"), nb::arg("shift"), nb::arg("edges"), nb::arg("hull").noconvert(), Release(),
+        "hull (n, 8, 2): the convex hull of the part of each (partly covered) sample's texel its chart covers, in the frame "
+        "of footprint_clip's box (shift, edges), NaN-padded; all NaN where it has more corners or the texel is whole.");
 }
 
 }  // namespace texbake

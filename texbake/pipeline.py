@@ -511,7 +511,7 @@ def _bake_tiles(sampler: Sampler, maps: Maps, settings: BakeSettings, timer: Tim
                         made = None  # too large to keep: not held meanwhile either
                     else:
                         made[i] = texels, located
-        s = sampler.at_located(located, timer, cut=settings.filtering and samples == 1)
+        s = sampler.at_located(located, timer, cut=settings.filtering and samples == 1, hull=maps.reads_hull)
         values = maps.values(s, timer)
         texel = texels[s.index // samples]
         refined = 0

@@ -61,6 +61,8 @@ class Maps:
             self.colour_name = next(iter(self.colours))  # the map the error estimate and the GLB use
         if settings.shading != "decal":
             widths["lit"] = 3
+        # the cut footprints' hulls (texbake.sampling.Samples.hull) are made only for a texture that reads them
+        self.reads_hull = settings.filtering and any(spec.reads_hull() for spec in self.colours.values())
         self.settings, self.mapping = settings, mapping
         self.width, self.height, self.samples = width, height, settings.samples
         eight_bit = (settings.bits or DEFAULT_BITS[settings.format]) == 8
@@ -116,7 +118,9 @@ class Maps:
         settings, mapping, octaves = self.settings, self.mapping, self.settings.max_octaves
         with stage("texture" if self.material is None else "material"):
             dpdx, dpdy = (s.dpdx, s.dpdy) if settings.filtering else (None, None)
-            values = {name: mapping.evaluate(spec, s.points, dpdx, dpdy, max_octaves=octaves) for name, spec in self.colours.items()}
+            hull = s.hull if settings.filtering else None
+            values = {name: mapping.evaluate(spec, s.points, dpdx, dpdy, max_octaves=octaves, hull=hull)
+                      for name, spec in self.colours.items()}
             if self.material is not None:
                 values.update(self.material.values(s))
         if settings.shading != "decal":

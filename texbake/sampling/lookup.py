@@ -27,6 +27,8 @@ from .. import _native
 from ..errors import ParameterError
 from ..mesh import uv_dets
 
+HULL = 8  # corners of a cut texel's hull at most (native/lookup.cpp)
+
 
 def sample_offsets(samples: int, seed: int = 0) -> np.ndarray:
     """Stratified sample positions inside one texel.
@@ -199,6 +201,24 @@ class UVLookup:
                                          self._uv, self._faces, self._across, self._border(width, height), width, height,
                                          shift, edges, area)
         return shift, edges.reshape(n, 2, 2), area, int(partial)
+
+    def footprint_hull(self, face: np.ndarray, bary: np.ndarray, width: int, height: int, shift: np.ndarray,
+                       edges: np.ndarray) -> np.ndarray:
+        """``(n, HULL, 2)`` float64: the convex hull of the part of each sample's texel that
+        its chart covers, for samples that :meth:`footprint_clip` found partly covered
+        (``shift``, ``edges``: its rows for them). Corners ``(a, b)`` in the frame of the
+        cut footprint (its point plus ``a dpdx + b dpdy``, as cut), counter-clockwise,
+        NaN after the last; a row all NaN where the hull has more than ``HULL`` corners
+        (``native/lookup.cpp`` ``footprint_hull``). A filter that bounds its footprint by
+        these corners averages nothing across the chart's border, where the box of the
+        same centre and covariance reaches over it (a border slanting across the texel).
+        """
+        out = np.empty((len(face), HULL, 2))
+        _native.footprint_hull(np.ascontiguousarray(face, dtype=np.int32), np.ascontiguousarray(bary, dtype=np.float64),
+                               self._uv, self._faces, self._across, width, height,
+                               np.ascontiguousarray(shift, dtype=np.float64), np.ascontiguousarray(edges, dtype=np.float64).reshape(-1, 4),
+                               out)
+        return out
 
     def barycentric(self, uv: np.ndarray, face: np.ndarray) -> np.ndarray:
         """``(n, 3)`` float64 barycentric coordinates of UV points in their faces.

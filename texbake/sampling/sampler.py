@@ -33,7 +33,10 @@ class Samples:
     output mesh, or None when the sampler was made without one; ``coverage``: ``(n,)``
     float64 share of each sample's texel that its chart covers, where the footprints were
     cut to it (:meth:`Sampler.at_located`), else None; ``texel``: ``(n,)`` int64 the image
-    texel (row-major) under each sample (what a material's ``mesh_map`` node reads).
+    texel (row-major) under each sample (what a material's ``mesh_map`` node reads);
+    ``hull``: where footprints were cut, ``(rows (k,) int64, corners (k, HULL, 2))`` of the
+    partly covered samples: the convex hull of the covered part of each one's texel in its
+    cut footprint's frame (:meth:`UVLookup.footprint_hull`), else None.
     """
 
     index: np.ndarray
@@ -46,6 +49,7 @@ class Samples:
     frame: np.ndarray | None = None
     coverage: np.ndarray | None = None
     texel: np.ndarray | None = None
+    hull: tuple[np.ndarray, np.ndarray] | None = None
 
 
 @dataclass
@@ -122,20 +126,22 @@ class Sampler:
             located = self.locate(uvs, samples)
         return self.at_located(located, timer)
 
-    def at_located(self, located: Located, timer=None, cut: bool = False) -> Samples:
+    def at_located(self, located: Located, timer=None, cut: bool = False, hull: bool = False) -> Samples:
         """Surface samples (and, with a source, transferred ones) where ``located`` says.
 
         ``cut`` (one sample a texel, with footprints): each footprint is the part of its
         texel that its chart covers (:meth:`UVLookup.footprint_clip`: the point moves to
         that part's centre, ``dpdx``, ``dpdy`` shrink to its extent), so that a filter at
-        a chart's edge averages only where the surface is.
+        a chart's edge averages only where the surface is; ``hull``: and the partly
+        covered ones' hulls (``Samples.hull``), for a texture that reads them.
         """
         stage = timer.stage if timer is not None else (lambda name: nullcontext())
         index, rays = located.index, located.rays
         with stage("surface"):
             s = self.surface.samples(located.face, located.bary, self.footprints)
-            coverage = self._cut(located, s) if cut and s.dpdx is not None else None
-        found = Samples(index, s.points, s.normals, s.dpdx, s.dpdy, rays=rays, frame=s.frame, coverage=coverage, texel=located.texel)
+            coverage, hulls = self._cut(located, s, hull) if cut and s.dpdx is not None else (None, None)
+        found = Samples(index, s.points, s.normals, s.dpdx, s.dpdy, rays=rays, frame=s.frame, coverage=coverage, texel=located.texel,
+                        hull=hulls)
         if self.caster is None:
             return found
         with stage("transfer"):
@@ -145,16 +151,29 @@ class Sampler:
                            None if s.dpdy is None else s.dpdy[hit], rays=rays,
                            transfer_missed=int((~hit).sum()), frame=None if s.frame is None else s.frame[hit],
                            coverage=None if coverage is None else coverage[hit],
-                           texel=None if located.texel is None else located.texel[hit])
+                           texel=None if located.texel is None else located.texel[hit], hull=_kept_rows(hulls, hit))
 
-    def _cut(self, located: Located, s) -> np.ndarray:
+    def _cut(self, located: Located, s, hull: bool) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
         """Cut the footprints of ``s`` (surface samples of ``located``, one a texel) to the
-        part of each texel its chart covers, in place; returns ``(n,)`` the covered shares."""
+        part of each texel its chart covers, in place; returns ``(n,)`` the covered shares
+        and, if ``hull``, the partly covered samples' hulls (``Samples.hull``; else None)."""
         shift, edges, area, partial = self.lookup.footprint_clip(located.face, located.bary, self.width, self.height)
-        if partial:
-            part = np.flatnonzero(area < 1.0)
-            dx, dy, e, d = s.dpdx[part], s.dpdy[part], edges[part], shift[part]
-            s.points[part] += d[:, :1] * dx + d[:, 1:] * dy
-            s.dpdx[part] = e[:, 0, :1] * dx + e[:, 1, :1] * dy
-            s.dpdy[part] = e[:, 0, 1:] * dx + e[:, 1, 1:] * dy
-        return area
+        if not partial:
+            return area, None
+        part = np.flatnonzero(area < 1.0)
+        dx, dy, e, d = s.dpdx[part], s.dpdy[part], edges[part], shift[part]
+        s.points[part] += d[:, :1] * dx + d[:, 1:] * dy
+        s.dpdx[part] = e[:, 0, :1] * dx + e[:, 1, :1] * dy
+        s.dpdy[part] = e[:, 0, 1:] * dx + e[:, 1, 1:] * dy
+        if not hull:
+            return area, None
+        return area, (part, self.lookup.footprint_hull(located.face[part], located.bary[part], self.width, self.height, d, e))
+
+
+def _kept_rows(hull: tuple[np.ndarray, np.ndarray] | None, kept: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """``hull`` (``Samples.hull``) of the samples ``kept`` ``(n,)`` bool leaves, its rows renumbered."""
+    if hull is None:
+        return None
+    rows, corners = hull
+    stays = kept[rows]
+    return (np.cumsum(kept)[rows[stays]] - 1, corners[stays])

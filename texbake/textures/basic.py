@@ -40,6 +40,7 @@ def checker_parity(
     dpdx: np.ndarray | None = None,
     dpdy: np.ndarray | None = None,
     clip: np.ndarray | None = None,
+    hull: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """Mean of the signed checker ``(-1) ** (floor(x/Cx) + floor(y/Cy) + floor(z/Cz))``.
 
@@ -55,8 +56,12 @@ def checker_parity(
     (an axis whose point lies outside ``clip`` is not cut), and a point on a cell plane
     counts as on the side towards the box's centre, so that a face lying on the box's max
     face shows the cell inside the object, as a face on its min face does (without
-    ``clip``: the side above). Returns ``(n,)`` float64 in ``[-1, 1]``: +1 for the even
-    cells.
+    ``clip``: the side above). ``hull`` (``EvalContext.hull``): for footprints cut to the
+    part of a texel a chart covers, the corners of that part's convex hull in footprint
+    coordinates; those boxes are also cut to the hull's own box, so that where a chart's
+    border slants across a texel along a cell plane, nothing is averaged from the far side
+    (the footprint's box of the same centre and covariance reaches over it). Returns
+    ``(n,)`` float64 in ``[-1, 1]``: +1 for the even cells.
     """
     t = points / box
     c = None if clip is None else np.asarray(clip, dtype=np.float64) / box
@@ -71,6 +76,16 @@ def checker_parity(
         slack = 1e-9 * np.maximum(1.0, np.abs(c))
         inside = (t >= c[0] - slack[0]) & (t <= c[1] + slack[1])  # (n, 3): cut only where the point is inside
         lo, hi = np.where(inside, c[0], -np.inf), np.where(inside, c[1], np.inf)
+    if hull is not None and len(hull[0]):
+        rows, corners = hull
+        at = t[rows, None, :] + corners[:, :, :1] * ex[rows, None, :] + corners[:, :, 1:] * ey[rows, None, :]  # (k, H, 3)
+        some = np.isfinite(at).any(axis=(1, 2))  # a row of NaN: no hull
+        rows, at = rows[some], at[some]
+        h_lo, h_hi = np.nanmin(at, axis=1), np.nanmax(at, axis=1)
+        slack = 1e-9 * np.maximum(1.0, np.abs(t[rows]))
+        inside = (t[rows] >= h_lo - slack) & (t[rows] <= h_hi + slack)
+        lo[rows] = np.where(inside, np.maximum(lo[rows], h_lo), lo[rows])
+        hi[rows] = np.where(inside, np.minimum(hi[rows], h_hi), hi[rows])
     out = np.empty(len(t))
     # each point's mean over SPLIT x SPLIT pieces of its footprint, each over its box cut to
     # [lo, hi]; an axis with no width (or cut to nothing) is point-sampled (native/textures.cpp)
@@ -84,10 +99,10 @@ def checker_parity(
 SPLIT = 4
 
 
-def checker(points, box, color_even, color_odd, dpdx=None, dpdy=None, clip=None) -> np.ndarray:
+def checker(points, box, color_even, color_odd, dpdx=None, dpdy=None, clip=None, hull=None) -> np.ndarray:
     """Checkerboard colours ``(n, c)``: ``color_even`` on even cells, ``color_odd`` on odd
-    (``clip``: see :func:`checker_parity`)."""
-    s = checker_parity(points, np.asarray(box, dtype=np.float64), dpdx, dpdy, clip)
+    (``clip``, ``hull``: see :func:`checker_parity`)."""
+    s = checker_parity(points, np.asarray(box, dtype=np.float64), dpdx, dpdy, clip, hull)
     w = (0.5 * (1.0 + s))[:, None]
     even = np.asarray(color_even, dtype=np.float64)
     odd = np.asarray(color_odd, dtype=np.float64)

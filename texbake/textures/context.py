@@ -17,13 +17,18 @@ class EvalContext:
     ``dpdx``, ``dpdy``: ``(n, 3)`` float texture-space change of the point over one texel
     in x and in y, or None to point-sample. ``bounds``: ``(2, 3)`` float bounding box of
     the mesh in the bake's texture space (``position`` normalises to it). ``max_octaves``:
-    cap on the octaves of noise-based textures (None: the spec's own count).
+    cap on the octaves of noise-based textures (None: the spec's own count). ``hull``:
+    ``(rows (k,) int64, corners (k, H, 2) float)`` for footprints cut at a chart's border
+    (``texbake.sampling.Samples.hull``): the corners ``(a, b)`` of the convex hull of the
+    surface inside each such texel, the point ``p + a dpdx + b dpdy``, NaN-padded (a row all
+    NaN: none), or None; a filter may bound its footprint by it (the checker does).
     """
 
     dpdx: np.ndarray | None = None
     dpdy: np.ndarray | None = None
     bounds: np.ndarray | None = None
     max_octaves: int | None = None
+    hull: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def width(self) -> np.ndarray | None:

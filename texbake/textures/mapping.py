@@ -44,17 +44,19 @@ class TextureMapping:
         return (_affine(points, self.origin, self.scale), *scaled)
 
     def evaluate(self, spec, points: np.ndarray, dpdx: np.ndarray | None, dpdy: np.ndarray | None, *,
-                 max_octaves: int | None = None, exact: bool = False) -> np.ndarray:
+                 max_octaves: int | None = None, exact: bool = False, hull=None) -> np.ndarray:
         """``(n, channels)`` float64 values of ``spec`` at ``(n, 3)`` float64 object-space points.
 
         ``dpdx``, ``dpdy``: ``(n, 3)`` float64 footprints, or None to point-sample.
         ``exact``: in float64 whatever the bake's precision (the error probe's reference).
+        ``hull``: the cut footprints' hulls (``EvalContext.hull``: footprint coordinates,
+        unchanged by the affine steps), or None.
         """
         q, dqdx, dqdy = self.to_space(points, dpdx, dpdy)
-        return self.evaluate_in_space(spec, q, dqdx, dqdy, max_octaves=max_octaves, exact=exact)
+        return self.evaluate_in_space(spec, q, dqdx, dqdy, max_octaves=max_octaves, exact=exact, hull=hull)
 
     def evaluate_in_space(self, spec, q: np.ndarray, dqdx: np.ndarray | None = None, dqdy: np.ndarray | None = None, *,
-                          max_octaves: int | None = None, exact: bool = False) -> np.ndarray:
+                          max_octaves: int | None = None, exact: bool = False, hull=None) -> np.ndarray:
         """:meth:`evaluate` at ``(n, 3)`` float64 points ``q`` (and footprints) already in
         the bake's texture space, as the bump's offset points are: rounded to the bake's
         precision, then through the spec's placement."""
@@ -62,17 +64,17 @@ class TextureMapping:
             q = q.astype(np.float32).astype(np.float64)
             if dqdx is not None and dqdy is not None:
                 dqdx, dqdy = dqdx.astype(np.float32).astype(np.float64), dqdy.astype(np.float32).astype(np.float64)
-        return place_and_evaluate(spec, q, dqdx, dqdy, bounds=self.bounds, max_octaves=max_octaves)
+        return place_and_evaluate(spec, q, dqdx, dqdy, bounds=self.bounds, max_octaves=max_octaves, hull=hull)
 
 
 def place_and_evaluate(spec, points: np.ndarray, dpdx: np.ndarray | None, dpdy: np.ndarray | None, *,
-                       bounds: np.ndarray | None = None, max_octaves: int | None = None) -> np.ndarray:
+                       bounds: np.ndarray | None = None, max_octaves: int | None = None, hull=None) -> np.ndarray:
     """``(n, channels)`` float64 values of the texture ``spec`` (a spec object) at
     ``(n, 3)`` float64 points: the points and their ``(n, 3)`` footprints (None: point
     sampling) through the spec's placement into its own space, where it evaluates itself
-    with an :class:`EvalContext` of ``bounds`` ``(2, 3)`` and ``max_octaves``."""
+    with an :class:`EvalContext` of ``bounds`` ``(2, 3)``, ``max_octaves`` and ``hull``."""
     q, dqdx, dqdy = spec.placement()(points, dpdx, dpdy)
-    return spec(q, EvalContext(dqdx, dqdy, bounds, max_octaves))
+    return spec(q, EvalContext(dqdx, dqdy, bounds, max_octaves, hull if dqdx is not None else None))
 
 
 def _affine(points: np.ndarray, origin: np.ndarray, scale: float) -> np.ndarray:

@@ -89,6 +89,10 @@ class _Texture(BaseModel):
         """``(n, channels)`` float64 linear values at ``(n, 3)`` texture-space points."""
         raise NotImplementedError
 
+    def reads_hull(self) -> bool:
+        """Whether :meth:`evaluate` reads ``ctx.hull`` (a bake makes it only then)."""
+        return False
+
     def placed_bounds(self, ctx: EvalContext) -> np.ndarray | None:
         """``(2, 3)`` box in this texture's space that holds the object: its bounding box
         (``ctx.bounds``) through the placement, boxed again; None without bounds."""
@@ -152,7 +156,10 @@ class Checker(_Texture):
         from .basic import checker
 
         dpdx, dpdy = (ctx.dpdx, ctx.dpdy) if self.filtered else (None, None)
-        return checker(points, self.box, self.color_even, self.color_odd, dpdx, dpdy, self.placed_bounds(ctx))
+        return checker(points, self.box, self.color_even, self.color_odd, dpdx, dpdy, self.placed_bounds(ctx), ctx.hull)
+
+    def reads_hull(self) -> bool:
+        return self.filtered
 
 
 def _check_knots(knots, values) -> None:

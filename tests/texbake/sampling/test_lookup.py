@@ -229,10 +229,13 @@ def test_no_speckles_on_checker_bakes(meshes, name):
         at = np.searchsorted(charted, first[twin.ravel()][face])
         lookup = UVLookup(m.uv, m.faces[charted])
         uv = np.einsum("pi,pij->pj", bary, m.uv[m.faces[face]])
-        shift, edges, _, _ = lookup.footprint_clip(at, lookup.barycentric(uv, at), size, size)
+        inside = lookup.barycentric(uv, at)
+        shift, edges, area, _ = lookup.footprint_clip(at, inside, size, size)
         points = points + shift[:, :1] * dpdx + shift[:, 1:] * dpdy
         dpdx, dpdy = edges[:, 0, :1] * dpdx + edges[:, 1, :1] * dpdy, edges[:, 0, 1:] * dpdx + edges[:, 1, 1:] * dpdy
-    expect = mapping.evaluate(result.settings.texture, points, dpdx, dpdy, exact=True)
+        part = np.flatnonzero(area < 1)  # and the covered part's hull bounds the filter (EvalContext.hull)
+        hull = (part, lookup.footprint_hull(at[part], inside[part], size, size, shift[part], edges[part]))
+    expect = mapping.evaluate(result.settings.texture, points, dpdx, dpdy, exact=True, hull=hull if filtering else None)
     got = result.images["albedo"].reshape(-1, 3)[texel]
     right = np.zeros(size * size, bool)
     np.logical_or.at(right, texel, np.abs(got - expect).max(axis=1) < 1e-5)
@@ -253,6 +256,35 @@ def test_a_texel_cut_by_a_straight_chart_edge_is_the_covered_rectangle():
     assert partial == 1 and area.tolist() == pytest.approx([0.6, 1.0])
     assert shift[0].tolist() == pytest.approx([-0.2, 0.0]) and edges[0].ravel().tolist() == pytest.approx([0.6, 0, 0, 1])
     assert shift[1].tolist() == [0, 0] and edges[1].tolist() == [[1, 0], [0, 1]]  # a whole texel: as it was
+
+
+def test_the_hull_of_a_texel_cut_by_a_straight_chart_edge_is_the_boxs_own_square():
+    # the texel above, 0.6 covered: the box is that rectangle, so the hull in its frame is [-1/2, 1/2]^2
+    lookup = UVLookup(np.array([[0, 0], [0.65, 0], [0.65, 1], [0, 1]], float), np.array([[0, 1, 2], [0, 2, 3]]))
+    face, bary, _ = lookup.locate(np.array([[2.5 / 4, 1 - 1.5 / 4]]))
+    shift, edges, area, _ = lookup.footprint_clip(face, bary, 4, 4)
+    hull = lookup.footprint_hull(face, bary, 4, 4, shift, edges)
+    assert hull.shape == (1, 8, 2) and np.isnan(hull[0, 4:]).all()
+    assert sorted(map(tuple, np.round(hull[0, :4], 12).tolist())) == [(-0.5, -0.5), (-0.5, 0.5), (0.5, -0.5), (0.5, 0.5)]
+
+
+def test_the_hull_of_a_slanted_cut_is_the_covered_part():
+    # one triangle whose hypotenuse slants across texel (row 1, column 0) of a 4 x 4 image: the covered
+    # part is convex, so its hull, taken back to texel-local coordinates, has its area and
+    # lies in the texel and on the triangle
+    uv = np.array([[0.0, 0.0], [0.6, 0.0], [0.0, 1.0]])  # v up; the hypotenuse u / 0.6 + v = 1
+    lookup = UVLookup(uv, np.array([[0, 1, 2]]))
+    face, bary, _ = lookup.locate(np.array([[0.5 / 4, 1 - 1.5 / 4]]))
+    shift, edges, area, partial = lookup.footprint_clip(face, bary, 4, 4)
+    assert partial == 1 and 0 < area[0] < 1
+    hull = lookup.footprint_hull(face, bary, 4, 4, shift, edges)[0]
+    corners = hull[~np.isnan(hull[:, 0])]
+    local = shift[0] + corners @ edges[0].T  # local = shift + E (a, b)
+    x, y = local[:, 0], local[:, 1]
+    assert 0.5 * np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) == pytest.approx(area[0], abs=1e-12)  # counter-clockwise
+    assert (np.abs(local) <= 0.5 + 1e-12).all()
+    u, v = (0.5 + x) / 4, 1 - (1 + 0.5 + y) / 4
+    assert (u / 0.6 + v <= 1 + 1e-12).all()
 
 
 def test_the_cut_matches_the_covered_parts_mean_and_covariance():
