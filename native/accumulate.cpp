@@ -1,7 +1,10 @@
 // Maps (texbake/maps/accumulate.py): each texel's samples, contiguous, averaged in order.
+#include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 #include "arrays.hpp"
+#include "parallel.hpp"
 
 namespace texbake {
 namespace {
@@ -48,9 +51,44 @@ void run_means(In<double, shape<-1, 3>> v, In<int64_t, nb::ndim<1>> count, Out<d
   }
 }
 
+// out (r, w): rows [top, top + r) of image's (h, w, c) contrast: each covered texel's largest
+// difference, over the channels, from a covered texel left, right, above or below (0 for
+// an uncovered one); the rows above and below the band are read, not written
+void contrast(In<float, nb::ndim<3>> image, In<bool, nb::ndim<2>> covered, int64_t top, Out<float, nb::ndim<2>> out) {
+  const int64_t h = image.shape(0), w = image.shape(1), c = image.shape(2), r = out.shape(0);
+  if (int64_t(covered.shape(0)) != h || int64_t(covered.shape(1)) != w || int64_t(out.shape(1)) != w || top < 0 || top + r > h)
+    throw std::invalid_argument("contrast: covered (h, w), out (r, w) rows from top inside the image");
+  const float* img = image.data();
+  const bool* cov = covered.data();
+  float* dst = out.data();
+  parallel_for(r, [&](std::ptrdiff_t i0, std::ptrdiff_t i1) {
+    for (std::ptrdiff_t i = i0; i < i1; ++i) {
+      const int64_t y = top + i;
+      for (int64_t x = 0; x < w; ++x) {
+        const int64_t at = y * w + x;
+        float most = 0.0f;
+        if (cov[at]) {
+          auto against = [&](int64_t other) {
+            if (!cov[other]) return;
+            for (int64_t k = 0; k < c; ++k) most = std::max(most, std::fabs(img[at * c + k] - img[other * c + k]));
+          };
+          if (x > 0) against(at - 1);
+          if (x + 1 < w) against(at + 1);
+          if (y > 0) against(at - w);
+          if (y + 1 < h) against(at + w);
+        }
+        dst[i * w + x] = most;
+      }
+    }
+  });
+}
+
 }  // namespace
 
 void bind_accumulate(nb::module_& m) {
+  m.def("contrast", &contrast, nb::arg("image"), nb::arg("covered"), nb::arg("top"), nb::arg("out").noconvert(), Release(),
+        "out (r, w) float32: rows from top of image (h, w, c) float32's contrast: each covered texel's largest difference "
+        "over the channels from a covered 4-neighbour (0 where uncovered).");
   m.def("runs", &runs, nb::arg("texel"), nb::arg("where").noconvert(), nb::arg("count").noconvert(), Release(),
         "The runs of equal values of a non-decreasing texel (n,): their texels in where, lengths in count; returns how many.");
   m.def("run_means", &run_means, nb::arg("v"), nb::arg("count"), nb::arg("out").noconvert(), Release(),

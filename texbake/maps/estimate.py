@@ -7,9 +7,12 @@ covers. That is what a converged supersampled bake gives, and what ``texbake.che
 measures against.
 
 One method for every setting, the ``probe``: covered texels (all of them in images of up
-to ``4 * PROBE_TEXELS`` covered texels, else ``PROBE_TEXELS`` drawn in two seeded strata,
+to ``4 * PROBE_TEXELS`` covered texels, else ``PROBE_TEXELS`` drawn in four seeded strata:
 up to half on chart edges, where partly covered texels carry most of the error, the rest
-inside the charts) are evaluated again with a jittered point grid (:func:`probe_grid`:
+inside the charts, and each of those two split into its sharp texels, the fifth whose
+colour changes most from a neighbour's (:func:`contrast`: a filtered bake's error sits on
+cell and ring borders, and a texel far off stands out), and the others, the half shared
+between them by their summed contrast) are evaluated again with a jittered point grid (:func:`probe_grid`:
 4 x 4 for one sample a texel, twice the bake's grid for more, at most 16 x 16; on chart
 edges of a several-sample bake twice that again), point-sampled, float64, every octave:
 a small local reference. Per texel, the squared difference from the bake less the
@@ -35,9 +38,24 @@ therefore probed in rounds, a quarter, a half, then all, until the MSE's standar
 at most ``PROBE_PRECISION`` (0.2) of it. Marble and turbulence, whose error is spread
 over the texels, stop after 1,000-1,800 texels (bench_batch's 50 meshes, marble 512^2: 124 -> 38 ms
 a mesh); checker and wood, whose error sits on cell and ring borders, go on to all
-4096. An error on far fewer texels than the first round holds (under about 1 in 1,000
-of the covered texels at the default) may be missed by it, and the estimate then reads
-low; the rounds do not change an image small enough to be probed whole.
+4096. An error on far fewer texels than the first round holds may be missed by it, and
+the estimate then reads low, less often where those texels are sharp (the sharp strata
+hold a fifth of the texels and get three sevenths of the draw); the rounds do not change
+an image small enough to be probed whole.
+
+Why the sharp strata (``texbake.checks.sweep`` against 256 point samples, 512², one
+filtered sample, twelve seeds, estimate / RMSE before and after): gear_cad.stl's checker
+0.40-1.36, four under 0.5, and 0.62-1.29; Suzanne's checker 0.46-1.48 (three under 0.5)
+and 0.48-1.17 (one); featuretype.STL's marble 0.12-1.41 (seven) and 0.13-1.48 (three: its
+error sits on texels two faces share without a padding, and a first round that misses
+them stops); bunny.ply's wood 0.45-1.03 (two) and 0.45-1.21 (one); Suzanne's marble
+0.58-0.83 and 0.58-0.93, as many texels probed. Sharp texels drawn in proportion to
+their summed contrast instead (the checker's plain ones then hardly at all) spread
+Suzanne's checker to 0.34-1.97; shares that followed the errors a first round saw
+(Neyman's) read bunny's wood at 0.51-0.82, every seed low, a stratum whose first round
+missed its few large errors then getting few more texels. The shares are therefore fixed
+before any texel is probed. The strata's contrast costs 0.2 s at 4096² (compiled), none
+to see at 512².
 """
 
 from __future__ import annotations
@@ -117,13 +135,64 @@ def chart_edges(covered: np.ndarray, rows: slice | None = None) -> np.ndarray:
     return covered[r0:r1] & ~inner
 
 
-def _strata(covered: np.ndarray, band: int):
-    """Per band of ``band`` rows: ``(r0, r1, masks (edge, inside))``, lazily (the masks of a
-    16384² image are not held at once)."""
+def contrast(image: np.ndarray, covered: np.ndarray, rows: slice | None = None) -> np.ndarray:
+    """``(h, w)`` float32 (or the ``rows`` of it): each covered texel's largest difference, over
+    the channels, from a covered texel beside it (left, right, above or below); 0 elsewhere.
+    Where a filtered bake's error is, its image changes fast (cell and ring borders).
+    Compiled (``native/accumulate.cpp``): numpy's reductions over three channels took 2 s
+    at 4096²; an image of another dtype (float16) is read a band at a time as float32."""
+    from .. import _native
+
+    h, w = covered.shape
+    r0, r1 = (0, h) if rows is None else (rows.start, min(h, rows.stop))
+    lo, hi = max(0, r0 - 1), min(h, r1 + 1)
+    band = np.ascontiguousarray(image[lo:hi], dtype=np.float32)
+    out = np.empty((r1 - r0, w), dtype=np.float32)
+    _native.contrast(band.reshape(hi - lo, w, -1), np.ascontiguousarray(covered[lo:hi]), r0 - lo, out)
+    return out
+
+
+def _bands(covered: np.ndarray, band: int, image: np.ndarray | None = None):
+    """Per band of ``band`` rows, lazily: ``(r0, r1, edge, inside, contrast)`` (the contrast
+    :func:`contrast`'s with ``image``, else None)."""
     for r0 in range(0, covered.shape[0], band):
         edge = chart_edges(covered, slice(r0, r0 + band))
         r1 = r0 + len(edge)
-        yield r0, r1, (edge, covered[r0:r1] & ~edge)
+        yield r0, r1, edge, covered[r0:r1] & ~edge, None if image is None else contrast(image, covered, slice(r0, r1))
+
+
+def _strata(bands, cuts: tuple[float, float] | None = None):
+    """Per band of :func:`_bands` (lazily: the masks of a 16384² image are not held at once):
+    ``(r0, r1, masks)``, masks ``(edge, inside)``, or, with ``cuts`` (the contrasts above
+    which an edge texel and an inside texel count as sharp), ``(sharp edge, edge, sharp
+    inside, inside)`` (:data:`STRATA`)."""
+    for r0, r1, edge, inside, c in bands:
+        if c is None or cuts is None:
+            yield r0, r1, (edge, inside)
+            continue
+        sharp_edge, sharp_inside = edge & (c > cuts[0]), inside & (c > cuts[1])
+        yield r0, r1, (sharp_edge, edge & ~sharp_edge, sharp_inside, inside & ~sharp_inside)
+
+
+def _cuts(bands, step: int) -> tuple[float, float]:
+    """The contrasts above which the sharpest ``SHARP`` of the edge texels and of the inside
+    texels of :func:`_bands` lie, from every ``step``-th of them (in row-major order: the
+    same whatever the bands)."""
+    edges: list[np.ndarray] = []
+    insides: list[np.ndarray] = []
+    seen = [0, 0]
+    for _, _, edge, inside, c in bands:
+        for k, (mask, into) in enumerate(((edge, edges), (inside, insides))):
+            values = c[mask]
+            into.append(values[(-seen[k]) % step :: step])
+            seen[k] += len(values)
+    return (_top(edges), _top(insides))
+
+
+def _top(values: list[np.ndarray]) -> float:
+    """The value above which the largest ``SHARP`` of ``values`` lie (0 for none)."""
+    v = np.concatenate(values)
+    return float(np.quantile(v, 1.0 - SHARP)) if len(v) else 0.0
 
 
 def _pick(strata, width: int, stratum: int, ranks: np.ndarray) -> np.ndarray:
@@ -138,6 +207,11 @@ def _pick(strata, width: int, stratum: int, ranks: np.ndarray) -> np.ndarray:
     return np.concatenate(out) if out else np.zeros(0, dtype=np.int64)
 
 
+# The strata of drawn texels: chart edges and inside, each split by the bake's own contrast
+# (texels beside a sharp change: a filtered bake's error sits on cell and ring borders).
+STRATA = ("sharp edge", "edge", "sharp inside", "inside")
+SHARP = 0.2  # the share of the edge texels, and of the inside ones, counted sharp
+SHARP_WEIGHT = 3.0  # a sharp texel is drawn this many times as often as a plain one of its half
 BAND = 1024  # rows of the coverage looked at a time
 HELD = 1 << 24  # texels up to which the strata's masks are made once and held (32 MB), not again per stratum
 
@@ -157,9 +231,12 @@ def probe_estimate(
 
     ``reference_at(uv)`` takes ``(n, 2)`` UV points and returns ``(hit (n,) bool,
     values (hit.sum(), c))``: the point-sampled, float64, every-octave texture there.
-    Texels are drawn in two strata (seeded), chart-edge texels (:func:`chart_edges`; up
-    to half of ``texels``) and the others (every covered texel when there are at most
-    ``4 * texels``), and each probed with a jittered point grid, ``grid x grid`` inside
+    Texels are drawn in the four strata of :data:`STRATA` (seeded): chart-edge texels
+    (:func:`chart_edges`; up to half of ``texels``) and the others, each split into its
+    sharpest ``SHARP`` by :func:`contrast` and the rest, a sharp texel ``SHARP_WEIGHT``
+    times as likely to be drawn (:func:`_allotted`); every covered texel, in two strata
+    (edge, inside), when there are at most ``4 * texels``. Each is probed with a jittered
+    point grid, ``grid x grid`` inside
     the charts and ``edge_grid x edge_grid`` (default ``grid``) on their edges, where
     partly covered texels make the probe's own noise hard to tell. Per probed texel,
     ``e = d^2 - n^2``: its squared difference from the bake less the probe's own noise
@@ -176,32 +253,45 @@ def probe_estimate(
     """
     height, width = covered.shape
     rng = np.random.default_rng([seed, 0x9E37])  # not the bake's own jitter
-    held = list(_strata(covered, BAND)) if covered.size <= HELD else None
-    strata = (lambda: held) if held is not None else (lambda: _strata(covered, BAND))
-    sizes = [0, 0]  # texels in each stratum, counted band by band
-    for *_, masks in strata():
-        sizes = [n + int(m.sum()) for n, m in zip(sizes, masks, strict=True)]
-    total = sum(sizes)
+    total = int(np.count_nonzero(covered))
     if total == 0:
         return {"method": "probe", "how": HOW["probe"], "rmse": 0.0, "rmse_interval": [0.0, 0.0], "texels": 0,
                 "probe_grid": [grid, edge_grid or grid], "probe_rmse": 0.0, "probe_noise": 0.0}
-    rounds: tuple[float, ...] = PROBE_ROUNDS if precision > 0 else (1.0,)
-    if total <= 4 * texels:  # a small image: probe every texel (no sampling error)
-        texels, rounds = total, (1.0,)
-    take_edge = min(sizes[0], texels // 2) if texels < total else sizes[0]
-    counts = [take_edge, min(sizes[1], texels - take_edge)]
-    sides = (edge_grid or grid, grid)
-    picks: list[np.ndarray | None] = [None, None]  # per stratum: its drawn texels, in the order they are probed
-    done = [0, 0]
-    found: list[list[tuple[np.ndarray, np.ndarray]]] = [[], []]  # per stratum: (d2, n2) of each round's texels
+    whole = total <= 4 * texels  # a small image: probe every texel (no sampling error), in one round
+    bands = lambda: _bands(covered, BAND, None if whole else image)
+    step = max(1, total >> 20)  # the contrasts' cuts from at most about 2^20 of them
+    if covered.size <= HELD:  # made once and held
+        kept = list(bands())
+        cuts = None if whole else _cuts(kept, step)
+        held = list(_strata(kept, cuts))
+        del kept
+        strata = lambda: held
+    else:
+        cuts = None if whole else _cuts(bands(), step)
+        strata = lambda: _strata(bands(), cuts)
+    sizes = [0] * (2 if whole else len(STRATA))  # texels in each stratum, counted band by band
+    for *_, masks in strata():
+        sizes = [n + int(m.sum()) for n, m in zip(sizes, masks, strict=True)]
+    edgy = [True, False] if whole else [True, True, False, False]
+    sides = [edge_grid or grid if e else grid for e in edgy]
+    if whole:
+        rounds: tuple[float, ...] = (1.0,)
+        budget = total
+    else:
+        rounds = PROBE_ROUNDS if precision > 0 else (1.0,)
+        budget = texels
+    counts = sizes if whole else _allotted(budget, sizes)
+    n = len(sizes)
+    picks: list[np.ndarray | None] = [None] * n  # per stratum: its drawn texels, in the order they are probed
+    done = [0] * n
+    found: list[list[tuple[np.ndarray, np.ndarray]]] = [[] for _ in range(n)]  # per stratum: (d2, n2) of each round's texels
     for share in rounds:
-        for k, (size, m) in enumerate(zip(sizes, counts, strict=True)):
+        for k, (m, upto) in enumerate(zip(counts, _shares(share, counts), strict=True)):
             if m == 0:
                 continue
             if picks[k] is None:  # drawn in the first round (the random stream as one round draws it)
-                drawn = _pick(strata, width, k, np.sort(rng.choice(size, size=m, replace=False)))
+                drawn = _pick(strata, width, k, np.sort(rng.choice(sizes[k], size=m, replace=False)))
                 picks[k] = drawn if len(rounds) == 1 else drawn[rng.permutation(m)]
-            upto = int(np.ceil(share * m))
             if upto > done[k]:
                 pick = cast(np.ndarray, picks[k])
                 found[k].append(_probe_texels(reference_at, image, pick[done[k]:upto], sides[k], int(rng.integers(2**31))))
@@ -243,6 +333,39 @@ def _pooled(found, sizes: list[int], total: int) -> dict:
         if len(e) > 1:  # no finite-population correction: each e also carries the probe's own noise
             var += weight**2 * float(e.var(ddof=1)) / len(e)
     return {"mse": mse, "se": float(np.sqrt(var)), "d2": d2_all, "n2": n2_all, "probed": probed}
+
+
+def _allotted(budget: int, sizes: list[int]) -> list[int]:
+    """How many of ``budget`` drawn texels each stratum (:data:`STRATA`) gets: chart edges up
+    to half, the rest inside (as many as there are), and in each half a sharp texel
+    ``SHARP_WEIGHT`` times as likely to be drawn as a plain one. Fixed before any texel is
+    probed, so that the stratified mean stays unbiased (an allocation that follows the
+    errors a first round saw read bunny.ply's filtered wood at 0.51-0.82 of its RMSE,
+    twelve seeds, every one low)."""
+    edge = min(sizes[0] + sizes[1], budget // 2)
+    halves = [edge, min(sizes[2] + sizes[3], budget - edge)]
+    halves[0] = min(sizes[0] + sizes[1], budget - halves[1])  # inside short of texels: edges take the rest
+    out = []
+    for (a, b), half in zip(((0, 1), (2, 3)), halves, strict=True):
+        weight = SHARP_WEIGHT * sizes[a] + sizes[b]
+        share = SHARP_WEIGHT * sizes[a] / weight if weight > 0 else 0.0
+        take_a = min(sizes[a], int(round(share * half)))
+        take_b = min(sizes[b], half - take_a)
+        take_a = min(sizes[a], half - take_b)  # what b could not take
+        out += [take_a, take_b]
+    return out
+
+
+def _shares(share: float, counts: list[int]) -> list[int]:
+    """Each stratum's texels probed by the round that reaches ``share`` of its ``counts``:
+    ``share`` of each, rounded so that they add up to ``share`` of them all, rounded up
+    (the largest remainders rounded up first)."""
+    want = np.array(counts, dtype=float) * share
+    out = np.floor(want).astype(int)
+    extra = int(np.ceil(share * sum(counts) - 1e-9)) - int(out.sum())
+    for k in np.argsort(-(want - out), kind="stable")[:max(extra, 0)]:
+        out[k] += 1
+    return [min(int(o), c) for o, c in zip(out, counts, strict=True)]
 
 
 def _probe_texels(reference_at, image: np.ndarray, pick: np.ndarray, side: int, seed: int):
