@@ -11,8 +11,8 @@ to ``4 * PROBE_TEXELS`` covered texels, else ``PROBE_TEXELS`` drawn in four seed
 up to half on chart edges, where partly covered texels carry most of the error, the rest
 inside the charts, and each of those two split into its sharp texels, the fifth whose
 colour changes most from a neighbour's (:func:`contrast`: a filtered bake's error sits on
-cell and ring borders, and a texel far off stands out), and the others, the half shared
-between them by their summed contrast) are evaluated again with a jittered point grid (:func:`probe_grid`:
+cell and ring borders, and a texel far off stands out), and the others, a sharp texel
+drawn three times as often) are evaluated again with a jittered point grid (:func:`probe_grid`:
 4 x 4 for one sample a texel, twice the bake's grid for more, at most 16 x 16; on chart
 edges of a several-sample bake twice that again), point-sampled, float64, every octave:
 a small local reference. Per texel, the squared difference from the bake less the

@@ -247,6 +247,21 @@ def test_filtered_checker_is_cut_to_the_objects_box():
     assert evaluate("checker", on_faces, bounds=[[0, 0, 0], [1, 1, 1]])[:, 0].tolist() == [0.9, 0.05]
 
 
+def test_filtered_checker_is_cut_to_the_hull_of_a_cut_texel():
+    # a cut footprint (the box standing in for a texel's covered part) that reaches 0.1 of
+    # its width over the cell plane x = 0, while the covered part's hull lies at x >= 0 (a
+    # triangle against a chart border on that plane): with the hull, the far cell is out
+    box = np.ones(3)
+    p, dx, dy = np.array([[0.4 * 0.25, 0.5, 0.5]]), np.array([[0.25, 0, 0]]), np.array([[0, 0.25, 0]])
+    assert checker_parity(p, box, dx, dy)[0] == pytest.approx(0.8)  # 0.9 of the box in x >= 0 (+1), 0.1 in x < 0 (-1)
+    triangle = np.array([[[-0.4, -0.5], [0.5, -0.5], [0.5, 0.5]] + [[np.nan, np.nan]] * 5])  # corners (a, b): x = 0.25 (0.4 + a)
+    assert checker_parity(p, box, dx, dy, hull=(np.array([0]), triangle))[0] == pytest.approx(1.0)
+    # a hull around the whole box changes nothing; a row of NaN (no hull) neither
+    square = np.array([[[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]] + [[np.nan, np.nan]] * 4])
+    assert checker_parity(p, box, dx, dy, hull=(np.array([0]), square))[0] == pytest.approx(0.8)
+    assert checker_parity(p, box, dx, dy, hull=(np.array([0]), np.full((1, 8, 2), np.nan)))[0] == pytest.approx(0.8)
+
+
 def test_json_nested_too_deep_is_refused_before_parsing():
     """json.loads recurses: 100000 levels would be a RecursionError, not a TextureError."""
     deep = '{"name": "marble", "x": ' + '{"a": ' * 100_000 + "1" + "}" * 100_000 + "}"
