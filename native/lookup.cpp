@@ -383,6 +383,24 @@ inline void add_clipped(const double* tri, Moments& sum, std::vector<double>* co
 
 constexpr int CLIP_FACES = 64;  // faces of one chart a texel's cut visits at most
 
+// The texel under a sample (face f at barycentrics b), and any face in its texel-local
+// coordinates (the call: the face's corners into tri, 6 values)
+struct TexelFrame {
+  const Atlas& atlas;
+  double w, h, col, row;
+  TexelFrame(const Atlas& a, int64_t f, const double* b, double width, double height) : atlas(a), w(width), h(height) {
+    double pu = 0, pv = 0;
+    for (int c = 0; c < 3; ++c) pu += b[c] * atlas.corner(f, c)[0], pv += b[c] * atlas.corner(f, c)[1];
+    col = std::floor(pu * w), row = std::floor((1.0 - pv) * h);
+  }
+  void operator()(int64_t g, double* tri) const {
+    for (int c = 0; c < 3; ++c) {
+      tri[2 * c] = atlas.corner(g, c)[0] * w - (col + 0.5);
+      tri[2 * c + 1] = (1.0 - atlas.corner(g, c)[1]) * h - (row + 0.5);
+    }
+  }
+};
+
 // the moments of the part of a texel that face f's chart covers: the faces reached from f
 // across UV edges, each cut to the texel (local(g, tri): face g in texel-local coordinates);
 // the cut pieces' corners appended to corners when given
@@ -460,18 +478,9 @@ int64_t footprint_clip(In<int32_t, nb::ndim<1>> face, In<double, shape<-1, 3>> b
     area.data()[i] = 1.0;
     if (f < 0) continue;
     if (f >= atlas.m) throw std::invalid_argument("footprint_clip: a face outside the atlas");
-    const double* b = bary.data() + 3 * i;
-    double pu = 0, pv = 0;
-    for (int c = 0; c < 3; ++c) pu += b[c] * atlas.corner(f, c)[0], pv += b[c] * atlas.corner(f, c)[1];
-    const double col = std::floor(pu * w), row = std::floor((1.0 - pv) * h);
-    const int64_t texel = int64_t(row) * width + int64_t(col);
+    const TexelFrame local(atlas, f, bary.data() + 3 * i, w, h);
+    const int64_t texel = int64_t(local.row) * width + int64_t(local.col);
     if (!std::binary_search(border.data(), border.data() + border.shape(0), texel)) continue;  // no border crosses it
-    auto local = [&](int64_t g, double* tri) {
-      for (int c = 0; c < 3; ++c) {
-        tri[2 * c] = atlas.corner(g, c)[0] * w - (col + 0.5);
-        tri[2 * c + 1] = (1.0 - atlas.corner(g, c)[1]) * h - (row + 0.5);
-      }
-    };
     double tri[6];
     local(f, tri);
     // the whole texel inside the sample's face: nothing to cut (most texels)
@@ -524,16 +533,7 @@ void footprint_hull(In<int32_t, nb::ndim<1>> face, In<double, shape<-1, 3>> bary
     const int64_t f = face.data()[i];
     if (f < 0) continue;
     if (f >= atlas.m) throw std::invalid_argument("footprint_hull: a face outside the atlas");
-    const double* b = bary.data() + 3 * i;
-    double pu = 0, pv = 0;
-    for (int c = 0; c < 3; ++c) pu += b[c] * atlas.corner(f, c)[0], pv += b[c] * atlas.corner(f, c)[1];
-    const double col = std::floor(pu * w), row = std::floor((1.0 - pv) * h);
-    auto local = [&](int64_t g, double* tri) {
-      for (int c = 0; c < 3; ++c) {
-        tri[2 * c] = atlas.corner(g, c)[0] * w - (col + 0.5);
-        tri[2 * c + 1] = (1.0 - atlas.corner(g, c)[1]) * h - (row + 0.5);
-      }
-    };
+    const TexelFrame local(atlas, f, bary.data() + 3 * i, w, h);
     corners.clear();
     const Moments sum = chart_part(atlas, across.data(), f, local, &corners);
     const double* e = edges.data() + 4 * i;

@@ -258,20 +258,7 @@ def probe_estimate(
         return {"method": "probe", "how": HOW["probe"], "rmse": 0.0, "rmse_interval": [0.0, 0.0], "texels": 0,
                 "probe_grid": [grid, edge_grid or grid], "probe_rmse": 0.0, "probe_noise": 0.0}
     whole = total <= 4 * texels  # a small image: probe every texel (no sampling error), in one round
-    bands = lambda: _bands(covered, BAND, None if whole else image)
-    step = max(1, total >> 20)  # the contrasts' cuts from at most about 2^20 of them
-    if covered.size <= HELD:  # made once and held
-        kept = list(bands())
-        cuts = None if whole else _cuts(kept, step)
-        held = list(_strata(kept, cuts))
-        del kept
-        strata = lambda: held
-    else:
-        cuts = None if whole else _cuts(bands(), step)
-        strata = lambda: _strata(bands(), cuts)
-    sizes = [0] * (2 if whole else len(STRATA))  # texels in each stratum, counted band by band
-    for *_, masks in strata():
-        sizes = [n + int(m.sum()) for n, m in zip(sizes, masks, strict=True)]
+    strata, sizes = _strata_of(image, covered, total, whole)
     edgy = [True, False] if whole else [True, True, False, False]
     sides = [edge_grid or grid if e else grid for e in edgy]
     if whole:
@@ -310,6 +297,25 @@ def probe_estimate(
         "probe_rmse": float(np.sqrt(result["d2"])),  # bake against the probe, probe noise included
         "probe_noise": float(np.sqrt(result["n2"])),
     }
+
+
+def _strata_of(image: np.ndarray, covered: np.ndarray, total: int, whole: bool):
+    """``(strata, sizes)``: a callable that iterates the strata band by band (:func:`_strata`:
+    ``(edge, inside)`` for an image probed ``whole``, else :data:`STRATA`; made once and held
+    up to ``HELD`` texels), and the texels in each."""
+    bands = lambda: _bands(covered, BAND, None if whole else image)
+    step = max(1, total >> 20)  # the contrasts' cuts from at most about 2^20 of them
+    if covered.size <= HELD:
+        kept = list(bands())
+        held = list(_strata(kept, None if whole else _cuts(kept, step)))
+        strata = lambda: held
+    else:
+        cuts = None if whole else _cuts(bands(), step)
+        strata = lambda: _strata(bands(), cuts)
+    sizes = [0] * (2 if whole else len(STRATA))  # counted band by band
+    for *_, masks in strata():
+        sizes = [n + int(m.sum()) for n, m in zip(sizes, masks, strict=True)]
+    return strata, sizes
 
 
 def _pooled(found, sizes: list[int], total: int) -> dict:
