@@ -77,10 +77,12 @@ def render(server, glb: Path, name: str, tmp_path: Path, ids: list[str] | None =
 
     Headless screenshots have come out blank (all background, or in one CI run one flat
     colour everywhere) now and then, or, once in a CI run, with one primitive of two not
-    drawn: retried up to five times, each in a fresh profile (a chromium that finds its
-    profile in use hands the page to the other one and writes nothing), also while over
-    5 % of the pixels ``cover`` ((SIZE, SIZE) bool: where another render of the same view
-    drew the model) show the background.
+    drawn, or (in a CI run, under the environment light) with the model one flat colour:
+    retried up to five times, each in a fresh profile (a chromium that finds its profile in
+    use hands the page to the other one and writes nothing), also while over 5 % of the
+    pixels ``cover`` ((SIZE, SIZE) bool: where another render of the same view drew the
+    model) show the background, and, for ``environment``, while the model's pixels span
+    under 0.01 in brightness (a lit model never does: its shading varies over it).
     """
     site, base = server
     shutil.copy(glb, site / glb.name)
@@ -99,10 +101,12 @@ def render(server, glb: Path, name: str, tmp_path: Path, ids: list[str] | None =
             image = read_image(shot)[..., :3]
             background = np.abs(image - MAGENTA).max(axis=2) < 0.05
             flat = np.ptp(image.reshape(-1, 3), axis=0).max() < 1e-3
-            if not background.all() and not flat and (cover is None or background[cover].mean() <= 0.05):
+            unlit = environment and not background.all() and np.ptp(image[~background] @ np.array([0.2126, 0.7152, 0.0722])) < 0.01
+            if not background.all() and not flat and not unlit and (cover is None or background[cover].mean() <= 0.05):
                 break
     assert shot.is_file(), f"chromium wrote no screenshot of {name}"
     assert not flat, f"every screenshot of {name} came out one flat colour"
+    assert not unlit, f"every screenshot of {name} shows the model one flat colour under the environment light"
     keep_artefact(shot)
     return image
 
@@ -170,12 +174,6 @@ def test_roughness_and_metal_vary_where_the_material_says_under_an_environment_l
     varied = {"nodes": {"cell": cell}, "base_color": [0.5, 0.5, 0.5], "roughness": {"op": "mix", "a": 0.9, "b": 0.05, "mask": "cell"},
               "metallic": "cell"}
     plain = {"base_color": [0.5, 0.5, 0.5], "roughness": 0.5, "metallic": 0.0}
-    shots = {}
-    for name, material in (("varied", varied), ("plain", plain)):
-        result = texbake.bake_mesh(sphere, material=material, size=256)
-        result.save(tmp_path / name)
-        glb = shutil.copy(tmp_path / name / f"{result.mesh.name}.glb", tmp_path / f"material-{name}.glb")  # its own URL
-        shots[name] = render(server, Path(glb), f"material-{name}", tmp_path, environment=True)
     checker = texbake.bake_mesh(sphere, {"name": "checker", "box": [0.25, 0.25, 0.25], "color_even": [1, 1, 1], "color_odd": [0, 0, 0]},
                                 size=256)
     m = checker.mesh
@@ -188,6 +186,13 @@ def test_roughness_and_metal_vary_where_the_material_says_under_an_environment_l
     even = ndimage.binary_erosion((luma > 0.5) & inside, iterations=3)  # away from the cells' edges
     odd = ndimage.binary_erosion((luma < 0.2) & inside, iterations=3)
     assert even.sum() > 2000 and odd.sum() > 2000, (even.sum(), odd.sum())
+    shots = {}
+    for name, material in (("varied", varied), ("plain", plain)):
+        result = texbake.bake_mesh(sphere, material=material, size=256)
+        result.save(tmp_path / name)
+        glb = shutil.copy(tmp_path / name / f"{result.mesh.name}.glb", tmp_path / f"material-{name}.glb")  # its own URL
+        shots[name] = render(server, Path(glb), f"material-{name}", tmp_path, environment=True,
+                             cover=model_mask(where))  # the whole sphere, as the cells' render drew it
 
     def detail(image):  # how sharp the shading is: the mean step to a neighbour (a mirror shows the room's edges)
         y = image @ np.array([0.2126, 0.7152, 0.0722])
