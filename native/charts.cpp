@@ -20,6 +20,7 @@
 
 #include "arrays.hpp"
 #include "grouping.hpp"
+#include "slits.hpp"
 
 namespace texbake {
 namespace {
@@ -279,6 +280,48 @@ std::tuple<Array, Array> simplified_loops(In<double, shape<-1, 2>> points, In<in
   return {owned(std::move(kept), {r}), owned(std::move(counts), {size_t(l)})};
 }
 
+
+// The faces of a planar chart layout on either side of a slit (slits.hpp); faces of a
+// negative chart are not looked at. The border: undirected edges of one half-edge, found as
+// face_pairs finds the shared ones.
+void slit_faces(In<double, shape<-1, 2>> uv, In<double, shape<-1, 3>> points, In<int64_t, shape<-1, 3>> faces,
+                In<int64_t, shape<-1>> chart, double r, Out<bool, shape<-1>> flags) {
+  const int64_t k = uv.shape(0), m = faces.shape(0);
+  if (int64_t(points.shape(0)) != k) throw std::invalid_argument("slit_faces: a point a UV vertex");
+  if (int64_t(chart.shape(0)) != m || int64_t(flags.shape(0)) != m) throw std::invalid_argument("slit_faces: a chart and a flag a face");
+  if (!(r > 0) || !std::isfinite(r)) throw std::invalid_argument("slit_faces: r must be positive and finite");
+  const int64_t* f = faces.data();
+  for (int64_t i = 0; i < 3 * m; ++i) {
+    if (f[i] < 0 || f[i] >= k) throw std::invalid_argument("slit_faces: a face indexes a missing UV vertex");
+  }
+  nb::gil_scoped_release unlocked;
+  const double* t = uv.data();
+  const double* p = points.data();
+  const int64_t* c = chart.data();
+  std::vector<int64_t> start(k + 1, 0);
+  for (int64_t h = 0; h < 3 * m; ++h) ++start[std::min(f[3 * (h / 3) + FROM[h % 3]], f[3 * (h / 3) + TO[h % 3]]) + 1];
+  for (int64_t v = 0; v < k; ++v) start[v + 1] += start[v];
+  std::vector<std::pair<int64_t, int64_t>> order(3 * m);
+  {
+    std::vector<int64_t> fill(start.begin(), start.end() - 1);
+    for (int64_t h = 0; h < 3 * m; ++h) {
+      const int64_t x = f[3 * (h / 3) + FROM[h % 3]], y = f[3 * (h / 3) + TO[h % 3]];
+      order[fill[std::min(x, y)]++] = {std::max(x, y), h};
+    }
+  }
+  std::vector<SlitSample> raw;
+  for (int64_t v = 0; v < k; ++v) {
+    std::sort(order.begin() + start[v], order.begin() + start[v + 1]);
+    for (int64_t i = start[v]; i < start[v + 1]; ++i) {
+      const bool single = (i == start[v] || order[i - 1].first != order[i].first) &&
+                          (i + 1 == start[v + 1] || order[i + 1].first != order[i].first);
+      const int64_t h = order[i].second, a = f[3 * (h / 3) + FROM[h % 3]], b = f[3 * (h / 3) + TO[h % 3]];
+      if (single && c[h / 3] >= 0) sample_edge(raw, t + 2 * a, t + 2 * b, p + 3 * a, p + 3 * b, h / 3, r);
+    }
+  }
+  slit_pairs(raw, c, r, flags.data());
+}
+
 }  // namespace
 
 void bind_charts(nb::module_& m) {
@@ -295,6 +338,10 @@ void bind_charts(nb::module_& m) {
         "loop's tolerance > 0 (else all), and each loop's count.");
   m.def("simplified", &simplified, nb::arg("points"), nb::arg("tolerance"),
         "Indices of a closed loop's points (n, 2) that Douglas-Peucker keeps within tolerance (at least three).");
+  m.def("slit_faces", &slit_faces, nb::arg("uv"), nb::arg("points"), nb::arg("faces"), nb::arg("chart"), nb::arg("r"),
+        nb::arg("flags").noconvert(),
+        "Flag (or into flags (m,) bool) the faces (m, 3) of a UV layout uv (k, 2) on either side of a slit: border "
+        "stretches of one chart (chart (m,)) within r in UV whose 3D points (k, 3) are more than 2 r + 3 times that apart.");
 }
 
 }  // namespace texbake

@@ -1,6 +1,7 @@
 // UV checks: the faces over each texel centre of a UV layout, rasterised with the top-left
 // rule (texbake/atlas/uvcheck.py).
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -9,6 +10,7 @@
 
 #include "arrays.hpp"
 #include "parallel.hpp"
+#include "slits.hpp"
 #include "unionfind.hpp"
 
 namespace texbake {
@@ -146,7 +148,7 @@ TEXBAKE_AVX2_CLONE bool covers_twice(const std::vector<double>& uv, int64_t m, i
 
 Array merged_islands(In<double, shape<-1, 3>> vertices, In<int64_t, shape<-1, 3>> faces, In<int64_t, nb::ndim<1>> island,
                      In<int64_t, nb::ndim<1>> direction, In<double, shape<-1, 2, 3>> bases, In<int64_t, shape<-1, 2>> pairs,
-                     double texels_per_unit, int64_t budget) {
+                     double texels_per_unit, int64_t budget, double slit_r) {
   const int64_t m = faces.shape(0), n = vertices.shape(0), k = direction.shape(0), d = bases.shape(0);
   if (int64_t(island.shape(0)) != m) throw std::invalid_argument("merged_islands: island of m");
   for (int64_t i = 0; i < 3 * m; ++i) {
@@ -172,6 +174,9 @@ Array merged_islands(In<double, shape<-1, 3>> vertices, In<int64_t, shape<-1, 3>
     for (int64_t i = 0; i < k; ++i) parent[i] = i;
     Stamps grid;
     std::vector<double> uv;
+    std::vector<int64_t> union_faces;
+    std::vector<std::array<int64_t, 3>> edges;  // (smaller end, larger end, half-edge of the union)
+    std::vector<SlitSample> samples;
     for (int64_t e = 0; e < int64_t(pairs.shape(0)); ++e) {
       const int64_t rx = root(parent.data(), pairs.data()[2 * e]), ry = root(parent.data(), pairs.data()[2 * e + 1]);
       const int64_t count = int64_t(members[rx].size() + members[ry].size());
@@ -200,6 +205,31 @@ Array merged_islands(In<double, shape<-1, 3>> vertices, In<int64_t, shape<-1, 3>
       const int64_t side = int64_t(std::ceil(most)) + 2;
       for (double& x : uv) x /= double(side);
       if (covers_twice(uv, count, side, grid)) continue;
+      if (slit_r > 0) {  // nor a slit (slits.hpp): the union's border, its edges in mesh vertices
+        const double scale = texels_per_unit / double(side);
+        union_faces.clear();
+        for (const int64_t r : {rx, ry}) union_faces.insert(union_faces.end(), members[r].begin(), members[r].end());
+        edges.clear();
+        for (int64_t q = 0; q < count; ++q) {
+          for (int j = 0; j < 3; ++j) {
+            const int64_t x = f[3 * union_faces[q] + j], y = f[3 * union_faces[q] + (j + 1) % 3];
+            edges.push_back({std::min(x, y), std::max(x, y), 3 * q + j});
+          }
+        }
+        std::sort(edges.begin(), edges.end());
+        samples.clear();
+        for (size_t i = 0; i < edges.size(); ++i) {
+          const bool single = (i == 0 || edges[i - 1][0] != edges[i][0] || edges[i - 1][1] != edges[i][1]) &&
+                              (i + 1 == edges.size() || edges[i + 1][0] != edges[i][0] || edges[i + 1][1] != edges[i][1]);
+          if (!single) continue;
+          const int64_t h = edges[i][2], q = h / 3, j = h % 3, j1 = (j + 1) % 3;
+          const double* pa = p + 3 * f[3 * union_faces[q] + j];
+          const double* pb = p + 3 * f[3 * union_faces[q] + j1];
+          const double a3[3] = {pa[0] * scale, pa[1] * scale, pa[2] * scale}, b3[3] = {pb[0] * scale, pb[1] * scale, pb[2] * scale};
+          sample_edge(samples, uv.data() + 2 * (3 * q + j), uv.data() + 2 * (3 * q + j1), a3, b3, q, slit_r * scale);
+        }
+        if (slit_pairs(samples, nullptr, slit_r * scale, nullptr)) continue;
+      }
       const int64_t joined = join(parent.data(), rx, ry);
       auto& into = members[joined];
       auto& from = members[joined == rx ? ry : rx];
@@ -241,9 +271,10 @@ void bind_uvcheck(nb::module_& m) {
         "count: add each face of a UV layout to counts (size, size) uint16 at the texel centres it covers "
         "(top-left rule) and flag the faces that cover one; else flag the faces over a centre counted twice.");
   m.def("merged_islands", &merged_islands, nb::arg("vertices"), nb::arg("faces"), nb::arg("island"), nb::arg("direction"),
-        nb::arg("bases"), nb::arg("pairs"), nb::arg("texels_per_unit"), nb::arg("budget"),
+        nb::arg("bases"), nb::arg("pairs"), nb::arg("texels_per_unit"), nb::arg("budget"), nb::arg("slit_r") = 0.0,
         "(k,) labels of islands (island (m,) of each face; direction (k,) into bases (d, 2, 3)) joined pair by pair "
-        "(pairs (p, 2), in order) where their union, projected and scaled to texels, covers no texel centre twice.");
+        "(pairs (p, 2), in order) where their union, projected and scaled to texels, covers no texel centre twice "
+        "and, for slit_r > 0, has no slit (slits.hpp) of that width in mesh units.");
 }
 
 }  // namespace texbake
