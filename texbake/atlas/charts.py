@@ -307,8 +307,8 @@ def _slits(vertices, vmapping, chart_faces, uv, island, grid) -> np.ndarray:
     # are most of its charts, and their fans of slivers most of its border).
     normals, weights = _face_normals(points, chart_faces)
     k = int(island.max()) + 1
-    mean = np.stack([np.bincount(island, normals[:, j] * weights, minlength=k) for j in range(3)], axis=1)
-    mean /= np.maximum(np.linalg.norm(mean, axis=1, keepdims=True), 1e-300)
+    sums = np.stack([np.bincount(island, normals[:, j] * weights, minlength=k) for j in range(3)], axis=1)
+    mean = sums / np.maximum(np.linalg.norm(sums, axis=1, keepdims=True), 1e-300)
     offset = np.einsum("ij,ij->i", points[chart_faces[:, 0]], mean[island])
     count = np.bincount(island, minlength=k)
     spread = np.bincount(island, offset**2, minlength=k) - np.bincount(island, offset, minlength=k) ** 2 / np.maximum(count, 1)
