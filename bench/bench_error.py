@@ -3,7 +3,9 @@
     scripts/run python bench/bench_error.py [--sizes 512,1024] [--repeats 3]
         [--textures checker,wood,marble,turbulence] [--meshes suzanne_blender_uv.obj,...]
 
-Per mesh (in ``../shared/meshes``, their own UVs where usable) x texture x size: the RMSE
+Per mesh (in ``../shared/meshes``, their own UVs where usable, or one made here: ``torus``,
+a torus of 48 x 24 sections, and ``box-on-floor``, a box standing on a floor slab that lies
+inside the bounding box, the floor's top on a checker plane) x texture x size: the RMSE
 in linear colour of 1 filtered sample, of 1 filtered sample with adaptive sub-samples on a
 quarter of the texels (``adaptive=0.25``), and of 1, 4 and 16 stratified point samples a texel
 against a converged point-sampled reference (``texbake.checks.sweep``: 256 samples a texel
@@ -31,6 +33,19 @@ from texbake.checks.sweep import Setting, run_sweep  # noqa: E402
 MESHES = ROOT.parent / "shared" / "meshes"
 
 
+def made(name: str):
+    """The meshes made here (see the module), by name; None for a file's name."""
+    import trimesh
+
+    if name == "torus":
+        return trimesh.creation.torus(1.0, 0.35, major_sections=48, minor_sections=24)
+    if name == "box-on-floor":  # the floor's top at z = 0: 3 of the default checker's cells (an eighth) up the box
+        floor = trimesh.creation.box((3.0, 3.0, 0.3), trimesh.transformations.translation_matrix((0.0, 0.0, -0.15)))
+        box = trimesh.creation.box((1.0, 1.0, 0.5), trimesh.transformations.translation_matrix((0.0, 0.0, 0.25)))
+        return trimesh.util.concatenate([floor, box])
+    return None
+
+
 ADAPTIVE = 0.25  # the adaptive row's share of texels refined: 1 + 4 x 0.25 = 2 samples a texel
 
 
@@ -53,7 +68,9 @@ def main() -> None:
     for mesh in args.meshes.split(","):
         for texture in args.textures.split(","):
             grid = {size: settings(size) for size in sizes}
-            measured, info = run_sweep(MESHES / mesh, texture, settings=[s for g in grid.values() for s in g.values()],
+            source = made(mesh)
+            measured, info = run_sweep(MESHES / mesh if source is None else source, texture,
+                                       settings=[s for g in grid.values() for s in g.values()],
                                        repeats=args.repeats)
             by = {r.setting: r for r in measured}
             for size in sizes:

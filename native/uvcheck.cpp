@@ -148,7 +148,7 @@ TEXBAKE_AVX2_CLONE bool covers_twice(const std::vector<double>& uv, int64_t m, i
 
 Array merged_islands(In<double, shape<-1, 3>> vertices, In<int64_t, shape<-1, 3>> faces, In<int64_t, nb::ndim<1>> island,
                      In<int64_t, nb::ndim<1>> direction, In<double, shape<-1, 2, 3>> bases, In<int64_t, shape<-1, 2>> pairs,
-                     double texels_per_unit, int64_t budget, double slit_r) {
+                     double texels_per_unit, int64_t budget, double slit_r, double slit_chart) {
   const int64_t m = faces.shape(0), n = vertices.shape(0), k = direction.shape(0), d = bases.shape(0);
   if (int64_t(island.shape(0)) != m) throw std::invalid_argument("merged_islands: island of m");
   for (int64_t i = 0; i < 3 * m; ++i) {
@@ -205,7 +205,9 @@ Array merged_islands(In<double, shape<-1, 3>> vertices, In<int64_t, shape<-1, 3>
       const int64_t side = int64_t(std::ceil(most)) + 2;
       for (double& x : uv) x /= double(side);
       if (covers_twice(uv, count, side, grid)) continue;
-      if (slit_r > 0) {  // nor a slit (slits.hpp): the union's border, its edges in mesh vertices
+      // nor a slit (slits.hpp), unless under slit_chart widths across: the union's border, its
+      // edges in mesh vertices
+      if (slit_r > 0 && most / texels_per_unit >= slit_chart * slit_r) {
         const double scale = texels_per_unit / double(side);
         union_faces.clear();
         for (const int64_t r : {rx, ry}) union_faces.insert(union_faces.end(), members[r].begin(), members[r].end());
@@ -272,9 +274,11 @@ void bind_uvcheck(nb::module_& m) {
         "(top-left rule) and flag the faces that cover one; else flag the faces over a centre counted twice.");
   m.def("merged_islands", &merged_islands, nb::arg("vertices"), nb::arg("faces"), nb::arg("island"), nb::arg("direction"),
         nb::arg("bases"), nb::arg("pairs"), nb::arg("texels_per_unit"), nb::arg("budget"), nb::arg("slit_r") = 0.0,
+        nb::arg("slit_chart") = 0.0,
         "(k,) labels of islands (island (m,) of each face; direction (k,) into bases (d, 2, 3)) joined pair by pair "
         "(pairs (p, 2), in order) where their union, projected and scaled to texels, covers no texel centre twice "
-        "and, for slit_r > 0, has no slit (slits.hpp) of that width in mesh units.");
+        "and, for slit_r > 0, has no slit (slits.hpp) of that width in mesh units where it is at least slit_chart "
+        "such widths across.");
 }
 
 }  // namespace texbake

@@ -458,3 +458,23 @@ def test_the_outlines_of_many_charts_are_each_chart_s_own():
                 made += 1
                 assert np.array_equal(tris[k], alone) and np.array_equal(areas[k], uv_areas(c.uv, alone))
         assert made > 0.5 * len(count)  # most charts outlined (measured: all but the ones touching themselves)
+
+
+def test_a_small_wound_chart_is_not_cut_into_crumbs_for_its_slits(monkeypatch):
+    # a screw's thread (6 turns of 2400 faces, 0.4 across) beside a plate 20 across: its charts
+    # are a few texels wide, wound over themselves in sub-texel faces; looking for slits in
+    # them cut the thread into 868 charts (179 without: the overlap cuts alone)
+    import texbake.atlas.charts as charts
+
+    r, t = np.meshgrid(np.linspace(0.1, 0.2, 3), np.linspace(0, 12 * np.pi, 2400), indexing="ij")
+    v = np.stack([r * np.cos(t), r * np.sin(t), 0.03 * t / (2 * np.pi) + 0.5 * (r - 0.1)], axis=-1).reshape(-1, 3)
+    idx = np.arange(len(v)).reshape(r.shape)
+    a, b, c, d = idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]
+    f = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)])
+    plate = trimesh.creation.box((20, 20, 0.2), trimesh.transformations.translation_matrix((15, 0, -1)))
+    vertices, faces = np.concatenate([v, plate.vertices]), np.concatenate([f, plate.faces + len(v)])
+    kept = planar_charts(vertices, faces)
+    monkeypatch.setattr(charts, "SLIT_CHART", 0.0)
+    cut = planar_charts(vertices, faces)
+    thread_charts = [len(np.unique(x.labels[:len(f)])) for x in (kept, cut)]
+    assert thread_charts[0] < 250 and thread_charts[1] > 2 * thread_charts[0], thread_charts
