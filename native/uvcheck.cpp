@@ -174,9 +174,26 @@ Array merged_islands(In<double, shape<-1, 3>> vertices, In<int64_t, shape<-1, 3>
     for (int64_t i = 0; i < k; ++i) parent[i] = i;
     Stamps grid;
     std::vector<double> uv;
-    std::vector<int64_t> union_faces;
-    std::vector<std::array<int64_t, 3>> edges;  // (smaller end, larger end, half-edge of the union)
     std::vector<SlitSample> samples;
+    // each island's border: the edges (mesh vertices, as its face has them) no other face of
+    // the island has, from one sort of every face's edges by (smaller end, larger end, island)
+    std::vector<std::vector<std::pair<int64_t, int64_t>>> border(slit_r > 0 ? k : 0);
+    if (slit_r > 0) {
+      std::vector<std::array<int64_t, 4>> edges(3 * m);
+      for (int64_t i = 0; i < m; ++i) {
+        for (int j = 0; j < 3; ++j) {
+          const int64_t x = f[3 * i + j], y = f[3 * i + (j + 1) % 3];
+          edges[3 * i + j] = {std::min(x, y), std::max(x, y), island.data()[i], 3 * i + j};
+        }
+      }
+      std::sort(edges.begin(), edges.end());
+      const auto same = [&](size_t a, size_t c) { return edges[a][0] == edges[c][0] && edges[a][1] == edges[c][1] && edges[a][2] == edges[c][2]; };
+      for (size_t i = 0; i < edges.size(); ++i) {
+        if ((i > 0 && same(i - 1, i)) || (i + 1 < edges.size() && same(i + 1, i))) continue;
+        const int64_t h = edges[i][3];
+        border[edges[i][2]].push_back({f[h], f[3 * (h / 3) + (h % 3 + 1) % 3]});
+      }
+    }
     for (int64_t e = 0; e < int64_t(pairs.shape(0)); ++e) {
       const int64_t rx = root(parent.data(), pairs.data()[2 * e]), ry = root(parent.data(), pairs.data()[2 * e + 1]);
       const int64_t count = int64_t(members[rx].size() + members[ry].size());
@@ -205,38 +222,49 @@ Array merged_islands(In<double, shape<-1, 3>> vertices, In<int64_t, shape<-1, 3>
       const int64_t side = int64_t(std::ceil(most)) + 2;
       for (double& x : uv) x /= double(side);
       if (covers_twice(uv, count, side, grid)) continue;
-      // nor a slit (slits.hpp), unless under slit_chart widths across: the union's border, its
-      // edges in mesh vertices
+      // nor a slit (slits.hpp) between the two, unless the union is under slit_chart widths
+      // across: the samples of one's border against the other's (each is clean; their shared
+      // edges, border of both, lie on each other over the same places)
       if (slit_r > 0 && most / texels_per_unit >= slit_chart * slit_r) {
-        const double scale = texels_per_unit / double(side);
-        union_faces.clear();
-        for (const int64_t r : {rx, ry}) union_faces.insert(union_faces.end(), members[r].begin(), members[r].end());
-        edges.clear();
-        for (int64_t q = 0; q < count; ++q) {
-          for (int j = 0; j < 3; ++j) {
-            const int64_t x = f[3 * union_faces[q] + j], y = f[3 * union_faces[q] + (j + 1) % 3];
-            edges.push_back({std::min(x, y), std::max(x, y), 3 * q + j});
+        samples.clear();
+        double box[2][4];  // each side's samples' box: u lo, u hi, v lo, v hi
+        for (int sd = 0; sd < 2; ++sd) {
+          const size_t from = samples.size();
+          for (const auto& [va, vb] : border[sd == 0 ? rx : ry]) {
+            const double *pa = p + 3 * va, *pb = p + 3 * vb;
+            const double ua[2] = {pa[0] * b[0] + pa[1] * b[1] + pa[2] * b[2], pa[0] * b[3] + pa[1] * b[4] + pa[2] * b[5]};
+            const double ub[2] = {pb[0] * b[0] + pb[1] * b[1] + pb[2] * b[2], pb[0] * b[3] + pb[1] * b[4] + pb[2] * b[5]};
+            sample_edge(samples, ua, ub, pa, pb, sd, slit_r);
+          }
+          box[sd][0] = box[sd][2] = std::numeric_limits<double>::infinity();
+          box[sd][1] = box[sd][3] = -std::numeric_limits<double>::infinity();
+          for (size_t i = from; i < samples.size(); ++i) {
+            box[sd][0] = std::min(box[sd][0], samples[i].u), box[sd][1] = std::max(box[sd][1], samples[i].u);
+            box[sd][2] = std::min(box[sd][2], samples[i].v), box[sd][3] = std::max(box[sd][3], samples[i].v);
           }
         }
-        std::sort(edges.begin(), edges.end());
-        samples.clear();
-        for (size_t i = 0; i < edges.size(); ++i) {
-          const bool single = (i == 0 || edges[i - 1][0] != edges[i][0] || edges[i - 1][1] != edges[i][1]) &&
-                              (i + 1 == edges.size() || edges[i + 1][0] != edges[i][0] || edges[i + 1][1] != edges[i][1]);
-          if (!single) continue;
-          const int64_t h = edges[i][2], q = h / 3, j = h % 3, j1 = (j + 1) % 3;
-          const double* pa = p + 3 * f[3 * union_faces[q] + j];
-          const double* pb = p + 3 * f[3 * union_faces[q] + j1];
-          const double a3[3] = {pa[0] * scale, pa[1] * scale, pa[2] * scale}, b3[3] = {pb[0] * scale, pb[1] * scale, pb[2] * scale};
-          sample_edge(samples, uv.data() + 2 * (3 * q + j), uv.data() + 2 * (3 * q + j1), a3, b3, q, slit_r * scale);
+        // only the samples within r of the other side's box can be in a pair
+        size_t kept = 0;
+        for (size_t i = 0; i < samples.size(); ++i) {
+          const double* o = box[1 - samples[i].face];
+          if (samples[i].u >= o[0] - slit_r && samples[i].u <= o[1] + slit_r && samples[i].v >= o[2] - slit_r &&
+              samples[i].v <= o[3] + slit_r)
+            samples[kept++] = samples[i];
         }
-        if (slit_pairs(samples, nullptr, slit_r * scale, nullptr)) continue;
+        samples.resize(kept);
+        if (slit_pairs(samples, nullptr, slit_r, nullptr)) continue;  // "face": the side, so pairs across only
       }
       const int64_t joined = join(parent.data(), rx, ry);
       auto& into = members[joined];
       auto& from = members[joined == rx ? ry : rx];
       into.insert(into.end(), from.begin(), from.end());
       std::vector<int64_t>().swap(from);
+      if (slit_r > 0) {
+        auto& edges_into = border[joined];
+        auto& edges_from = border[joined == rx ? ry : rx];
+        edges_into.insert(edges_into.end(), edges_from.begin(), edges_from.end());
+        std::vector<std::pair<int64_t, int64_t>>().swap(edges_from);
+      }
     }
     number(parent.data(), k, labels.data());
   }

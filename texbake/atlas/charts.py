@@ -244,19 +244,21 @@ def planar_charts(vertices: np.ndarray, faces: np.ndarray, angle_limit: float = 
         group = _absorb_crumbs(pairs, normals, weights, dirs, group)
     centroids = vertices[faces].mean(axis=1)
     bases = np.array([np.stack(_basis(d)) for d in dirs])  # (d, 2, 3): each direction's plane, kept beside dirs
+    look = np.ones(len(faces), dtype=bool)  # the faces of charts not yet looked at for slits (a chart not cut stays clean)
     for attempt in range(SPLITS + 1):
         island = _islands(pairs, group)
         vmapping, chart_faces, uv = _project(vertices, faces, island, group, bases)
         if attempt == SPLITS:
             break
         lo, hi = uv.min(axis=0), uv.max(axis=0)
-        slit = _slits(vertices, vmapping, chart_faces, uv, island, grid)
+        slit = _slits(vertices, vmapping, chart_faces, uv, island, grid, look)
         bad = overlapping_faces((uv - lo) / max(float((hi - lo).max()), 1e-300), chart_faces, grid) | slit
         if not bad.any():
             break
         # the faces of each overlapping island, ascending, from one sort (not a scan of every
         # face per island: counter.unitsmm.STL has hundreds of them each round)
         hit = np.unique(island[bad])
+        look = np.isin(island, hit)
         order = np.argsort(island, kind="stable")
         first = np.searchsorted(island[order], hit)
         last = np.searchsorted(island[order], hit, side="right")
@@ -283,7 +285,8 @@ def planar_charts(vertices: np.ndarray, faces: np.ndarray, angle_limit: float = 
         merged = _merge_cuts(vertices, faces, pairs, island, group, (dirs, bases), float((hi - lo).max()), grid,
                              _slit_width(uv, chart_faces, grid))
         joined = _project(vertices, faces, merged, group, bases)
-        slit = _slits(vertices, joined[0], joined[1], joined[2], merged, grid)
+        pieces = np.unique(np.column_stack([merged, island]), axis=0)[:, 0]  # (merged, piece) pairs: joined ones repeat
+        slit = _slits(vertices, *joined, merged, grid, np.isin(merged, pieces[1:][pieces[1:] == pieces[:-1]]))
         if slit.any():  # a join that made a slit the joins' own look missed (its budget): those pieces stay apart
             apart = np.isin(merged, merged[slit])
             merged = np.unique(np.where(apart, island, merged + int(island.max()) + 1), return_inverse=True)[1].reshape(-1)
@@ -294,9 +297,10 @@ def planar_charts(vertices: np.ndarray, faces: np.ndarray, angle_limit: float = 
     return Charts(vmapping, chart_faces, uv, island, dirs, flat)
 
 
-def _slits(vertices, vmapping, chart_faces, uv, island, grid) -> np.ndarray:
+def _slits(vertices, vmapping, chart_faces, uv, island, grid, look=None) -> np.ndarray:
     """``(m,)`` bool: the faces on either side of a slit in the layout ``uv`` (``_project``'s
-    arrays, ``island`` each face's chart): two stretches of one chart's border that lie on
+    arrays, ``island`` each face's chart; only the charts of the faces ``look`` ((m,) bool),
+    when given): two stretches of one chart's border that lie on
     each other (within ``SLIT_TEXELS`` of the texels a ``grid``-texel atlas would have) over
     places of the surface far apart (``native/charts.cpp`` ``slit_faces``). A chart bent over
     a box's edge can put the top face and the side face that meet at one corner on the two
@@ -304,29 +308,32 @@ def _slits(vertices, vmapping, chart_faces, uv, island, grid) -> np.ndarray:
     marble: 98 % of its squared error on about 100 such texels)."""
     flags = np.zeros(len(chart_faces), dtype=bool)
     r = _slit_width(uv, chart_faces, grid)
-    if not r > 0:
+    sel = np.arange(len(chart_faces)) if look is None else np.flatnonzero(look)  # whole charts
+    if not r > 0 or not len(sel):
         return flags
-    points = np.ascontiguousarray(vertices[vmapping], dtype=np.float64)
+    tri, chart = chart_faces[sel], island[sel]
+    points = vertices[vmapping]
     # A chart on one plane (within a quarter r) has no slit: its 3D distances are its UV
     # distances stretched by its slope. Only the others are looked at (a CAD part's facets
     # are most of its charts, and their fans of slivers most of its border).
-    normals, weights = _face_normals(points, chart_faces)
-    k = int(island.max()) + 1
-    sums = np.stack([np.bincount(island, normals[:, j] * weights, minlength=k) for j in range(3)], axis=1)
+    normals, weights = _face_normals(points, tri)
+    k = int(chart.max()) + 1
+    sums = np.stack([np.bincount(chart, normals[:, j] * weights, minlength=k) for j in range(3)], axis=1)
     mean = sums / np.maximum(np.linalg.norm(sums, axis=1, keepdims=True), 1e-300)
-    offset = np.einsum("ij,ij->i", points[chart_faces[:, 0]], mean[island])
-    count = np.bincount(island, minlength=k)
-    spread = np.bincount(island, offset**2, minlength=k) - np.bincount(island, offset, minlength=k) ** 2 / np.maximum(count, 1)
-    tilted = np.bincount(island, np.einsum("ij,ij->i", normals, mean[island]) < COPLANAR_COS, minlength=k)
+    offset = np.einsum("ij,ij->i", points[tri[:, 0]], mean[chart])
+    count = np.bincount(chart, minlength=k)
+    spread = np.bincount(chart, offset**2, minlength=k) - np.bincount(chart, offset, minlength=k) ** 2 / np.maximum(count, 1)
+    tilted = np.bincount(chart, np.einsum("ij,ij->i", normals, mean[chart]) < COPLANAR_COS, minlength=k)
     flat = (tilted == 0) & (spread * count <= (0.25 * r) ** 2)
     lo = np.full((k, 2), np.inf)
     hi = np.full((k, 2), -np.inf)
-    _native.label_boxes(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(chart_faces, dtype=np.int64),
-                        np.ascontiguousarray(island, dtype=np.int64), lo, hi)
+    _native.label_boxes(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(tri, dtype=np.int64),
+                        np.ascontiguousarray(chart, dtype=np.int64), lo, hi)
     small = (hi - lo).max(axis=1) < SLIT_CHART * r
-    looked = np.where((flat | small)[island], -1, island)
-    _native.slit_faces(np.ascontiguousarray(uv, dtype=np.float64), points, np.ascontiguousarray(chart_faces, dtype=np.int64),
-                       np.ascontiguousarray(looked, dtype=np.int64), r, flags)
+    found = np.zeros(len(sel), dtype=bool)
+    _native.slit_faces(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(points, dtype=np.float64),
+                       np.ascontiguousarray(tri, dtype=np.int64), np.where((flat | small)[chart], -1, chart), r, found)
+    flags[sel] = found
     return flags
 
 
