@@ -286,7 +286,7 @@ def planar_charts(vertices: np.ndarray, faces: np.ndarray, angle_limit: float = 
                              _slit_width(uv, chart_faces, grid))
         joined = _project(vertices, faces, merged, group, bases)
         pieces = np.unique(np.column_stack([merged, island]), axis=0)[:, 0]  # (merged, piece) pairs: joined ones repeat
-        slit = _slits(vertices, *joined, merged, grid, np.isin(merged, pieces[1:][pieces[1:] == pieces[:-1]]))
+        slit = _slits(vertices, joined[0], joined[1], joined[2], merged, grid, np.isin(merged, pieces[1:][pieces[1:] == pieces[:-1]]))
         if slit.any():  # a join that made a slit the joins' own look missed (its budget): those pieces stay apart
             apart = np.isin(merged, merged[slit])
             merged = np.unique(np.where(apart, island, merged + int(island.max()) + 1), return_inverse=True)[1].reshape(-1)
