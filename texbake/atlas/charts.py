@@ -225,8 +225,9 @@ def planar_charts(vertices: np.ndarray, faces: np.ndarray, angle_limit: float = 
     whose projection overlaps itself on a ``grid``-square raster of the layout (a curved
     region wrapping round, a ramp winding up) first loses its overlapping faces to a
     chart of their own (the layers of a fold, unconnected, come apart), then, if it still
-    overlaps, is cut in two across its longest extent, up to ``SPLITS`` rounds in all;
-    then the pieces that need not be apart are joined again (:func:`_merge_cuts`). Faces
+    overlaps, is cut in two across its longest extent, up to ``SPLITS`` rounds in all; a
+    chart with a slit (:func:`_slits`) loses the faces on the slit's sides, in any round.
+    Then the pieces that need not be apart are joined again (:func:`_merge_cuts`). Faces
     of zero area have no normal and keep a UV area of zero: the caller gives them charts
     of their own.
     """
@@ -315,16 +316,18 @@ def _slits(vertices, vmapping, chart_faces, uv, island, grid, look=None) -> np.n
     points = vertices[vmapping]
     # A chart on one plane (within a quarter r) has no slit: its 3D distances are its UV
     # distances stretched by its slope. Only the others are looked at (a CAD part's facets
-    # are most of its charts, and their fans of slivers most of its border).
+    # are most of its charts, and their fans of slivers most of its border), and of those
+    # only the ones at least SLIT_CHART widths across.
     normals, weights = _face_normals(points, tri)
     k = int(chart.max()) + 1
     sums = np.stack([np.bincount(chart, normals[:, j] * weights, minlength=k) for j in range(3)], axis=1)
     mean = sums / np.maximum(np.linalg.norm(sums, axis=1, keepdims=True), 1e-300)
     offset = np.einsum("ij,ij->i", points[tri[:, 0]], mean[chart])
     count = np.bincount(chart, minlength=k)
-    spread = np.bincount(chart, offset**2, minlength=k) - np.bincount(chart, offset, minlength=k) ** 2 / np.maximum(count, 1)
+    off = offset - (np.bincount(chart, offset, minlength=k) / np.maximum(count, 1))[chart]  # about each chart's mean plane
+    spread = np.bincount(chart, off**2, minlength=k)
     tilted = np.bincount(chart, np.einsum("ij,ij->i", normals, mean[chart]) < COPLANAR_COS, minlength=k)
-    flat = (tilted == 0) & (spread * count <= (0.25 * r) ** 2)
+    flat = (tilted == 0) & (spread <= (0.25 * r) ** 2)
     lo = np.full((k, 2), np.inf)
     hi = np.full((k, 2), -np.inf)
     _native.label_boxes(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(tri, dtype=np.int64),
