@@ -37,9 +37,26 @@ void check_corners(const int64_t* f, int64_t m, const char* what) {
   }
 }
 
+// The half-edges of faces f (m, 3), vertices below n, bucketed by their smaller end (a counting
+// sort) and each bucket sorted by (larger end, half-edge): order[start[v]:start[v + 1]] holds
+// (larger end, half-edge) of the half-edges whose smaller end is v, numpy's stable argsort of
+// e0 * (n + 1) + e1. Shared by the faces that share an edge and by the charts' borders.
+void sorted_half_edges(const int64_t* f, int64_t m, int64_t n, std::vector<int64_t>& start,
+                       std::vector<std::pair<int64_t, int64_t>>& order) {
+  start.assign(n + 1, 0);
+  for (int64_t h = 0; h < 3 * m; ++h) ++start[std::min(f[3 * (h / 3) + FROM[h % 3]], f[3 * (h / 3) + TO[h % 3]]) + 1];
+  for (int64_t v = 0; v < n; ++v) start[v + 1] += start[v];
+  order.resize(3 * m);
+  std::vector<int64_t> fill(start.begin(), start.end() - 1);
+  for (int64_t h = 0; h < 3 * m; ++h) {
+    const int64_t x = f[3 * (h / 3) + FROM[h % 3]], y = f[3 * (h / 3) + TO[h % 3]];
+    order[fill[std::min(x, y)]++] = {std::max(x, y), h};
+  }
+  for (int64_t v = 0; v < n; ++v) std::sort(order.begin() + start[v], order.begin() + start[v + 1]);
+}
+
 // (a, b): the faces of consecutive half-edges on one undirected edge, the half-edges ordered
-// by (smaller end, larger end, half-edge): numpy's stable argsort of e0 * (n + 1) + e1. A
-// counting sort by the smaller end, then each vertex's few half-edges by their larger end.
+// by (smaller end, larger end, half-edge) (sorted_half_edges).
 std::tuple<Array, Array> face_pairs(Faces faces) {
   const int64_t m = faces.shape(0);
   const int64_t* f = faces.data();
@@ -49,19 +66,9 @@ std::tuple<Array, Array> face_pairs(Faces faces) {
     nb::gil_scoped_release unlocked;
     int64_t n = 0;
     for (int64_t i = 0; i < 3 * m; ++i) n = std::max(n, f[i] + 1);
-    std::vector<int64_t> start(n + 1, 0);
-    for (int64_t h = 0; h < 3 * m; ++h) {
-      const int64_t x = f[3 * (h / 3) + FROM[h % 3]], y = f[3 * (h / 3) + TO[h % 3]];
-      ++start[std::min(x, y) + 1];
-    }
-    for (int64_t v = 0; v < n; ++v) start[v + 1] += start[v];
-    std::vector<std::pair<int64_t, int64_t>> order(3 * m);  // (larger end, half-edge), bucketed by the smaller
-    std::vector<int64_t> fill(start.begin(), start.end() - 1);
-    for (int64_t h = 0; h < 3 * m; ++h) {
-      const int64_t x = f[3 * (h / 3) + FROM[h % 3]], y = f[3 * (h / 3) + TO[h % 3]];
-      order[fill[std::min(x, y)]++] = {std::max(x, y), h};
-    }
-    for (int64_t v = 0; v < n; ++v) std::sort(order.begin() + start[v], order.begin() + start[v + 1]);
+    std::vector<int64_t> start;
+    std::vector<std::pair<int64_t, int64_t>> order;
+    sorted_half_edges(f, m, n, start, order);
     for (int64_t v = 0; v < n; ++v) {
       for (int64_t i = start[v]; i + 1 < start[v + 1]; ++i) {
         if (order[i].first == order[i + 1].first) {
@@ -280,10 +287,9 @@ std::tuple<Array, Array> simplified_loops(In<double, shape<-1, 2>> points, In<in
   return {owned(std::move(kept), {r}), owned(std::move(counts), {size_t(l)})};
 }
 
-
 // The faces of a planar chart layout on either side of a slit (slits.hpp); faces of a
-// negative chart are not looked at. The border: undirected edges of one half-edge, found as
-// face_pairs finds the shared ones.
+// negative chart are not looked at. The border: undirected edges of one half-edge
+// (sorted_half_edges).
 void slit_faces(In<double, shape<-1, 2>> uv, In<double, shape<-1, 3>> points, In<int64_t, shape<-1, 3>> faces,
                 In<int64_t, shape<-1>> chart, double r, Out<bool, shape<-1>> flags) {
   const int64_t k = uv.shape(0), m = faces.shape(0);
@@ -298,20 +304,11 @@ void slit_faces(In<double, shape<-1, 2>> uv, In<double, shape<-1, 3>> points, In
   const double* t = uv.data();
   const double* p = points.data();
   const int64_t* c = chart.data();
-  std::vector<int64_t> start(k + 1, 0);
-  for (int64_t h = 0; h < 3 * m; ++h) ++start[std::min(f[3 * (h / 3) + FROM[h % 3]], f[3 * (h / 3) + TO[h % 3]]) + 1];
-  for (int64_t v = 0; v < k; ++v) start[v + 1] += start[v];
-  std::vector<std::pair<int64_t, int64_t>> order(3 * m);
-  {
-    std::vector<int64_t> fill(start.begin(), start.end() - 1);
-    for (int64_t h = 0; h < 3 * m; ++h) {
-      const int64_t x = f[3 * (h / 3) + FROM[h % 3]], y = f[3 * (h / 3) + TO[h % 3]];
-      order[fill[std::min(x, y)]++] = {std::max(x, y), h};
-    }
-  }
+  std::vector<int64_t> start;
+  std::vector<std::pair<int64_t, int64_t>> order;
+  sorted_half_edges(f, m, k, start, order);
   std::vector<SlitSample> raw;
   for (int64_t v = 0; v < k; ++v) {
-    std::sort(order.begin() + start[v], order.begin() + start[v + 1]);
     for (int64_t i = start[v]; i < start[v + 1]; ++i) {
       const bool single = (i == start[v] || order[i - 1].first != order[i].first) &&
                           (i + 1 == start[v + 1] || order[i + 1].first != order[i].first);

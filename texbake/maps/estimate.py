@@ -268,6 +268,29 @@ def probe_estimate(
         rounds = PROBE_ROUNDS if precision > 0 else (1.0,)
         budget = texels
     counts = sizes if whole else _allotted(budget, sizes)
+    result = _probe_rounds(reference_at, image, (strata, sizes, counts), sides, rounds, rng, precision, total)
+    mse, se = result["mse"], result["se"]
+    return {
+        "method": "probe",
+        "how": HOW["probe"],
+        "rmse": float(np.sqrt(max(mse, se, 0.0))),
+        "rmse_interval": [float(np.sqrt(max(mse - 2 * se, 0.0))), float(np.sqrt(max(mse + 2 * se, 0.0)))],
+        "texels": result["probed"],
+        "probe_grid": [grid, edge_grid or grid],
+        "probe_rmse": float(np.sqrt(result["d2"])),  # bake against the probe, probe noise included
+        "probe_noise": float(np.sqrt(result["n2"])),
+    }
+
+
+def _probe_rounds(reference_at, image: np.ndarray, drawn_from, sides: list[int], rounds: tuple[float, ...],
+                  rng: np.random.Generator, precision: float, total: int) -> dict:
+    """:func:`_pooled` of the texels probed in ``rounds``: ``drawn_from`` is ``(strata,
+    sizes, counts)``, the strata (:func:`_strata_of`), their texels and the texels drawn
+    from each; ``sides[k]`` the probe grid of stratum ``k``. Each stratum's texels are drawn
+    in the first round (one permutation, probed a ``rounds`` share at a time) and the
+    rounds stop once ``se <= precision * mse``."""
+    strata, sizes, counts = drawn_from
+    width = image.shape[1]
     n = len(sizes)
     picks: list[np.ndarray | None] = [None] * n  # per stratum: its drawn texels, in the order they are probed
     done = [0] * n
@@ -286,17 +309,7 @@ def probe_estimate(
         result = _pooled(found, sizes, total)
         if result["se"] <= precision * result["mse"]:
             break
-    mse, se = result["mse"], result["se"]
-    return {
-        "method": "probe",
-        "how": HOW["probe"],
-        "rmse": float(np.sqrt(max(mse, se, 0.0))),
-        "rmse_interval": [float(np.sqrt(max(mse - 2 * se, 0.0))), float(np.sqrt(max(mse + 2 * se, 0.0)))],
-        "texels": result["probed"],
-        "probe_grid": [grid, edge_grid or grid],
-        "probe_rmse": float(np.sqrt(result["d2"])),  # bake against the probe, probe noise included
-        "probe_noise": float(np.sqrt(result["n2"])),
-    }
+    return result
 
 
 def _strata_of(image: np.ndarray, covered: np.ndarray, total: int, whole: bool):
