@@ -381,7 +381,7 @@ inline void add_clipped(const double* tri, Moments& sum, std::vector<double>* co
   sum.a += s * m.a, sum.x += s * m.x, sum.y += s * m.y, sum.xx += s * m.xx, sum.yy += s * m.yy, sum.xy += s * m.xy;
 }
 
-constexpr int CLIP_FACES = 64;  // faces of one chart a texel's cut visits at most
+constexpr int CLIP_FACES = 256;  // faces of one chart a texel's cut takes at most
 
 // The texel under a sample (face f at barycentrics b), and any face in its texel-local
 // coordinates (the call: the face's corners into tri, 6 values)
@@ -401,28 +401,52 @@ struct TexelFrame {
   }
 };
 
-// the moments of the part of a texel that face f's chart covers: the faces reached from f
-// across UV edges, each cut to the texel (local(g, tri): face g in texel-local coordinates);
-// the cut pieces' corners appended to corners when given
+// The faces a texel's cut may take: each face's chart (faces joined across UV edges, numbered
+// by labels) and the UV grid that lists the faces of each cell (UVGrid's box, start and listed)
+struct Cells {
+  const int64_t* chart;
+  Grid grid;
+  const int64_t* start;
+  const int32_t* listed;
+};
+
+inline double winding(const Atlas& atlas, int64_t f) {
+  const double *a = atlas.corner(f, 0), *b = atlas.corner(f, 1), *c = atlas.corner(f, 2);
+  return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+}
+
+// the moments of the part of a texel that face f's chart covers: the faces of f's chart the
+// grid lists in the texel's cells that wind as f does (a folded face lies on another: not
+// counted twice), each cut to the texel (local(g, tri): face g in texel-local coordinates),
+// also those not reached from f across UV edges (a crack in a scan, where a chart's two
+// sides meet in one texel); the cut pieces' corners appended to corners when given
 template <typename Local>
-Moments chart_part(const Atlas& atlas, const int64_t* across, int64_t f, const Local& local, std::vector<double>* corners = nullptr) {
-  int64_t seen[CLIP_FACES];
-  int count = 0, next = 0;
-  seen[count++] = f;
+Moments chart_part(const Atlas& atlas, const Cells& cells, int64_t f, const Local& local, std::vector<double>* corners = nullptr) {
+  int64_t taken[CLIP_FACES];
+  int count = 0;
+  const int64_t chart = cells.chart[f];
+  const bool positive = winding(atlas, f) > 0;
+  const double u0 = local.col / local.w, u1 = (local.col + 1.0) / local.w;
+  const double v0 = 1.0 - (local.row + 1.0) / local.h, v1 = 1.0 - local.row / local.h;
+  int64_t x0, x1, y0, y1;
+  Grid::span(u0, u1, cells.grid.lo_u, cells.grid.inv_u, cells.grid.nx, x0, x1);
+  Grid::span(v0, v1, cells.grid.lo_v, cells.grid.inv_v, cells.grid.ny, y0, y1);
   Moments sum;
   double tri[6];
-  while (next < count) {
-    const int64_t g = seen[next++];
-    local(g, tri);
-    const double before = sum.a;
-    add_clipped(tri, sum, corners);
-    if (sum.a <= before && g != f) continue;  // off the texel: not crossed further
-    for (int c = 0; c < 3; ++c) {
-      const int64_t o = across[3 * g + c];
-      if (o < 0 || o >= atlas.m || std::find(seen, seen + count, o) != seen + count || count == CLIP_FACES) continue;
-      seen[count++] = o;
+  for (int64_t y = y0; y <= y1; ++y)
+    for (int64_t x = x0; x <= x1; ++x) {
+      const int64_t cell = y * cells.grid.nx + x;
+      for (int64_t k = cells.start[cell]; k < cells.start[cell + 1]; ++k) {
+        const int64_t g = cells.listed[k];
+        if (g < 0 || g >= atlas.m) throw std::invalid_argument("footprint cut: a listed face outside the atlas");
+        if (cells.chart[g] != chart || (winding(atlas, g) > 0) != positive) continue;
+        if (std::find(taken, taken + count, g) != taken + count) continue;  // listed in another cell too
+        if (count == CLIP_FACES) return Moments{std::numeric_limits<double>::quiet_NaN()};  // too many: taken as whole
+        taken[count++] = g;
+        local(g, tri);
+        add_clipped(tri, sum, corners);
+      }
     }
-  }
   return sum;
 }
 
@@ -453,20 +477,32 @@ inline int convex_hull(std::vector<double>& points, double* hull, int most) {
   return corners;
 }
 
+// Cells over checked arrays: chart of m, start of nx * ny + 1, listed of start's last
+inline Cells cells_of(const Atlas& atlas, const In<int64_t, nb::ndim<1>>& chart, const In<double, shape<4>>& box, int64_t nx,
+                      int64_t ny, const In<int64_t, nb::ndim<1>>& start, const In<int32_t, nb::ndim<1>>& listed) {
+  if (int64_t(chart.shape(0)) != atlas.m || nx < 1 || ny < 1 || int64_t(start.shape(0)) != nx * ny + 1 ||
+      int64_t(listed.shape(0)) != start.data()[nx * ny])
+    throw std::invalid_argument("footprint cut: chart of m, start of nx * ny + 1, listed of start[-1]");
+  return Cells{chart.data(), grid_of(box.data()[0], box.data()[1], box.data()[2], box.data()[3], nx, ny), start.data(),
+               listed.data()};
+}
+
 // Per sample (face, bary) of one sample a texel: the part of its texel that its chart covers
 // (only texels in border, border_texels' sorted list, can be partly covered)
-// (the faces reached from its face across UV edges whose triangles overlap the texel), as the
+// (chart_part: the faces of its chart whose triangles overlap the texel), as the
 // box of the same mean and covariance: shift (n, 2) its centre, edges (n, 4) the matrix E
 // (row-major) whose columns are its edges in texel units (the whole texel: 0 and the identity),
 // area (n,) the covered share. Returns the number of partly covered samples.
 int64_t footprint_clip(In<int32_t, nb::ndim<1>> face, In<double, shape<-1, 3>> bary, In<double, shape<-1, 2>> uv,
-                       In<int64_t, shape<-1, 3>> faces, In<int64_t, shape<-1, 3>> across, In<int64_t, nb::ndim<1>> border,
+                       In<int64_t, shape<-1, 3>> faces, In<int64_t, nb::ndim<1>> chart, In<double, shape<4>> box, int64_t nx,
+                       int64_t ny, In<int64_t, nb::ndim<1>> start, In<int32_t, nb::ndim<1>> listed, In<int64_t, nb::ndim<1>> border,
                        int64_t width, int64_t height, Out<double, shape<-1, 2>> shift, Out<double, shape<-1, 4>> edges, Out<double, nb::ndim<1>> area) {
   const int64_t n = face.shape(0);
   const Atlas atlas(uv, faces);
   if (int64_t(bary.shape(0)) != n || int64_t(shift.shape(0)) != n || int64_t(edges.shape(0)) != n ||
-      int64_t(area.shape(0)) != n || int64_t(across.shape(0)) != atlas.m)
-    throw std::invalid_argument("footprint_clip: face, bary, shift, edges, area of n rows; across of m");
+      int64_t(area.shape(0)) != n)
+    throw std::invalid_argument("footprint_clip: face, bary, shift, edges, area of n rows");
+  const Cells cells = cells_of(atlas, chart, box, nx, ny, start, listed);
   const double w = double(width), h = double(height);
   int64_t partial = 0;
   for (int64_t i = 0; i < n; ++i) {
@@ -494,7 +530,7 @@ int64_t footprint_clip(In<int32_t, nb::ndim<1>> face, In<double, shape<-1, 3>> b
       }
     }
     if (whole) continue;
-    const Moments sum = chart_part(atlas, across.data(), f, local);
+    const Moments sum = chart_part(atlas, cells, f, local);
     if (!(sum.a < 1.0 - 1e-9) || !(sum.a > 1e-12)) continue;  // covered (or a cut too small to trust)
     const double mx = sum.x / sum.a, my = sum.y / sum.a;
     // 12 x the covariance: the identity for the whole texel; its square root is the box's edges
@@ -517,13 +553,15 @@ constexpr int HULL = 8;  // corners of a cut texel's convex hull kept (more: no 
 // counter-clockwise, the rest of its HULL rows NaN; all NaN where the hull has more corners,
 // the box no area, or the texel is whole.
 void footprint_hull(In<int32_t, nb::ndim<1>> face, In<double, shape<-1, 3>> bary, In<double, shape<-1, 2>> uv,
-                    In<int64_t, shape<-1, 3>> faces, In<int64_t, shape<-1, 3>> across, int64_t width, int64_t height,
+                    In<int64_t, shape<-1, 3>> faces, In<int64_t, nb::ndim<1>> chart, In<double, shape<4>> box, int64_t nx,
+                    int64_t ny, In<int64_t, nb::ndim<1>> start, In<int32_t, nb::ndim<1>> listed, int64_t width, int64_t height,
                     In<double, shape<-1, 2>> shift, In<double, shape<-1, 4>> edges, Out<double, shape<-1, HULL, 2>> hull) {
   const int64_t n = face.shape(0);
   const Atlas atlas(uv, faces);
   if (int64_t(bary.shape(0)) != n || int64_t(shift.shape(0)) != n || int64_t(edges.shape(0)) != n ||
-      int64_t(hull.shape(0)) != n || int64_t(across.shape(0)) != atlas.m)
-    throw std::invalid_argument("footprint_hull: face, bary, shift, edges, hull of n rows; across of m");
+      int64_t(hull.shape(0)) != n)
+    throw std::invalid_argument("footprint_hull: face, bary, shift, edges, hull of n rows");
+  const Cells cells = cells_of(atlas, chart, box, nx, ny, start, listed);
   const double w = double(width), h = double(height), nan = std::numeric_limits<double>::quiet_NaN();
   std::vector<double> corners;
   double local_hull[2 * HULL];
@@ -535,7 +573,7 @@ void footprint_hull(In<int32_t, nb::ndim<1>> face, In<double, shape<-1, 3>> bary
     if (f >= atlas.m) throw std::invalid_argument("footprint_hull: a face outside the atlas");
     const TexelFrame local(atlas, f, bary.data() + 3 * i, w, h);
     corners.clear();
-    const Moments sum = chart_part(atlas, across.data(), f, local, &corners);
+    const Moments sum = chart_part(atlas, cells, f, local, &corners);
     const double* e = edges.data() + 4 * i;
     const double det = e[0] * e[3] - e[1] * e[2];
     if (!(sum.a < 1.0 - 1e-9) || !(sum.a > 1e-12) || !(std::fabs(det) > 1e-12)) continue;
@@ -581,13 +619,13 @@ void bind_lookup(nb::module_& m) {
         "Each point's barycentrics in its face (clamped, renormalised) and whether it lies inside; face -1 rows left.");
   m.def("border_texels", &border_texels, nb::arg("uv"), nb::arg("faces"), nb::arg("across"), nb::arg("usable"),
         nb::arg("width"), nb::arg("height"), "Sorted (k,) int64 texels (row * width + col) that a chart's border edge touches.");
-  m.def("footprint_clip", &footprint_clip, nb::arg("face"), nb::arg("bary"), nb::arg("uv"), nb::arg("faces"), nb::arg("across"),
-        nb::arg("border"), nb::arg("width"), nb::arg("height"), nb::arg("shift").noconvert(), nb::arg("edges").noconvert(),
+  m.def("footprint_clip", &footprint_clip, nb::arg("face"), nb::arg("bary"), nb::arg("uv"), nb::arg("faces"), nb::arg("chart"),
+        nb::arg("box"), nb::arg("nx"), nb::arg("ny"), nb::arg("start"), nb::arg("listed"), nb::arg("border"), nb::arg("width"), nb::arg("height"), nb::arg("shift").noconvert(), nb::arg("edges").noconvert(),
         nb::arg("area").noconvert(), Release(),
         "The part of each sample's texel its chart covers, as a box of its mean and covariance: shift (n, 2), edges "
         "(n, 4: columns its edges, texel units), area (n,); returns the number of partly covered samples.");
-  m.def("footprint_hull", &footprint_hull, nb::arg("face"), nb::arg("bary"), nb::arg("uv"), nb::arg("faces"), nb::arg("across"),
-        nb::arg("width"), nb::arg("height"), nb::arg("shift"), nb::arg("edges"), nb::arg("hull").noconvert(), Release(),
+  m.def("footprint_hull", &footprint_hull, nb::arg("face"), nb::arg("bary"), nb::arg("uv"), nb::arg("faces"), nb::arg("chart"),
+        nb::arg("box"), nb::arg("nx"), nb::arg("ny"), nb::arg("start"), nb::arg("listed"), nb::arg("width"), nb::arg("height"), nb::arg("shift"), nb::arg("edges"), nb::arg("hull").noconvert(), Release(),
         "hull (n, 8, 2): the convex hull of the part of each (partly covered) sample's texel its chart covers, in the frame "
         "of footprint_clip's box (shift, edges), NaN-padded; all NaN where it has more corners or the texel is whole.");
 }

@@ -258,6 +258,53 @@ def test_a_texel_cut_by_a_straight_chart_edge_is_the_covered_rectangle():
     assert shift[1].tolist() == [0, 0] and edges[1].tolist() == [[1, 0], [0, 1]]  # a whole texel: as it was
 
 
+def _image_faces(corners, size: int = 4):
+    """UVs and faces of triangles given in image coordinates (column, row down) of a
+    ``size`` x ``size`` image, each wound counter-clockwise in UV."""
+    uv, faces = [], []
+    for tri in corners:
+        t = np.array([[x / size, 1 - y / size] for x, y in tri])
+        if (t[1, 0] - t[0, 0]) * (t[2, 1] - t[0, 1]) - (t[1, 1] - t[0, 1]) * (t[2, 0] - t[0, 0]) < 0:
+            t = t[[0, 2, 1]]
+        faces.append([len(uv), len(uv) + 1, len(uv) + 2])
+        uv.extend(t.tolist())
+    return np.array(uv), np.array(faces)
+
+
+def test_a_fold_is_not_crossed_and_its_texel_is_cut_to_the_part_it_covers():
+    # a scan's folded pair: the same UV triangle twice, wound both ways, over half of texel
+    # (row 1, column 1); crossed, the two halves added up to a whole texel
+    uv, faces = _image_faces([[(1, 1), (2, 1), (1, 2)]])
+    uv, faces = np.concatenate([uv, uv]), np.array([[0, 1, 2], [3, 5, 4]])
+    assert uv_neighbours(uv, faces, np.ones(2, dtype=bool)).tolist() == [[-1, -1, -1], [-1, -1, -1]]
+    lookup = UVLookup(uv, faces)
+    face, bary, _ = lookup.locate(np.array([[1.4 / 4, 1 - 1.4 / 4]]))
+    shift, edges, area, partial = lookup.footprint_clip(face, bary, 4, 4)
+    assert partial == 1 and area[0] == pytest.approx(0.5)
+
+
+def test_a_cracks_two_sides_in_one_texel_are_both_its_charts_part():
+    # texel (row 1, column 1) is covered by two faces of one chart, A (lower left half) and
+    # B (upper right), whose hypotenuses lie 1e-4 apart (a crack: no UV edge between them);
+    # they are joined by faces outside the texel (D, E, H, G, F). The cut takes both.
+    e = 1e-4
+    A, B = [(1, 1), (2, 1), (1, 2)], [(2, 1 + e), (2, 2), (1 + e, 2)]
+    D, E = [(1, 1), (2, 1), (1.5, 0)], [(2, 1), (1.5, 0), (3, 0.5)]
+    H, G, F = [(2, 1), (3, 0.5), (2, 1 + e)], [(2, 1 + e), (3, 1.5), (3, 0.5)], [(2, 1 + e), (2, 2), (3, 1.5)]
+    uv, faces = _image_faces([A, B, D, E, H, G, F])
+    lookup = UVLookup(uv, faces)
+    face, bary, _ = lookup.locate(np.array([[1.3 / 4, 1 - 1.3 / 4], [1.8 / 4, 1 - 1.8 / 4]]))
+    assert face.tolist() == [0, 1]
+    shift, edges, area, partial = lookup.footprint_clip(face, bary, 4, 4)
+    assert area.tolist() == pytest.approx([1 - e + e * e / 2] * 2)  # all but the crack's sliver
+    assert np.abs(shift).max() < 1e-4 and np.abs(edges - np.eye(2)).max() < 1e-4
+    # a face of another chart in the texel is not taken
+    uv2, faces2 = _image_faces([A, [(2, 1), (2, 2), (1, 2)]])
+    uv2[3:, 0] += 1e-9  # B' apart from A: its own chart (no corners shared by position)
+    face, bary, _ = UVLookup(uv2, faces2).locate(np.array([[1.3 / 4, 1 - 1.3 / 4]]))
+    assert UVLookup(uv2, faces2).footprint_clip(face, bary, 4, 4)[2][0] == pytest.approx(0.5)
+
+
 def test_the_hull_of_a_texel_cut_by_a_straight_chart_edge_is_the_boxs_own_square():
     # the texel above, 0.6 covered: the box is that rectangle, so the hull in its frame is [-1/2, 1/2]^2
     lookup = UVLookup(np.array([[0, 0], [0.65, 0], [0.65, 1], [0, 1]], float), np.array([[0, 1, 2], [0, 2, 3]]))
