@@ -415,13 +415,13 @@ inline double winding(const Atlas& atlas, int64_t f) {
   return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
 }
 
-// the moments of the part of a texel that face f's chart covers: the faces of f's chart the
-// grid lists in the texel's cells that wind as f does (a folded face lies on another: not
-// counted twice), each cut to the texel (local(g, tri): face g in texel-local coordinates),
-// also those not reached from f across UV edges (a crack in a scan, where a chart's two
-// sides meet in one texel); the cut pieces' corners appended to corners when given
-template <typename Local>
-Moments chart_part(const Atlas& atlas, const Cells& cells, int64_t f, const Local& local, std::vector<double>* corners = nullptr) {
+// each face g of f's chart that the grid lists in the texel's cells and that winds as f does
+// (a folded face lies on another: not counted twice), once, as visit(g, tri) with tri its
+// corners in texel-local coordinates (local(g, tri)), also those not reached from f across
+// UV edges (a crack in a scan, where a chart's two sides meet in one texel); false (and
+// visits stop) past CLIP_FACES faces
+template <typename Local, typename Visit>
+bool chart_faces(const Atlas& atlas, const Cells& cells, int64_t f, const Local& local, Visit&& visit) {
   int64_t taken[CLIP_FACES];
   int count = 0;
   const int64_t chart = cells.chart[f];
@@ -431,7 +431,6 @@ Moments chart_part(const Atlas& atlas, const Cells& cells, int64_t f, const Loca
   int64_t x0, x1, y0, y1;
   Grid::span(u0, u1, cells.grid.lo_u, cells.grid.inv_u, cells.grid.nx, x0, x1);
   Grid::span(v0, v1, cells.grid.lo_v, cells.grid.inv_v, cells.grid.ny, y0, y1);
-  Moments sum;
   double tri[6];
   for (int64_t y = y0; y <= y1; ++y)
     for (int64_t x = x0; x <= x1; ++x) {
@@ -440,14 +439,54 @@ Moments chart_part(const Atlas& atlas, const Cells& cells, int64_t f, const Loca
         const int64_t g = cells.listed[k];
         if (g < 0 || g >= atlas.m) throw std::invalid_argument("footprint cut: a listed face outside the atlas");
         if (cells.chart[g] != chart || (winding(atlas, g) > 0) != positive) continue;
-        if (std::find(taken, taken + count, g) != taken + count) continue;  // listed in another cell too
-        if (count == CLIP_FACES) return Moments{std::numeric_limits<double>::quiet_NaN()};  // too many: taken as whole
-        taken[count++] = g;
         local(g, tri);
-        add_clipped(tri, sum, corners);
+        // off the texel's square by its box: not a face of the texel (most of a cell's faces)
+        if (std::max({tri[0], tri[2], tri[4]}) <= -0.5 || std::min({tri[0], tri[2], tri[4]}) >= 0.5 ||
+            std::max({tri[1], tri[3], tri[5]}) <= -0.5 || std::min({tri[1], tri[3], tri[5]}) >= 0.5)
+          continue;
+        if (std::find(taken, taken + count, g) != taken + count) continue;  // listed in another cell too
+        if (count == CLIP_FACES) return false;
+        taken[count++] = g;
+        visit(g, tri);
       }
     }
+  return true;
+}
+
+// the moments of the part of a texel that face f's chart covers (chart_faces' faces, each cut
+// to the texel; NaN area past CLIP_FACES faces: taken as whole); the cut pieces' corners
+// appended to corners when given
+template <typename Local>
+Moments chart_part(const Atlas& atlas, const Cells& cells, int64_t f, const Local& local, std::vector<double>* corners = nullptr) {
+  Moments sum;
+  if (!chart_faces(atlas, cells, f, local, [&](int64_t, const double* tri) { add_clipped(tri, sum, corners); }))
+    return Moments{std::numeric_limits<double>::quiet_NaN()};
   return sum;
+}
+
+// whether the texel square [-1/2, 1/2]^2 lies wholly inside triangle tri (texel-local)
+inline bool texel_inside(const double* tri) {
+  const double orient = (tri[2] - tri[0]) * (tri[5] - tri[1]) - (tri[3] - tri[1]) * (tri[4] - tri[0]);
+  bool inside = orient != 0;
+  for (int k = 0; k < 4 && inside; ++k) {
+    const double x = (k & 1) ? 0.5 : -0.5, y = (k & 2) ? 0.5 : -0.5;
+    for (int c = 0; c < 3 && inside; ++c) {
+      const double *p = tri + 2 * c, *q = tri + 2 * ((c + 1) % 3);
+      inside = orient * ((q[0] - p[0]) * (y - p[1]) - (q[1] - p[1]) * (x - p[0])) >= 0;
+    }
+  }
+  return inside;
+}
+
+// the box of the same mean and covariance as the region of moments m: its centre (mx, my) into
+// shift, its edges as the columns of e (row-major 2 x 2; the whole texel: the identity)
+inline void box_of(const Moments& m, double* shift, double* e) {
+  const double mx = m.x / m.a, my = m.y / m.a;
+  // 12 x the covariance: the identity for the whole texel; its square root is the box's edges
+  const double cxx = 12.0 * (m.xx / m.a - mx * mx), cyy = 12.0 * (m.yy / m.a - my * my), cxy = 12.0 * (m.xy / m.a - mx * my);
+  const double s = std::sqrt(std::max(cxx * cyy - cxy * cxy, 0.0)), t = std::sqrt(std::max(cxx + cyy + 2.0 * s, 1e-300));
+  shift[0] = mx, shift[1] = my;
+  e[0] = (cxx + s) / t, e[1] = cxy / t, e[2] = cxy / t, e[3] = (cyy + s) / t;
 }
 
 // the convex hull of points (n pairs), counter-clockwise (Andrew's monotone chain), into hull;
@@ -519,30 +558,79 @@ int64_t footprint_clip(In<int32_t, nb::ndim<1>> face, In<double, shape<-1, 3>> b
     if (!std::binary_search(border.data(), border.data() + border.shape(0), texel)) continue;  // no border crosses it
     double tri[6];
     local(f, tri);
-    // the whole texel inside the sample's face: nothing to cut (most texels)
-    const double orient = (tri[2] - tri[0]) * (tri[5] - tri[1]) - (tri[3] - tri[1]) * (tri[4] - tri[0]);
-    bool whole = orient != 0;
-    for (int k = 0; k < 4 && whole; ++k) {
-      const double x = (k & 1) ? 0.5 : -0.5, y = (k & 2) ? 0.5 : -0.5;
-      for (int c = 0; c < 3 && whole; ++c) {
-        const double *p = tri + 2 * c, *q = tri + 2 * ((c + 1) % 3);
-        whole = orient * ((q[0] - p[0]) * (y - p[1]) - (q[1] - p[1]) * (x - p[0])) >= 0;
-      }
-    }
-    if (whole) continue;
+    if (texel_inside(tri)) continue;  // the whole texel inside the sample's face: nothing to cut (most texels)
     const Moments sum = chart_part(atlas, cells, f, local);
     if (!(sum.a < 1.0 - 1e-9) || !(sum.a > 1e-12)) continue;  // covered (or a cut too small to trust)
-    const double mx = sum.x / sum.a, my = sum.y / sum.a;
-    // 12 x the covariance: the identity for the whole texel; its square root is the box's edges
-    const double cxx = 12.0 * (sum.xx / sum.a - mx * mx), cyy = 12.0 * (sum.yy / sum.a - my * my),
-                 cxy = 12.0 * (sum.xy / sum.a - mx * my);
-    const double s = std::sqrt(std::max(cxx * cyy - cxy * cxy, 0.0)), t = std::sqrt(std::max(cxx + cyy + 2.0 * s, 1e-300));
-    sh[0] = mx, sh[1] = my;
-    e[0] = (cxx + s) / t, e[1] = cxy / t, e[2] = cxy / t, e[3] = (cyy + s) / t;
+    box_of(sum, sh, e);
     area.data()[i] = sum.a;
     ++partial;
   }
   return partial;
+}
+
+// Per sample (face, bary) of one sample a texel whose texel its chart covers whole, over
+// two faces or more (a crease, where the surface bends and one face's footprint stands for a
+// texel shaped otherwise): the texel's part in each face (chart_faces'; parts under least of
+// the texel left out, the rest's shares renormalised), as the box of the same mean and
+// covariance. Returns (sample (k,) int64 the row of each part's sample, face (k,) int32,
+// share (k,), uv (k, 2) the part's centre, edges (k, 4) its box's edges as columns, texel
+// units, row-major), the parts of a sample together; no parts for a sample whose face does not
+// bend (bends (m,): false), a texel inside its face, partly covered (the cut's: footprint_clip),
+// or covered more than once (overlapping UVs).
+nb::tuple texel_parts(In<int32_t, nb::ndim<1>> face, In<double, shape<-1, 3>> bary, In<double, shape<-1, 2>> uv,
+                      In<int64_t, shape<-1, 3>> faces, In<int64_t, nb::ndim<1>> chart, In<double, shape<4>> box, int64_t nx,
+                      int64_t ny, In<int64_t, nb::ndim<1>> start, In<int32_t, nb::ndim<1>> listed, In<bool, nb::ndim<1>> bends,
+                      int64_t width, int64_t height, double least) {
+  const int64_t n = face.shape(0);
+  const Atlas atlas(uv, faces);
+  if (int64_t(bary.shape(0)) != n || int64_t(bends.shape(0)) != atlas.m)
+    throw std::invalid_argument("texel_parts: face, bary of n rows, bends of m");
+  const Cells cells = cells_of(atlas, chart, box, nx, ny, start, listed);
+  std::vector<int64_t> sample;
+  std::vector<int32_t> part_face;
+  std::vector<double> share, part_uv, part_edges;
+  {
+    nb::gil_scoped_release release;
+    const double w = double(width), h = double(height);
+    std::vector<std::pair<int64_t, Moments>> parts;
+    for (int64_t i = 0; i < n; ++i) {
+      const int64_t f = face.data()[i];
+      if (f < 0) continue;
+      if (f >= atlas.m) throw std::invalid_argument("texel_parts: a face outside the atlas");
+      if (!bends.data()[f]) continue;
+      const TexelFrame local(atlas, f, bary.data() + 3 * i, w, h);
+      double tri[6];
+      local(f, tri);
+      if (texel_inside(tri)) continue;
+      parts.clear();
+      const bool all = chart_faces(atlas, cells, f, local, [&](int64_t g, const double* t) {
+        Moments m;
+        add_clipped(t, m);
+        if (m.a > 0) parts.emplace_back(g, m);
+      });
+      double total = 0.0, kept = 0.0;
+      for (const auto& [g, m] : parts) total += m.a;
+      if (!all || !(total >= 1.0 - 1e-9) || total > 1.0 + 1e-9) continue;
+      int count = 0;
+      for (const auto& [g, m] : parts)
+        if (m.a >= least) kept += m.a, ++count;
+      if (count < 2) continue;
+      for (const auto& [g, m] : parts) {
+        if (m.a < least) continue;
+        double centre[2], e[4];
+        box_of(m, centre, e);
+        sample.push_back(i);
+        part_face.push_back(int32_t(g));
+        share.push_back(m.a / kept);
+        part_uv.push_back((local.col + 0.5 + centre[0]) / w);
+        part_uv.push_back(1.0 - (local.row + 0.5 + centre[1]) / h);
+        part_edges.insert(part_edges.end(), e, e + 4);
+      }
+    }
+  }
+  const size_t k = sample.size();
+  return nb::make_tuple(owned(std::move(sample), {k}), owned(std::move(part_face), {k}), owned(std::move(share), {k}),
+                        owned(std::move(part_uv), {k, 2}), owned(std::move(part_edges), {k, 4}));
 }
 
 constexpr int HULL = 8;  // corners of a cut texel's convex hull kept (more: no hull)
@@ -624,6 +712,11 @@ void bind_lookup(nb::module_& m) {
         nb::arg("area").noconvert(), Release(),
         "The part of each sample's texel its chart covers, as a box of its mean and covariance: shift (n, 2), edges "
         "(n, 4: columns its edges, texel units), area (n,); returns the number of partly covered samples.");
+  m.def("texel_parts", &texel_parts, nb::arg("face"), nb::arg("bary"), nb::arg("uv"), nb::arg("faces"), nb::arg("chart"),
+        nb::arg("box"), nb::arg("nx"), nb::arg("ny"), nb::arg("start"), nb::arg("listed"), nb::arg("bends"), nb::arg("width"),
+        nb::arg("height"), nb::arg("least"),
+        "(sample, face, share, uv, edges): the part of each sample's texel in each face of its chart, where the chart covers "
+        "the texel whole over two faces or more, as boxes of their mean and covariance (parts under least left out).");
   m.def("footprint_hull", &footprint_hull, nb::arg("face"), nb::arg("bary"), nb::arg("uv"), nb::arg("faces"), nb::arg("chart"),
         nb::arg("box"), nb::arg("nx"), nb::arg("ny"), nb::arg("start"), nb::arg("listed"), nb::arg("width"), nb::arg("height"), nb::arg("shift"), nb::arg("edges"), nb::arg("hull").noconvert(), Release(),
         "hull (n, 8, 2): the convex hull of the part of each (partly covered) sample's texel its chart covers, in the frame "

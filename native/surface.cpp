@@ -75,9 +75,59 @@ void interpolate(In<int64_t, nb::ndim<1>> face, In<double, shape<-1, 3>> bary, I
   }
 }
 
+// face f's steps on the surface one texel right and one down (interpolate's dpdx, dpdy, unclipped)
+inline void face_steps(const double* p, const int64_t* faces, const double* t, const int64_t* uv_faces, int64_t f, double width,
+                       double height, double* out) {
+  const int64_t *c = faces + 3 * f, *u = uv_faces + 3 * f;
+  const double *o = p + 3 * c[0], *q1 = p + 3 * c[1], *q2 = p + 3 * c[2];
+  const double *a = t + 2 * u[0], *a1 = t + 2 * u[1], *a2 = t + 2 * u[2];
+  const double d1u = a1[0] - a[0], d1v = a1[1] - a[1], d2u = a2[0] - a[0], d2v = a2[1] - a[1];
+  const double det = d1u * d2v - d1v * d2u;
+  const double r = std::fabs(det) > 0 ? 1.0 / det : 0.0;
+  for (int k = 0; k < 3; ++k) {
+    const double e1 = q1[k] - o[k], e2 = q2[k] - o[k];
+    out[k] = (e1 * d2v - e2 * d1v) * r / width;
+    out[3 + k] = -(e2 * d1u - e1 * d2u) * r / height;
+  }
+}
+
+inline double norm3(const double* v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
+
+// out (m,): whether face f's steps differ from those of a face across one of its UV edges
+// (across (m, 3), -1: none) by more than kink of its own, the two steps' lengths summed
+void face_bends(In<double, shape<-1, 3>> vertices, Faces faces, In<double, shape<-1, 2>> uv, Faces uv_faces,
+                In<int64_t, shape<-1, 3>> across, double width, double height, double kink, Out<bool, nb::ndim<1>> out) {
+  const int64_t m = faces.shape(0), nv = vertices.shape(0), nt = uv.shape(0);
+  if (int64_t(uv_faces.shape(0)) != m || int64_t(across.shape(0)) != m || int64_t(out.shape(0)) != m)
+    throw std::invalid_argument("face_bends: uv_faces, across, out of m rows");
+  for (int64_t i = 0; i < 3 * m; ++i)
+    if (faces.data()[i] < 0 || faces.data()[i] >= nv || uv_faces.data()[i] < 0 || uv_faces.data()[i] >= nt ||
+        across.data()[i] >= m)
+      throw std::invalid_argument("face_bends: a face's index outside its table");
+  const double *p = vertices.data(), *t = uv.data();
+  for (int64_t f = 0; f < m; ++f) {
+    double own[6], other[6], d[6];
+    face_steps(p, faces.data(), t, uv_faces.data(), f, width, height, own);
+    const double scale = norm3(own) + norm3(own + 3);
+    bool bends = false;
+    for (int c = 0; c < 3 && !bends; ++c) {
+      const int64_t o = across.data()[3 * f + c];
+      if (o < 0) continue;
+      face_steps(p, faces.data(), t, uv_faces.data(), o, width, height, other);
+      for (int k = 0; k < 6; ++k) d[k] = other[k] - own[k];
+      bends = norm3(d) + norm3(d + 3) > kink * scale;
+    }
+    out.data()[f] = bends;
+  }
+}
+
 }  // namespace
 
 void bind_surface(nb::module_& m) {
+  m.def("face_bends", &face_bends, nb::arg("vertices"), nb::arg("faces"), nb::arg("uv"), nb::arg("uv_faces"), nb::arg("across"),
+        nb::arg("width"), nb::arg("height"), nb::arg("kink"), nb::arg("out").noconvert(), Release(),
+        "out (m,) := whether each face's steps one texel right and down differ from a UV neighbour's (across) by more "
+        "than kink of their own (the two lengths summed).");
   m.def("interpolate", &interpolate, nb::arg("face"), nb::arg("bary"), nb::arg("vertices"), nb::arg("faces"), nb::arg("uv"),
         nb::arg("uv_faces"), nb::arg("width"), nb::arg("height"), nb::arg("max_footprint"), nb::arg("normal_table"),
         nb::arg("normal_faces"), nb::arg("points").noconvert(), nb::arg("dpdx").noconvert(), nb::arg("dpdy").noconvert(),

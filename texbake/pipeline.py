@@ -37,7 +37,7 @@ from .memory import check_fits
 from .mesh import LoadedMesh, load_mesh, mesh_from_trimesh, split_normals, vertex_tangents
 from .meshmaps import Scenes
 from .output import BakeTally, bake_report
-from .sampling import Sampler, adaptive, sample_offsets, sample_uv, tiles
+from .sampling import Sampler, adaptive, creases, sample_offsets, sample_uv, tiles
 from .sets import TextureSet, Tile, images_of, texture_sets
 from .sets import tiles as set_tiles
 from .settings import BakeSettings
@@ -355,18 +355,19 @@ def _bake_tile(tile: Tile, whole: tuple[LoadedMesh, Scenes], mapping: TextureMap
     if maps.per_sample:
         lookups = None if store is None else (store[0], (store[1], *settings.width_height, settings.samples, settings.seed, tile_samples,
                                                          *([] if tile.number is None else [tile.number])))
-        (cast, rays, missed), reused = _bake_tiles(sampler, maps, settings, timer, workers, tile_samples,
+        (cast, rays, missed, parts), reused = _bake_tiles(sampler, maps, settings, timer, workers, tile_samples,
                                                    lambda done: say(0.3 + 0.6 * done), lookups)
         covered, hits = _coverage(maps)
         with timer.stage("estimate"):
             error_estimate = _estimate(sampler, maps, covered, settings)
     else:  # texture none: the mesh maps' texel centres are the bake's samples, and nothing is estimated
         covered, hits = mesh_covered, int(mesh_covered.sum())
-        cast, rays, missed, reused, error_estimate = hits, hits, 0, False, None
+        cast, rays, missed, parts, reused, error_estimate = hits, hits, 0, 0, False, None
     with timer.stage("margin"):
         filled = margin_stage.extend(list(maps.images.values()), covered, settings.margin, workers=workers)
     say(0.95)
-    tally = BakeTally(covered, filled, cast=int(cast), rays=int(rays), transfer_missed=int(missed), hits=hits, lookup_reused=reused,
+    tally = BakeTally(covered, filled, cast=int(cast), rays=int(rays), transfer_missed=int(missed), hits=hits, parts=int(parts),
+                      lookup_reused=reused,
                       error_estimate=error_estimate, seconds=timer.seconds, faces=len(mesh.faces),
                       material=None if maps.material is None else maps.material.report(), mesh_maps=mesh_maps)
     return _images(maps, settings), covered, filled, tally
@@ -481,7 +482,8 @@ def _bake_tiles(sampler: Sampler, maps: Maps, settings: BakeSettings, timer: Tim
                 progress: Callable[[float], None], lookups: tuple[AtlasCache, tuple] | None = None) -> tuple[np.ndarray, bool]:
     """Bake the image in row tiles of about ``tile_samples`` samples into ``maps``.
 
-    Returns ``[samples looked up, lookup rays cast, transfer rays that missed]`` summed
+    Returns ``[samples looked up, lookup rays cast, transfer rays that missed, crease parts
+    evaluated]`` summed
     over the tiles, and whether the lookups came from ``lookups`` (a cache and the key
     of this bake's lookups; kept there otherwise; then no ray is cast). Tiles run in threads:
     the ray casts (texbake.sampling.rays) and the compiled kernels release the GIL, numpy mostly does,
@@ -514,7 +516,10 @@ def _bake_tiles(sampler: Sampler, maps: Maps, settings: BakeSettings, timer: Tim
         s = sampler.at_located(located, timer, cut=settings.filtering and samples == 1, hull=maps.reads_hull)
         values = maps.values(s, timer)
         texel = texels[s.index // samples]
-        refined = 0
+        refined = parts = 0
+        if settings.filtering and samples == 1:  # a texel whose surface bends: filtered a face at a time
+            with timer.stage("creases"):
+                parts = creases.refine(sampler, maps.values, located, s, values)
         if settings.adaptive and settings.filtering and samples == 1 and maps.colour_name is not None:
             with timer.stage("adaptive"):
                 refined = adaptive.refine(sampler, maps.values, tile_list[i], texel, values, maps.colour_name, settings.adaptive,
@@ -522,10 +527,10 @@ def _bake_tiles(sampler: Sampler, maps: Maps, settings: BakeSettings, timer: Tim
         with timer.stage("accumulate"):
             maps.accumulate(tile_list[i], texel, values)
         progress(next(finished) / len(tile_list))
-        return np.array([located.count + refined, 0 if known is not None else located.rays, s.transfer_missed])
+        return np.array([located.count + refined, 0 if known is not None else located.rays, s.transfer_missed, parts])
 
     with timer.stage("tiles (wall)"), ThreadPoolExecutor(max(1, workers)) as pool:
-        counts = sum(pool.map(bake_tile, range(len(tile_list))), np.zeros(3))
+        counts = sum(pool.map(bake_tile, range(len(tile_list))), np.zeros(4))
     if lookups is not None and made is not None:
         lookups[0].keep_lookups(lookups[1], made)
     return counts, known is not None

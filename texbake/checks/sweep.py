@@ -184,7 +184,7 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
     for setting in settings:
         result = bake(**setting.kwargs())
         figures = result.report["sets"][0]
-        spent = figures["rays"]["cast"] / max(1, figures["texels"]["covered"])
+        spent = (figures["rays"]["cast"] + figures["rays"]["crease_parts"]) / max(1, figures["texels"]["covered"])
         baked[setting] = (result.images[next(iter(result.images))], result.coverage, result.report["error_estimate"], spent)
     # every setting of a size is scored on the same texels: those all its bakes cover
     scored = {sz: np.logical_and.reduce([ref_cov, *(baked[s][1] for s in settings if s.size == sz)])

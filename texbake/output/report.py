@@ -72,6 +72,9 @@ class BakeTally:
         Samples whose transfer ray found no source.
     hits : int
         Samples that reached a face.
+    parts : int
+        Texture evaluations of the parts of texels whose surface bends, beyond their first
+        sample (``texbake.sampling.creases``; one filtered sample a texel only).
     lookup_reused : bool
         Whether the lookups were an earlier bake's, kept in memory (then no ray was cast).
     error_estimate : dict or None
@@ -94,6 +97,7 @@ class BakeTally:
     rays: int
     transfer_missed: int
     hits: int
+    parts: int = 0
     lookup_reused: bool = False
     error_estimate: dict | None = field(default_factory=dict)
     seconds: dict = field(default_factory=dict)
@@ -200,6 +204,7 @@ def _figures(settings: BakeSettings, tally: BakeTally) -> dict:
             "missed": tally.cast - tally.hits - tally.transfer_missed,
             "missed_inside_atlas": _cracks(tally.covered),
             "transfer_missed": tally.transfer_missed,
+            "crease_parts": tally.parts,  # evaluations of bent texels' parts (texbake.sampling.creases), not looked up
         },
         "error_estimate": tally.error_estimate,
         **({} if tally.material is None else {"material": tally.material}),

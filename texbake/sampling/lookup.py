@@ -147,6 +147,11 @@ class UVLookup:
                 self._borders[(width, height)] = found
             return found
 
+    @property
+    def across(self) -> np.ndarray:
+        """``(m, 3)`` int64: the face across each face's UV edges (:func:`uv_neighbours`)."""
+        return self._across
+
     def _cells(self) -> tuple:
         """``(chart, box, nx, ny, start, listed)``: each face's chart (faces joined across UV
         edges; made once) and the UV grid's cells, for the footprint's cut
@@ -219,6 +224,20 @@ class UVLookup:
                                          self._uv, self._faces, *self._cells(), self._border(width, height), width, height,
                                          shift, edges, area)
         return shift, edges.reshape(n, 2, 2), area, int(partial)
+
+    def texel_parts(self, face: np.ndarray, bary: np.ndarray, width: int, height: int, least: float, bends: np.ndarray):
+        """The part of each sample's texel in each face of its chart, for samples one a texel
+        on a face that ``bends`` (``(m,)`` bool) whose texel the chart covers whole over two
+        faces or more (``native/lookup.cpp``
+        ``texel_parts``; parts under ``least`` of the texel left out, the others' shares
+        renormalised). Returns ``(sample (k,) int64, face (k,) int32, share (k,), uv (k, 2),
+        edges (k, 2, 2))``: each part's sample (a row of ``face``), face, share of the
+        texel, centre, and its box's edges as columns, in texel units (as
+        :meth:`footprint_clip`'s); a sample's parts together."""
+        sample, part_face, share, uv, edges = _native.texel_parts(
+            np.ascontiguousarray(face, dtype=np.int32), np.ascontiguousarray(bary, dtype=np.float64), self._uv, self._faces,
+            *self._cells(), np.ascontiguousarray(bends, dtype=bool), width, height, float(least))
+        return sample, part_face, share, uv, edges.reshape(-1, 2, 2)
 
     def footprint_hull(self, face: np.ndarray, bary: np.ndarray, width: int, height: int, shift: np.ndarray,
                        edges: np.ndarray) -> np.ndarray:

@@ -10,6 +10,7 @@ probe go through the same chain.
 
 from __future__ import annotations
 
+import threading
 from contextlib import nullcontext
 from dataclasses import dataclass
 
@@ -101,6 +102,18 @@ class Sampler:
 
             self.caster = SourceMesh(*source)
         self.reach = reach
+        self._bends: dict[float, np.ndarray] = {}
+        self._lock = threading.Lock()  # the tile threads ask for bends together
+
+    def bends(self, kink: float) -> np.ndarray:
+        """``(m,)`` bool: the faces whose steps on the surface differ from a UV neighbour's by
+        more than ``kink`` of their own (``SurfaceMap.bends``: where the surface bends, or
+        its UVs change scale, across an edge). Made once a ``kink``."""
+        with self._lock:
+            found = self._bends.get(kink)
+            if found is None:
+                found = self._bends[kink] = self.surface.bends(self.lookup.across, kink)
+            return found
 
     def candidates(self, tile: Tile) -> np.ndarray:
         """``(t,)`` indices of the texels of ``tile`` that some face can cover."""
