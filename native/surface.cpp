@@ -14,6 +14,25 @@ using Faces = In<int64_t, shape<-1, 3>>;
 
 inline double clip(double x, double bound) { return std::isnan(x) ? x : std::min(std::max(x, -bound), bound); }  // np.clip
 
+// face f's steps on the surface one texel right and one down (a sample's dpdx, dpdy before clipping), with the
+// arithmetic of texbake/mesh/uvgeometry.py's UV Jacobian
+inline void face_steps(const double* p, const int64_t* faces, const double* t, const int64_t* uv_faces, int64_t f, double width,
+                       double height, double* out) {
+  const int64_t *c = faces + 3 * f, *u = uv_faces + 3 * f;
+  const double *o = p + 3 * c[0], *q1 = p + 3 * c[1], *q2 = p + 3 * c[2];
+  const double *a = t + 2 * u[0], *a1 = t + 2 * u[1], *a2 = t + 2 * u[2];
+  const double d1u = a1[0] - a[0], d1v = a1[1] - a[1], d2u = a2[0] - a[0], d2v = a2[1] - a[1];
+  const double det = d1u * d2v - d1v * d2u;
+  const double r = std::fabs(det) > 0 ? 1.0 / det : 0.0;
+  for (int k = 0; k < 3; ++k) {
+    const double e1 = q1[k] - o[k], e2 = q2[k] - o[k];
+    const double dpdu = (e1 * d2v - e2 * d1v) * r, dpdv = (e2 * d1u - e1 * d2u) * r;
+    // one texel right is du = 1 / width, one texel down dv = -1 / height
+    out[k] = dpdu / width;
+    out[3 + k] = -dpdv / height;
+  }
+}
+
 // Each sample's face read from the mesh as it is (no per-face arrays: millions of faces would
 // hold hundreds of MB of them), with the arithmetic of texbake/mesh/uvgeometry.py's edges and
 // UV Jacobian and of SurfaceMap's footprints, operation for operation: the same bits.
@@ -43,17 +62,11 @@ void interpolate(In<int64_t, nb::ndim<1>> face, In<double, shape<-1, 3>> bary, I
     const double *o = p + 3 * c[0], *q1 = p + 3 * c[1], *q2 = p + 3 * c[2];
     for (int k = 0; k < 3; ++k) points.data()[3 * i + k] = o[k] + b1 * (q1[k] - o[k]) + b2 * (q2[k] - o[k]);
     if (with_footprints) {
-      const int64_t* u = uv_faces.data() + 3 * f;
-      const double *a = t + 2 * u[0], *a1 = t + 2 * u[1], *a2 = t + 2 * u[2];
-      const double d1u = a1[0] - a[0], d1v = a1[1] - a[1], d2u = a2[0] - a[0], d2v = a2[1] - a[1];
-      const double det = d1u * d2v - d1v * d2u;
-      const double r = std::fabs(det) > 0 ? 1.0 / det : 0.0;
+      double steps[6];
+      face_steps(p, faces.data(), t, uv_faces.data(), f, width, height, steps);
       for (int k = 0; k < 3; ++k) {
-        const double e1 = q1[k] - o[k], e2 = q2[k] - o[k];
-        const double dpdu = (e1 * d2v - e2 * d1v) * r, dpdv = (e2 * d1u - e1 * d2u) * r;
-        // one texel right is du = 1 / width, one texel down dv = -1 / height
-        dpdx.data()[3 * i + k] = clip(dpdu / width, max_footprint);
-        dpdy.data()[3 * i + k] = clip(-dpdv / height, max_footprint);
+        dpdx.data()[3 * i + k] = clip(steps[k], max_footprint);
+        dpdy.data()[3 * i + k] = clip(steps[3 + k], max_footprint);
       }
     }
     if (with_normals) {
@@ -72,22 +85,6 @@ void interpolate(In<int64_t, nb::ndim<1>> face, In<double, shape<-1, 3>> bary, I
         out[0] = out[1] = out[2] = 0.0;
       }
     }
-  }
-}
-
-// face f's steps on the surface one texel right and one down (interpolate's dpdx, dpdy, unclipped)
-inline void face_steps(const double* p, const int64_t* faces, const double* t, const int64_t* uv_faces, int64_t f, double width,
-                       double height, double* out) {
-  const int64_t *c = faces + 3 * f, *u = uv_faces + 3 * f;
-  const double *o = p + 3 * c[0], *q1 = p + 3 * c[1], *q2 = p + 3 * c[2];
-  const double *a = t + 2 * u[0], *a1 = t + 2 * u[1], *a2 = t + 2 * u[2];
-  const double d1u = a1[0] - a[0], d1v = a1[1] - a[1], d2u = a2[0] - a[0], d2v = a2[1] - a[1];
-  const double det = d1u * d2v - d1v * d2u;
-  const double r = std::fabs(det) > 0 ? 1.0 / det : 0.0;
-  for (int k = 0; k < 3; ++k) {
-    const double e1 = q1[k] - o[k], e2 = q2[k] - o[k];
-    out[k] = (e1 * d2v - e2 * d1v) * r / width;
-    out[3 + k] = -(e2 * d1u - e1 * d2u) * r / height;
   }
 }
 
