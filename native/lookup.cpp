@@ -708,7 +708,8 @@ void bind_lookup(nb::module_& m) {
   m.def("border_texels", &border_texels, nb::arg("uv"), nb::arg("faces"), nb::arg("across"), nb::arg("usable"),
         nb::arg("width"), nb::arg("height"), "Sorted (k,) int64 texels (row * width + col) that a chart's border edge touches.");
   m.def("footprint_clip", &footprint_clip, nb::arg("face"), nb::arg("bary"), nb::arg("uv"), nb::arg("faces"), nb::arg("chart"),
-        nb::arg("box"), nb::arg("nx"), nb::arg("ny"), nb::arg("start"), nb::arg("listed"), nb::arg("border"), nb::arg("width"), nb::arg("height"), nb::arg("shift").noconvert(), nb::arg("edges").noconvert(),
+        nb::arg("box"), nb::arg("nx"), nb::arg("ny"), nb::arg("start"), nb::arg("listed"), nb::arg("border"), nb::arg("width"),
+        nb::arg("height"), nb::arg("shift").noconvert(), nb::arg("edges").noconvert(),
         nb::arg("area").noconvert(), Release(),
         "The part of each sample's texel its chart covers, as a box of its mean and covariance: shift (n, 2), edges "
         "(n, 4: columns its edges, texel units), area (n,); returns the number of partly covered samples.");
@@ -718,7 +719,8 @@ void bind_lookup(nb::module_& m) {
         "(sample, face, share, uv, edges): the part of each sample's texel in each face of its chart, where the chart covers "
         "the texel whole over two faces or more, as boxes of their mean and covariance (parts under least left out).");
   m.def("footprint_hull", &footprint_hull, nb::arg("face"), nb::arg("bary"), nb::arg("uv"), nb::arg("faces"), nb::arg("chart"),
-        nb::arg("box"), nb::arg("nx"), nb::arg("ny"), nb::arg("start"), nb::arg("listed"), nb::arg("width"), nb::arg("height"), nb::arg("shift"), nb::arg("edges"), nb::arg("hull").noconvert(), Release(),
+        nb::arg("box"), nb::arg("nx"), nb::arg("ny"), nb::arg("start"), nb::arg("listed"), nb::arg("width"), nb::arg("height"),
+        nb::arg("shift"), nb::arg("edges"), nb::arg("hull").noconvert(), Release(),
         "hull (n, 8, 2): the convex hull of the part of each (partly covered) sample's texel its chart covers, in the frame "
         "of footprint_clip's box (shift, edges), NaN-padded; all NaN where it has more corners or the texel is whole.");
 }

@@ -162,8 +162,7 @@ class UVLookup:
                 chart = np.empty(len(self._faces), dtype=np.int64)
                 _native.labels(len(self._faces), face.astype(np.int64), self._across[face, corner], chart)
                 self._chart = chart
-        g = self._grid
-        return self._chart, np.array(g._box[:4], dtype=np.float64), g._box[4], g._box[5], g._start, g._listed
+        return (self._chart, *self._grid.cells())
 
     def faces_at(self, uv: np.ndarray) -> np.ndarray:
         """``(n,)`` int32 face under each ``(n, 2)`` UV point, -1 where no face is."""
@@ -294,6 +293,12 @@ class UVGrid:
         _native.grid_count(uv, faces, usable, *self._box, self._start)
         self._listed = np.empty(int(self._start[-1]), dtype=np.int32)
         _native.grid_fill(uv, faces, usable, *self._box, self._start, self._listed)
+
+    def cells(self) -> tuple:
+        """``(box (4,) float64, nx, ny, start, listed)``: the grid as the compiled kernels read
+        it (``native/lookup.cpp`` ``grid_of``): its origin and inverse cell sizes, its cells a
+        side, each cell's start in ``listed`` and the faces listed."""
+        return np.array(self._box[:4], dtype=np.float64), self._box[4], self._box[5], self._start, self._listed
 
     def faces_at(self, points: np.ndarray) -> np.ndarray:
         """``(n,)`` int32 face under each ``(n, 2)`` UV point, -1 where no face is."""
