@@ -42,6 +42,10 @@ def test_udim_tiles_are_integer_tiles_each_island_in_one():
     one = np.array([[0.5, 0.1], [1.0, 0.1], [1.0, 0.9], [0.5, 0.9], [1.5, 0.1], [1.5, 0.9]])
     across = np.array([[0, 1, 2], [0, 2, 3], [1, 4, 5], [1, 5, 2]])  # one island, its faces in two tiles
     assert udim_tiles(one, across) is None
+    for bad in (np.nan, np.inf, -np.inf):  # a corner that is not a number has no tile
+        broken = uv.copy()
+        broken[f[3, 1]] = bad
+        assert udim_tiles(broken, f) is None
 
 
 def test_islands_overlapping_by_where_they_lie_are_packed_anew_shape_for_shape():
