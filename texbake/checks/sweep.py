@@ -8,7 +8,7 @@ sweep; each timed bake still builds its Embree scene and surface map, evaluates,
 makes its error estimate; no margin, nothing written). ``tiles_seconds`` is the median
 wall time of the tile loop alone (texel lookup, surface, texture, accumulate).
 
-Its error is measured against a converged reference at the same size: a bake with
+Its error is measured against a converged reference at the same size: about
 ``reference_samples`` (default 256; at a size half the largest of the sweep, four times
 as many, at most 1024) stratified samples a texel, point-sampled (no
 footprint filtering: a footprint-filtered sample is blurred by a whole texel, so many
@@ -17,8 +17,18 @@ absolute error are taken over the three channels, in linear colour, and over the
 texels for every setting of one size: those covered by the reference and by every
 setting's bake at that size (``info[size]["texels"]``). A bake with more samples covers
 more of the partly covered texels on chart edges, the hardest ones; scoring each setting
-on its own coverage would flatter the settings that cover fewer. The reference's own error is checked by baking it a second time with
-a quarter of the samples (``reference_check``: the RMSE between the two).
+on its own coverage would flatter the settings that cover fewer.
+
+The reference is not exact, and at large sizes its own error nears that of one filtered
+sample (at 4096², 256 samples a texel of the checker on a box on a floor are off by
+about as much as one filtered sample). So it is the mean of two bakes of half its
+samples with different jitter (``REFERENCE_SEEDS``), and their difference measures its
+own error: two independent bakes of equal error e differ by RMSE sqrt(2) e, and their
+mean is off by e / sqrt(2), half their difference (``info[size]["own_rmse"]``). A
+setting's error and the reference's are independent, so their squares add: a row's
+``rmse`` is sqrt(measured^2 - own^2) (``measured_rmse`` is the RMSE against the
+reference itself), and where the reference's own error is the larger the row's error is
+below what the reference resolves (``Row.resolved``).
 
 ``estimate`` is the error estimate from the bake's own report (``texbake.maps.estimate``);
 ``ratio`` is estimate / measured RMSE.
@@ -45,8 +55,10 @@ from ..output import write_bytes
 from ..textures import parse_spec
 
 COLUMNS = ("setting", "seconds", "rmse", "max_abs", "estimate", "ratio", "method", "samples", "filtering", "precision",
-           "max_octaves", "size", "tiles_seconds", "pareto")
-Images = dict[int, tuple[np.ndarray, np.ndarray]]  # size -> (image, coverage) of a reference bake
+           "max_octaves", "size", "tiles_seconds", "pareto", "measured_rmse", "reference_rmse")
+REFERENCE_SEEDS = (1, 2)  # the jitter of the reference's two halves: neither the settings' (seed 0) nor each other's
+Baked = tuple[np.ndarray, np.ndarray]  # (image, coverage) of a bake
+Images = dict[int, Baked]  # size -> a reference bake
 
 
 @dataclass(frozen=True)
@@ -89,10 +101,17 @@ class Row:
     method: str  # how it was estimated ("probe")
     pareto: bool = False  # no other setting is both faster and more accurate
     mean_samples: float = 0.0  # samples looked up (and evaluated) a covered texel
+    measured_rmse: float | None = None  # against the reference as it is (None: rmse, a reference taken as exact)
+    reference_rmse: float = 0.0  # the reference's own error at this size (the module's note)
 
     @property
     def ratio(self) -> float:
         return self.estimate / self.rmse if self.rmse > 0 else math.inf
+
+    @property
+    def resolved(self) -> bool:
+        """Whether the reference resolves this row's error: its own error is no larger."""
+        return self.reference_rmse <= self.rmse
 
     def record(self) -> dict:
         s = self.setting
@@ -101,6 +120,8 @@ class Row:
             "ratio": self.ratio, "method": self.method, "samples": s.samples, "filtering": s.filtering,
             "precision": s.precision, "max_octaves": "" if s.max_octaves is None else s.max_octaves, "size": s.size,
             "tiles_seconds": self.tiles_seconds, "pareto": self.pareto,
+            "measured_rmse": self.rmse if self.measured_rmse is None else self.measured_rmse,
+            "reference_rmse": self.reference_rmse,
         }
 
 
@@ -161,10 +182,10 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
     ``mesh``: a path, a trimesh mesh or a ``LoadedMesh`` (made into one with its atlas
     once, ``uv`` as in ``bake_mesh``); ``settings``: default :func:`default_settings`
     (``size``); ``progress``: optional callable taking a line.
-    The second value maps each size to ``{"samples", "check_samples", "check_rmse",
-    "seconds", "texels"}``: ``check_rmse`` is the RMSE between the reference and the same
-    bake with a quarter of the samples; ``texels`` how many texels every setting of that
-    size is scored on (covered by the reference and by every setting's bake).
+    The second value maps each size to ``{"samples", "own_rmse", "seconds", "texels"}``:
+    ``samples`` the reference's a texel (its two halves'), ``own_rmse`` its own error (see
+    the module), ``texels`` how many texels every setting of that size is scored on
+    (covered by the reference and by every setting's bake).
     """
     if not isinstance(repeats, int) or not 1 <= repeats <= 100:
         raise ParameterError("repeats", f"expected a whole number from 1 to 100, got {repeats!r}")
@@ -178,7 +199,7 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
     base = prepare_mesh(mesh, size=max(s.size for s in settings), uv=uv, workers=workers)
     bake = functools.partial(_bake, base, spec, workers)
 
-    references, checks, info = _references(bake, sorted({s.size for s in settings}), reference_samples, say)
+    references, halves, info = _references(bake, sorted({s.size for s in settings}), reference_samples, say)
     # The first bake of each setting (untimed: it also pays the imports and first-use costs) gives the errors.
     baked = {}
     for setting in settings:
@@ -189,21 +210,25 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
     # every setting of a size is scored on the same texels: those all its bakes cover
     scored = {sz: np.logical_and.reduce([ref_cov, *(baked[s][1] for s in settings if s.size == sz)])
               for sz, (_, ref_cov) in references.items()}
+    for sz, mask in scored.items():
+        info[sz]["texels"] = int(mask.sum())
+        info[sz]["own_rmse"] = 0.5 * compare(*halves[sz][0], *halves[sz][1], mask)[0]
+        say(f"reference {sz}: {info[sz]['samples']} samples, its own error {info[sz]['own_rmse']:.2e}")
     results = {}
     for setting in settings:
         image, coverage, est, spent = baked.pop(setting)
         rmse, max_abs = compare(image, coverage, *references[setting.size], scored[setting.size])
         results[setting] = (rmse, max_abs, est, spent)
-    for sz, mask in scored.items():
-        info[sz]["texels"] = int(mask.sum())
-        info[sz]["check_rmse"] = compare(*checks[sz], *references[sz], mask)[0]
     times, tile_times = _timed(bake, settings, repeats)
     rows = []
     for setting in settings:
-        rmse, max_abs, est, spent = results[setting]
+        measured, max_abs, est, spent = results[setting]
+        own = info[setting.size]["own_rmse"]
+        rmse = math.sqrt(max(measured**2 - own**2, 0.0))  # the reference's own error taken out (the module's note)
         rows.append(Row(setting, statistics.median(times[setting]), statistics.median(tile_times[setting]), rmse, max_abs,
-                        est["rmse"], est["method"], mean_samples=spent))
-        say(f"{setting.name}: {rows[-1].seconds:.3f} s, RMSE {rmse:.2e}, estimate {est['rmse']:.2e} ({est['method']})")
+                        est["rmse"], est["method"], mean_samples=spent, measured_rmse=measured, reference_rmse=own))
+        say(f"{setting.name}: {rows[-1].seconds:.3f} s, RMSE {rmse:.2e} ({measured:.2e} against the reference), "
+            f"estimate {est['rmse']:.2e} ({est['method']})")
     pareto_front(rows)
     return rows, info
 
@@ -215,26 +240,31 @@ def _bake(mesh: LoadedMesh, spec, workers: int, **settings):
     return bake_mesh(mesh, spec, uv="keep", margin=0, workers=workers, **settings)
 
 
-def _references(bake, sizes: list[int], reference_samples: int, say) -> tuple[Images, Images, dict[int, dict]]:
-    """``(references, checks, info)`` per size: the converged reference's ``(image,
-    coverage)``, the same bake with a quarter of the samples, and what they took."""
+def _references(bake, sizes: list[int], reference_samples: int,
+                say) -> tuple[Images, dict[int, tuple[Baked, Baked]], dict[int, dict]]:
+    """``(references, halves, info)`` per size: the converged reference's ``(image,
+    coverage)`` (the mean of its two halves, over the texels both cover), the halves'
+    ``(image, coverage)`` pair, and what they took."""
     references: Images = {}
-    checks: Images = {}
+    halves: dict[int, tuple[Baked, Baked]] = {}
     info: dict[int, dict] = {}
     for sz in sizes:
         # smaller sizes get more samples a texel (same total, at most 1024): their texels
         # on chart edges cover more of the surface and converge more slowly
         n = min(1024, reference_samples * max(1, (sizes[-1] // sz) ** 2))
+        k = max(2, round(math.sqrt(n / 2)))  # each half a jittered k x k grid (sample_offsets), k^2 about n / 2
         start = time.perf_counter()
-        ref = bake(size=sz, samples=n, filtering=False)
+        pair: list[Baked] = []
+        for seed in REFERENCE_SEEDS:
+            half = bake(size=sz, samples=k * k, filtering=False, seed=seed)
+            pair.append((half.images[next(iter(half.images))], half.coverage))
+            del half
         seconds = time.perf_counter() - start
-        check = bake(size=sz, samples=n // 4, filtering=False)
-        references[sz] = (ref.images[next(iter(ref.images))], ref.coverage)
-        checks[sz] = (check.images[next(iter(check.images))], check.coverage)
-        check_rmse, _ = compare(*checks[sz], *references[sz])
-        info[sz] = {"samples": n, "check_samples": n // 4, "check_rmse": check_rmse, "seconds": seconds}
-        say(f"reference {sz}: {n} samples, {seconds:.1f} s; {n // 4} samples differ by RMSE {check_rmse:.2e}")
-    return references, checks, info
+        (a, a_covered), (b, b_covered) = pair
+        references[sz] = (0.5 * (a.astype(np.float64) + b.astype(np.float64)), a_covered & b_covered)
+        halves[sz] = (pair[0], pair[1])
+        info[sz] = {"samples": 2 * k * k, "seconds": seconds}
+    return references, halves, info
 
 
 def _timed(bake, settings: list[Setting], repeats: int) -> tuple[dict, dict]:
@@ -272,7 +302,8 @@ def markdown(rows: list[Row], info: dict | None = None) -> str:
     ]
     for r in sorted(rows, key=lambda r: (r.setting.size, r.seconds)):
         lines.append(
-            f"| {r.setting.name} | {r.seconds:.3f} | {r.tiles_seconds:.3f} | {r.rmse:.2e} | {r.max_abs:.2e} | "
+            f"| {r.setting.name} | {r.seconds:.3f} | {r.tiles_seconds:.3f} | {r.rmse:.2e}{'' if r.resolved else ' (unresolved)'} | "
+            f"{r.max_abs:.2e} | "
             f"{r.estimate:.2e} | {r.ratio:.2f} | {r.method} | {'*' if r.pareto else ''} |"
         )
     lines += [
@@ -280,15 +311,17 @@ def markdown(rows: list[Row], info: dict | None = None) -> str:
         "Seconds: median wall time of the whole `bake_mesh` call with an atlas made beforehand (no margin, nothing "
         "written; the runs go round the settings); tiles s: the tile loop alone (lookup, surface, texture, accumulate). "
         "RMSE and max abs: linear colour, three channels, the same texels for every setting of a size: those "
-        "covered by the reference and by every setting's bake at that size. "
+        "covered by the reference and by every setting's bake at that size; the RMSE with the reference's own error "
+        "taken out (sqrt(measured^2 - own^2)), unresolved where the reference's own error is the larger. "
         "Estimate: the bake's own `report.json` `error_estimate` (a point-sampled probe of up to 4096 covered "
         "texels, stratified into chart edges and inside, less its own noise; see `texbake/maps/estimate.py`).",
     ]
     for sz, ref in sorted((info or {}).items()):
         lines.append("")
         lines.append(
-            f"Reference {sz}: {ref['samples']} stratified point samples a texel, float64, every octave "
-            f"({ref['seconds']:.1f} s); with {ref['check_samples']} samples it differs by RMSE {ref['check_rmse']:.2e}; "
+            f"Reference {sz}: {ref['samples']} stratified point samples a texel (two halves of different jitter), "
+            f"float64, every octave ({ref['seconds']:.1f} s); its own error (half its halves' difference) RMSE "
+            f"{ref['own_rmse']:.2e}, taken out of every row's RMSE; "
             f"every setting at {sz} scored on the {ref.get('texels', 0)} texels they all cover."
         )
     return "\n".join(lines) + "\n"

@@ -57,7 +57,27 @@ def test_error_decreases_with_samples(swept):
     rows, info = swept
     point = {r.setting.samples: r.rmse for r in rows if not r.setting.filtering}
     assert point[1] > point[4] > point[16]
-    assert info[96]["check_rmse"] < point[16]  # the reference is further converged than any row
+    assert info[96]["own_rmse"] < point[16]  # the reference is further converged than any row
+
+
+def test_the_references_own_error_is_taken_out(swept, meshes):
+    """A coarse reference (2 x 9 samples a texel) errs by about as much as 16 point samples:
+    against it their RMSE reads a third high, and with its own error taken out it is their
+    RMSE against the 242-sample reference (measured: 1.37x uncorrected, 1.03x corrected)."""
+    rows, info = swept
+    good = {r.setting: r for r in rows}
+    mesh = prepare_mesh(meshes / "suzanne.ply", size=96)
+    coarse_rows, coarse = run_sweep(mesh, "marble", settings=SETTINGS, repeats=1, reference_samples=16)
+    assert coarse[96]["samples"] == 18 and info[96]["samples"] == 2 * 11 * 11
+    assert coarse[96]["own_rmse"] > 3 * info[96]["own_rmse"]
+    for r in coarse_rows:
+        assert r.rmse == pytest.approx(max(r.measured_rmse**2 - r.reference_rmse**2, 0.0) ** 0.5)
+        assert r.reference_rmse == coarse[96]["own_rmse"]
+    sixteen = next(r for r in coarse_rows if r.setting == Setting(16, False, size=96))
+    assert sixteen.measured_rmse > 1.2 * good[sixteen.setting].rmse  # uncorrected: well off
+    assert sixteen.rmse == pytest.approx(good[sixteen.setting].rmse, rel=0.1)  # corrected: the better reference's figure
+    # one filtered sample errs less than this reference does: not resolved by it
+    assert sixteen.resolved and not next(r for r in coarse_rows if r.setting.filtering).resolved
 
 
 def test_estimate_is_within_a_factor_2_of_the_measured_error(swept):
