@@ -230,7 +230,8 @@ def _combined(estimates: list[dict | None]) -> dict | None:
     pool = lambda key, i=None: float(np.sqrt(sum(w * (e[key] if i is None else e[key][i]) ** 2
                                                  for w, e in zip(weights, given, strict=True)) / total))
     return {**given[0], "rmse": pool("rmse"), "rmse_interval": [pool("rmse_interval", 0), pool("rmse_interval", 1)],
-            "texels": total, "probe_rmse": pool("probe_rmse"), "probe_noise": pool("probe_noise")}
+            "texels": total, "probe_rmse": pool("probe_rmse"), "probe_noise": pool("probe_noise"),
+            "fine_texels": sum(int(e.get("fine_texels", 0)) for e in given)}
 
 
 def _mesh(mesh: LoadedMesh) -> dict:
