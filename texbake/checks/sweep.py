@@ -31,7 +31,7 @@ reference itself), and where the reference's own error is the larger the row's e
 below what the reference resolves (``Row.resolved``).
 
 ``estimate`` is the error estimate from the bake's own report (``texbake.maps.estimate``);
-``ratio`` is estimate / measured RMSE.
+``ratio`` is estimate / RMSE (the reference's own error taken out).
 """
 
 from __future__ import annotations
