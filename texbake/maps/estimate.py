@@ -85,9 +85,9 @@ PROBE_GRID = 4  # the probe samples a jittered PROBE_GRID x PROBE_GRID grid per 
 PROBE_ROUNDS = (0.25, 0.5, 1.0)
 PROBE_PRECISION = 0.2
 # An error still below the probe's own noise after the rounds gets a second look: the probed
-# texels whose noise weighs most in the MSE probed again with a FINE_GRID x FINE_GRID grid
-# (at least twice the coarse one's side, at most 48), FINE_SAMPLES samples in all.
-FINE_GRID = 17  # two grids of 17 x 17 a texel looked at again (_probe_twice)
+# texels that weigh most in the MSE probed again with two FINE_GRID x FINE_GRID grids
+# (at least twice the coarse one's side, at most 34; _probe_twice), FINE_SAMPLES samples in all.
+FINE_GRID = 17
 FINE_SAMPLES = 1 << 18
 FINE_SHARE = 0.5  # ... when the texels it looks at hold this share of the noise (weighted by their chances) or more
 
@@ -268,8 +268,8 @@ def probe_estimate(
     Drawn texels are probed in rounds, a random share of each stratum at a time
     (``PROBE_ROUNDS``), until ``se <= precision * MSE`` (0: all of them, in one round); an image whose
     texels are all drawn is probed whole. If then ``se > PROBE_PRECISION * MSE``, the error
-    is below what the probe resolves, and the probed texels whose noise weighs most in the
-    MSE are probed again, ``fine`` samples in all (0: none; see :func:`_fine_look`).
+    is below what the probe resolves, and the probed texels that weigh most in the MSE are
+    probed again, ``fine`` samples in all (0: none; see :func:`_fine_look`).
     """
     height, width = covered.shape
     rng = np.random.default_rng([seed, 0x9E37])  # not the bake's own jitter
@@ -288,7 +288,7 @@ def probe_estimate(
         rounds = PROBE_ROUNDS if precision > 0 else (1.0,)
         budget = texels
     counts = sizes if whole else _allotted(budget, sizes)
-    result = _probe_rounds(reference_at, image, (strata, sizes, counts), sides, rounds, rng, precision, total, fine, covered)
+    result = _probe_rounds(reference_at, image, (strata, sizes, counts), sides, rounds, rng, precision, total, fine)
     mse, se = result["mse"], result["se"]
     return {
         "method": "probe",
@@ -306,8 +306,7 @@ def probe_estimate(
 
 
 def _probe_rounds(reference_at, image: np.ndarray, drawn_from, sides: list[int], rounds: tuple[float, ...],
-                  rng: np.random.Generator, precision: float, total: int, fine: int = 0,
-                  covered: np.ndarray | None = None) -> dict:
+                  rng: np.random.Generator, precision: float, total: int, fine: int = 0) -> dict:
     """:func:`_pooled` of the texels probed in ``rounds``: ``drawn_from`` is ``(strata,
     sizes, counts)``, the strata (:func:`_strata_of`), their texels and the texels drawn
     from each; ``sides[k]`` the probe grid of stratum ``k``. Each stratum's texels are drawn
@@ -335,7 +334,7 @@ def _probe_rounds(reference_at, image: np.ndarray, drawn_from, sides: list[int],
         if result["se"] <= precision * result["mse"]:
             break
     result["fine"] = 0
-    if fine > 0 and covered is not None and result["se"] > PROBE_PRECISION * result["mse"]:
+    if fine > 0 and result["se"] > PROBE_PRECISION * result["mse"]:
         side = min(34, max(FINE_GRID, 2 * max(sides)))
         looked, again = _fine_look(reference_at, image, [None if p is None else p[:d] for p, d in zip(picks, done, strict=True)],
                                    found, sizes, total, side, fine // (2 * side * side), rng)
@@ -448,24 +447,6 @@ def _chances(scores: np.ndarray, most: float) -> np.ndarray:
     first = int(ok[0]) if len(ok) else len(s) - 1
     out[order] = np.minimum(1.0, c[first] * s)
     out[order[:first]] = 1.0
-    return out
-
-
-def _contrast_at(image: np.ndarray, covered: np.ndarray, pick: np.ndarray) -> np.ndarray:
-    """``(k,)`` float64: :func:`contrast` at the flat texels ``pick`` alone (a few thousand
-    gathers, not the whole image's)."""
-    height, width = covered.shape
-    flat = image.reshape(height * width, -1)
-    row, col = np.divmod(np.asarray(pick, dtype=np.int64), width)
-    own = flat[pick].astype(np.float64)
-    out = np.zeros(len(pick))
-    for dr, dc in ((0, 1), (0, -1), (1, 0), (-1, 0)):
-        r, c = row + dr, col + dc
-        inside = (r >= 0) & (r < height) & (c >= 0) & (c < width)
-        other = np.where(inside, r * width + c, 0)
-        near = inside & covered.ravel()[other]
-        differs = np.abs(flat[other].astype(np.float64) - own).max(axis=1)
-        out = np.where(near, np.maximum(out, differs), out)
     return out
 
 
