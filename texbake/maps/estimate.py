@@ -421,9 +421,7 @@ def _probe_twice(reference_at, image: np.ndarray, pick: np.ndarray, side: int, r
         offsets = (cells[None] + rng.random((len(pick), samples, 2))) / side
         uv = np.stack([(col[:, None] + offsets[..., 0]) / width, 1.0 - (row[:, None] + offsets[..., 1]) / height], axis=2)
         hit, values = reference_at(uv.reshape(-1, 2))
-        texel = np.flatnonzero(hit) // samples
-        count = np.bincount(texel, minlength=len(pick))
-        sums = np.stack([np.bincount(texel, weights=values[:, c], minlength=len(pick)) for c in range(values.shape[1])], axis=1)
+        count, sums = _texel_sums(np.flatnonzero(hit) // samples, values, len(pick))
         means.append(np.where(count[:, None] > 0, sums / np.maximum(count, 1)[:, None], np.nan))
     a, b = means
     baked = image.reshape(-1, image.shape[-1])[pick].astype(np.float64)
@@ -525,6 +523,13 @@ def _shares(share: float, counts: list[int]) -> list[int]:
     return [min(int(o), c) for o, c in zip(out, counts, strict=True)]
 
 
+def _texel_sums(texel: np.ndarray, values: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(samples (count,), sums (count, c))``: how many of the ``(n, c)`` ``values`` fall in
+    each of ``count`` texels (``texel`` ``(n,)``) and their sums."""
+    n = np.bincount(texel, minlength=count)
+    return n, np.stack([np.bincount(texel, weights=values[:, c], minlength=count) for c in range(values.shape[1])], axis=1)
+
+
 def _probe_texels(reference_at, image: np.ndarray, pick: np.ndarray, side: int, seed: int):
     """``(d2, n2)`` ``(m,)`` per texel of ``pick`` (flat indices): the squared difference of
     the bake from a ``side x side`` point probe (NaN where the probe hit nothing) and the
@@ -534,8 +539,7 @@ def _probe_texels(reference_at, image: np.ndarray, pick: np.ndarray, side: int, 
     hit, values = reference_at(sample_uv(Tile(0, height), pick, width, height, sample_offsets(samples, seed)))
     index = np.flatnonzero(hit)
     texel, sample = index // samples, index % samples
-    count = np.bincount(texel, minlength=len(pick))
-    sums = np.stack([np.bincount(texel, weights=values[:, c], minlength=len(pick)) for c in range(values.shape[1])], axis=1)
+    count, sums = _texel_sums(texel, values, len(pick))
     probe = sums / np.maximum(count, 1)[:, None]
     baked = image.reshape(-1, image.shape[-1])[pick].astype(np.float64)
     d2 = np.where(count > 0, np.mean((baked - probe) ** 2, axis=1), np.nan)

@@ -77,10 +77,11 @@ def refine(sampler: Sampler, values_of: Callable[[Samples], dict[str, np.ndarray
                     texel=None if s.texel is None else s.texel[rows])
     found = values_of(parts)
     which = np.flatnonzero(bent)
-    slot = np.searchsorted(which, rows)  # each part's bent sample, numbered
+    # a sample's parts are together, in the samples' order: each sample's sum over its run
+    # (np.add.reduceat, not np.add.at's scattered adds)
+    starts = np.flatnonzero(np.r_[True, rows[1:] != rows[:-1]])
     for name, v in found.items():
-        total = np.zeros((len(which), v.shape[1]))
-        np.add.at(total, slot, share[:, None] * v)
+        total = np.add.reduceat(share[:, None] * v, starts, axis=0)
         if name in UNIT:
             n = 2.0 * total - 1.0
             total = 0.5 + 0.5 * n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
