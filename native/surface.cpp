@@ -90,8 +90,8 @@ void interpolate(In<int64_t, nb::ndim<1>> face, In<double, shape<-1, 3>> bary, I
 
 inline double norm3(const double* v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
 
-// out (m,): whether face f's steps differ from those of a face across one of its UV edges
-// (across (m, 3), -1: none) by more than kink of its own, the two steps' lengths summed
+// out (m,): whether either of face f's two steps differs from the same step of a face across one
+// of its UV edges (across (m, 3), -1: none) by more than kink of its longer step (creases.py)
 void face_bends(In<double, shape<-1, 3>> vertices, Faces faces, In<double, shape<-1, 2>> uv, Faces uv_faces,
                 In<int64_t, shape<-1, 3>> across, double width, double height, double kink, Out<bool, nb::ndim<1>> out) {
   const int64_t m = faces.shape(0), nv = vertices.shape(0), nt = uv.shape(0);
@@ -105,14 +105,14 @@ void face_bends(In<double, shape<-1, 3>> vertices, Faces faces, In<double, shape
   for (int64_t f = 0; f < m; ++f) {
     double own[6], other[6], d[6];
     face_steps(p, faces.data(), t, uv_faces.data(), f, width, height, own);
-    const double scale = norm3(own) + norm3(own + 3);
+    const double scale = std::max(norm3(own), norm3(own + 3));
     bool bends = false;
     for (int c = 0; c < 3 && !bends; ++c) {
       const int64_t o = across.data()[3 * f + c];
       if (o < 0) continue;
       face_steps(p, faces.data(), t, uv_faces.data(), o, width, height, other);
       for (int k = 0; k < 6; ++k) d[k] = other[k] - own[k];
-      bends = norm3(d) + norm3(d + 3) > kink * scale;
+      bends = std::max(norm3(d), norm3(d + 3)) > kink * scale;
     }
     out.data()[f] = bends;
   }

@@ -104,8 +104,8 @@ class SurfaceMap:
     def bends(self, across: np.ndarray, kink: float) -> np.ndarray:
         """``(m,)`` bool: the faces whose steps on the surface one texel right and one down
         (their samples' ``dpdx``, ``dpdy``, unclipped) differ from those of a face across a
-        UV edge (``across`` ``(m, 3)``, -1: none) by more than ``kink`` of their own, the two
-        steps' lengths summed: where the surface bends, or its UVs change scale. Compiled
+        UV edge (``across`` ``(m, 3)``, -1: none), either step by more than ``kink`` of the
+        longer of their own: where the surface bends, or its UVs change scale. Compiled
         (``native/surface.cpp`` ``face_bends``): no per-face arrays."""
         out = np.empty(len(self._faces), dtype=bool)
         _native.face_bends(self._vertices, self._faces, self._uv, self._uv_faces, np.ascontiguousarray(across, dtype=np.int64),
