@@ -11,7 +11,8 @@ quarter of the texels (``adaptive=0.25``), and of 1, 4 and 16 stratified point s
 against a converged point-sampled reference (``texbake.checks.sweep``: about 1024 samples a
 texel, ``--reference-samples``, in two halves whose difference gives its own error, taken out
 of every RMSE), all scored on the same texels (those the
-reference and every bake cover); per row its mean samples a covered texel (looked up and
+reference and every bake cover; with ``--reference-texels N``, about N of them drawn where the
+bakes disagree, weighted back, each with up to 16384 reference samples: 2048² and up); per row its mean samples a covered texel (looked up and
 evaluated), its time (median whole bakes with a pre-made atlas, runs taking turns; beside
 it, the tile loop's alone: the lookups, the texture and its sub-samples, without the fixed
 costs around it, the mesh's preparation, the UV check and the error probe) and
@@ -67,6 +68,10 @@ def main() -> None:
     # 1024: at 1024² the checker's 242-sample reference erred by more than one filtered sample (1.15e-3 against 1.09e-3)
     parser.add_argument("--reference-samples", type=int, default=1024,
                         help="samples a texel of the reference at the largest size (16-1024; 4x at half of it, at most 1024)")
+    # a reference on some texels only: at 2048² and up, a whole image's takes too long to resolve filtered checker and wood
+    parser.add_argument("--reference-texels", type=int, default=None,
+                        help="score on about this many texels drawn where the settings disagree (weighted back), "
+                             "with --reference-samples (up to 16384) on each; default every texel")
     parser.add_argument("--markdown", action="store_true", help="print only markdown table rows")
     args = parser.parse_args()
     sizes = [int(s) for s in args.sizes.split(",")]
@@ -77,15 +82,17 @@ def main() -> None:
             source = made(mesh)
             measured, info = run_sweep(MESHES / mesh if source is None else source, texture,
                                        settings=[s for g in grid.values() for s in g.values()],
-                                       repeats=args.repeats, reference_samples=args.reference_samples)
+                                       repeats=args.repeats, reference_samples=args.reference_samples,
+                                       reference_texels=args.reference_texels)
             by = {r.setting: r for r in measured}
             for size in sizes:
                 r = {name: by[s] for name, s in grid[size].items()}
                 sixteen = r["16 point"]
                 where = f"{Path(mesh).stem} {texture} {size}²"
                 ref = info[size]
+                drawn = f", on {ref['drawn']} drawn texels" if "drawn" in ref else ""
                 rows.append((
-                    f"{where}, reference ({ref['samples']} point samples a texel, two halves)",
+                    f"{where}, reference ({ref['samples']} point samples a texel, two halves{drawn})",
                     f"its own error RMSE {ref['own_rmse']:.2e} (half its halves' difference), taken out of each row's "
                     f"RMSE: {ref['own_rmse'] / max(r['1 filtered'].rmse, 1e-300):.2f}x 1 filtered's",
                     "aim: under each row's RMSE (a row under it is marked unresolved)",

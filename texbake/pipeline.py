@@ -38,6 +38,7 @@ from .mesh import LoadedMesh, load_mesh, mesh_from_trimesh, split_normals, verte
 from .meshmaps import Scenes
 from .output import BakeTally, bake_report
 from .sampling import Sampler, adaptive, creases, sample_offsets, sample_uv, tiles
+from .sampling.lookup import Tile as Rows
 from .sets import TextureSet, Tile, images_of, texture_sets
 from .sets import tiles as set_tiles
 from .settings import BakeSettings
@@ -314,6 +315,50 @@ def bake_mesh(mesh_or_path, settings: BakeSettings | dict | str | None = None, *
     report = bake_report(settings, mesh, baked, source=src, cage=_reach(mesh, settings), seconds=timer.seconds)
     say(1.0)
     return BakeResult(baked, report, settings)
+
+
+def texel_means(mesh_or_path, settings: BakeSettings | dict | str | None, texels: np.ndarray, samples: int, *, seed: int = 0,
+                workers: int = 2, chunk_samples: int = 1 << 20) -> tuple[np.ndarray, np.ndarray]:
+    """For checks (``texbake.checks.sweep``): the colour map's means over ``samples``
+    point samples (``sample_offsets(samples, seed)``) in each of ``texels``, evaluated as
+    the error probe's reference is (``Maps.reference``: float64, every octave), in the
+    first texture set's first image. A converged reference on a few texels of a large
+    image, where a whole bake of as many samples would take hours.
+
+    ``texels``: ``(t,)`` int row-major flat indices of the image. Returns ``(means (t, c)
+    float64, hits (t,) int64)``: the mean of the samples on the surface (as a
+    point-sampled bake's texel holds it; 0 where none is) and their count.
+    """
+    settings = _settings(settings, {})
+    mesh = as_mesh(mesh_or_path, settings.max_faces, "mesh")
+    texture_set = texture_sets(mesh, settings)[0]
+    s, bounds = texture_set.settings, _bounds(mesh)
+    atlas, _ = _atlas(texture_set.mesh, s, workers, None)
+    tile = set_tiles(texture_set.mesh, atlas, _output_mesh(texture_set.mesh, atlas, tangents=s.tangents))[0]
+    assert isinstance(tile.baked, BakedMesh)
+    maps = Maps(s, TextureMapping.for_mesh(*bounds, s.texture_space, s.precision))
+    name = maps.colour_name
+    if name is None:
+        raise ParameterError("settings", "texel_means needs a texture's colour map")
+    sampler = _sampler(tile.mesh, tile.atlas, tile.baked, None, s, maps.needs_normals, _reach(None, s, bounds))
+    (width, height), offsets = s.width_height, sample_offsets(samples, seed)
+    texels = np.asarray(texels, dtype=np.int64)
+    step = max(1, chunk_samples // samples)
+
+    def chunk(start: int) -> tuple[np.ndarray, np.ndarray]:
+        ours = texels[start:start + step]
+        at = sampler.at(sample_uv(Rows(0, height), ours, width, height, offsets))
+        values = maps.reference(at)[name]
+        which = at.index // samples
+        sums = np.stack([np.bincount(which, values[:, c], len(ours)) for c in range(values.shape[1])], axis=1)
+        return sums, np.bincount(which, minlength=len(ours))
+
+    with ThreadPoolExecutor(max(1, workers)) as pool:
+        parts = list(pool.map(chunk, range(0, len(texels), step)))
+    if not parts:
+        return np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
+    sums, hits = np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+    return sums / np.maximum(hits, 1)[:, None], hits
 
 
 def _bake_set(texture_set: TextureSet, whole: tuple[LoadedMesh, Scenes], src: LoadedMesh | None, timer: Timer, workers: int,

@@ -258,3 +258,20 @@ def test_a_double_sided_mesh_bakes_as_its_front_side(tmp_path):
     assert np.array_equal(one.coverage, two.coverage)
     for name in ("albedo", "lit"):
         assert np.allclose(one.images[name], two.images[name], atol=1e-5), name
+
+
+def test_texel_means_are_a_point_sampled_bakes_texels(meshes):
+    # the sweep's reference on drawn texels: at the same samples and jitter as a 16-sample
+    # point-sampled bake, its texels' values (to float32) and coverage, on every third texel
+    from texbake.pipeline import texel_means
+
+    mesh = meshes / "bunny.ply"
+    settings = {"texture": "wood", "size": 64, "filtering": False}
+    baked = texbake.bake_mesh(mesh, settings, samples=16, seed=5, margin=0)
+    texels = np.arange(0, 64 * 64, 3)
+    means, hits = texel_means(mesh, settings, texels, 16, seed=5)
+    covered = baked.coverage.ravel()[texels]
+    assert covered.sum() > 100 and ((hits > 0) == covered).all() and hits.max() == 16
+    assert np.abs(means[covered] - baked.images["albedo"].reshape(-1, 3)[texels][covered]).max() < 1e-6
+    other, _ = texel_means(mesh, settings, texels, 16, seed=6)  # other jitter: other values
+    assert np.abs(other[covered] - means[covered]).max() > 1e-3

@@ -30,6 +30,17 @@ setting's error and the reference's are independent, so their squares add: a row
 reference itself), and where the reference's own error is the larger the row's error is
 below what the reference resolves (``Row.resolved``).
 
+A whole image's reference of 1024 samples a texel still errs by as much as one filtered
+sample of the checker or the wood at 2048² (its edges' texels converge slowly: a jittered
+k x k grid's error on an edge falls as k^-1.5). With ``reference_texels`` the reference is
+made on about that many of the scored texels only (``pipeline.texel_means``: the probe's
+own reference, point samples in float64, every octave), up to 16384 samples each. The
+texels are drawn with chances in proportion to how much the settings' bakes disagree
+there, plus their mean (so that every texel has a chance, and half of them go evenly:
+``maps.estimate._chances``), and each counts 1 / its chance in the RMSE (Horvitz-Thompson,
+as a ratio: the weighted mean square over the weights' sum), so the figure is the whole
+image's without favouring the texels it looked at. Its own error is taken out as above.
+
 ``estimate`` is the error estimate from the bake's own report (``texbake.maps.estimate``);
 ``ratio`` is estimate / RMSE (the reference's own error taken out).
 """
@@ -57,6 +68,7 @@ from ..textures import parse_spec
 COLUMNS = ("setting", "seconds", "rmse", "max_abs", "estimate", "ratio", "method", "samples", "filtering", "precision",
            "max_octaves", "size", "tiles_seconds", "pareto", "measured_rmse", "reference_rmse")
 REFERENCE_SEEDS = (1, 2)  # the jitter of the reference's two halves: neither the settings' (seed 0) nor each other's
+REFERENCE_DRAW = 3  # the seed of the draw of a texel reference's texels
 Baked = tuple[np.ndarray, np.ndarray]  # (image, coverage) of a bake
 Images = dict[int, Baked]  # size -> a reference bake
 
@@ -176,12 +188,16 @@ def pareto_front(rows: list[Row], tolerance: float = 0.01) -> None:
 
 
 def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = None, repeats: int = 3,
-              reference_samples: int = 256, uv: str = "auto", workers: int = 2, progress=None) -> tuple[list[Row], dict]:
+              reference_samples: int = 256, reference_texels: int | None = None, uv: str = "auto", workers: int = 2,
+              progress=None) -> tuple[list[Row], dict]:
     """Bake ``spec`` on ``mesh`` under each setting; returns the rows and the references' info.
 
     ``mesh``: a path, a trimesh mesh or a ``LoadedMesh`` (made into one with its atlas
     once, ``uv`` as in ``bake_mesh``); ``settings``: default :func:`default_settings`
-    (``size``); ``progress``: optional callable taking a line.
+    (``size``); ``reference_texels``: None, a reference bake of every texel; a count, a
+    reference of ``reference_samples`` (16 to 16384) samples on about that many of the
+    scored texels only, drawn with chances (see the module); ``progress``: optional
+    callable taking a line.
     The second value maps each size to ``{"samples", "own_rmse", "seconds", "texels"}``:
     ``samples`` the reference's a texel (its two halves'), ``own_rmse`` its own error (see
     the module), ``texels`` how many texels every setting of that size is scored on
@@ -189,8 +205,11 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
     """
     if not isinstance(repeats, int) or not 1 <= repeats <= 100:
         raise ParameterError("repeats", f"expected a whole number from 1 to 100, got {repeats!r}")
-    if not isinstance(reference_samples, int) or not 16 <= reference_samples <= 1024:
-        raise ParameterError("reference_samples", f"expected a whole number from 16 to 1024, got {reference_samples!r}")
+    most = 1024 if reference_texels is None else 16384  # samples a texel: a whole image's reference takes 1024 at most
+    if not isinstance(reference_samples, int) or not 16 <= reference_samples <= most:
+        raise ParameterError("reference_samples", f"expected a whole number from 16 to {most}, got {reference_samples!r}")
+    if reference_texels is not None and (not isinstance(reference_texels, int) or reference_texels < 64):
+        raise ParameterError("reference_texels", f"expected None or a whole number of at least 64, got {reference_texels!r}")
     spec = parse_spec(spec)
     settings = default_settings(size) if settings is None else list(dict.fromkeys(settings))
     if not settings:
@@ -199,7 +218,10 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
     base = prepare_mesh(mesh, size=max(s.size for s in settings), uv=uv, workers=workers)
     bake = functools.partial(_bake, base, spec, workers)
 
-    references, halves, info = _references(bake, sorted({s.size for s in settings}), reference_samples, say)
+    sizes = sorted({s.size for s in settings})
+    info: dict[int, dict] = {}
+    if reference_texels is None:
+        references, halves, info = _references(bake, sizes, reference_samples, say)
     # The first bake of each setting (untimed: it also pays the imports and first-use costs) gives the errors.
     baked = {}
     for setting in settings:
@@ -207,18 +229,28 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
         figures = result.report["sets"][0]
         spent = (figures["rays"]["cast"] + figures["rays"]["crease_parts"]) / max(1, figures["texels"]["covered"])
         baked[setting] = (result.images[next(iter(result.images))], result.coverage, result.report["error_estimate"], spent)
-    # every setting of a size is scored on the same texels: those all its bakes cover
-    scored = {sz: np.logical_and.reduce([ref_cov, *(baked[s][1] for s in settings if s.size == sz)])
-              for sz, (_, ref_cov) in references.items()}
-    for sz, mask in scored.items():
-        info[sz]["texels"] = int(mask.sum())
-        info[sz]["own_rmse"] = 0.5 * compare(*halves[sz][0], *halves[sz][1], mask)[0]
-        say(f"reference {sz}: {info[sz]['samples']} samples, its own error {info[sz]['own_rmse']:.2e}")
     results = {}
-    for setting in settings:
-        image, coverage, est, spent = baked.pop(setting)
-        rmse, max_abs = compare(image, coverage, *references[setting.size], scored[setting.size])
-        results[setting] = (rmse, max_abs, est, spent)
+    if reference_texels is None:
+        # every setting of a size is scored on the same texels: those all its bakes cover
+        scored = {sz: np.logical_and.reduce([ref_cov, *(baked[s][1] for s in settings if s.size == sz)])
+                  for sz, (_, ref_cov) in references.items()}
+        for sz, mask in scored.items():
+            info[sz]["texels"] = int(mask.sum())
+            info[sz]["own_rmse"] = 0.5 * compare(*halves[sz][0], *halves[sz][1], mask)[0]
+        for setting in settings:
+            image, coverage, est, spent = baked.pop(setting)
+            rmse, max_abs = compare(image, coverage, *references[setting.size], scored[setting.size])
+            results[setting] = (rmse, max_abs, est, spent)
+    else:
+        info = {}
+        for sz in sizes:
+            ours = [s for s in settings if s.size == sz]
+            info[sz], errors = _texel_reference(base, spec, sz, [baked[s][:2] for s in ours], reference_texels, reference_samples,
+                                                workers)
+            for setting, (rmse, max_abs) in zip(ours, errors, strict=True):
+                results[setting] = (rmse, max_abs, *baked.pop(setting)[2:])
+    for sz in sizes:
+        say(f"reference {sz}: {info[sz]['samples']} samples, its own error {info[sz]['own_rmse']:.2e}")
     times, tile_times = _timed(bake, settings, repeats)
     rows = []
     for setting in settings:
@@ -265,6 +297,43 @@ def _references(bake, sizes: list[int], reference_samples: int,
         halves[sz] = (pair[0], pair[1])
         info[sz] = {"samples": 2 * k * k, "seconds": seconds}
     return references, halves, info
+
+
+def _texel_reference(mesh: LoadedMesh, spec, size: int, images: list[Baked], count: int, samples: int,
+                     workers: int) -> tuple[dict, list[tuple[float, float]]]:
+    """``(info, [(rmse, max_abs) of each of images])``: the settings' bakes of one size
+    scored against a reference on about ``count`` of the texels they all cover (the
+    module's note), ``samples`` a texel in two halves."""
+    from ..maps.estimate import _chances
+    from ..pipeline import texel_means
+
+    covered = np.logical_and.reduce([c for _, c in images])
+    where = np.flatnonzero(covered.ravel())
+    flat = [im.reshape(-1, im.shape[-1]) for im, _ in images]
+    mean = sum(f[where].astype(np.float64) for f in flat) / len(flat)
+    # where the settings disagree, their errors are: drawn in proportion to that, and half
+    # evenly (chances floored at the mean's), so that no texel's chance is 0
+    spread = sum(((f[where] - mean) ** 2).mean(axis=1) for f in flat)
+    chance = _chances(spread + max(float(np.mean(spread)), 1e-30), count)
+    drawn = np.random.default_rng(REFERENCE_DRAW).random(len(where)) < chance
+    texels, chance = where[drawn], chance[drawn]
+    values = [f[texels].astype(np.float64) for f in flat]
+    k = max(2, round(math.sqrt(samples / 2)))  # each half a jittered k x k grid
+    start = time.perf_counter()
+    settings = {"texture": spec, "size": size, "uv": "keep", "filtering": False}
+    (a, a_hits), (b, b_hits) = (texel_means(mesh, settings, texels, k * k, seed=seed, workers=workers) for seed in REFERENCE_SEEDS)
+    seconds = time.perf_counter() - start
+    both = (a_hits > 0) & (b_hits > 0)
+    weight = 1.0 / chance[both]  # Horvitz-Thompson: each drawn texel stands for 1 / chance of them
+
+    def rmse(d: np.ndarray) -> float:
+        return math.sqrt(float(weight @ (d**2).mean(axis=1)) / float(weight.sum())) if len(d) else 0.0
+
+    reference = 0.5 * (a[both] + b[both])
+    errors = [(rmse(v[both] - reference), float(np.abs(v[both] - reference).max(initial=0.0))) for v in values]
+    info = {"samples": 2 * k * k, "seconds": seconds, "texels": int(covered.sum()), "drawn": int(both.sum()),
+            "own_rmse": 0.5 * rmse(a[both] - b[both])}
+    return info, errors
 
 
 def _timed(bake, settings: list[Setting], repeats: int) -> tuple[dict, dict]:
