@@ -343,6 +343,8 @@ def texel_means(mesh_or_path, settings: BakeSettings | dict | str | None, texels
     sampler = _sampler(tile.mesh, tile.atlas, tile.baked, None, s, maps.needs_normals, _reach(None, s, bounds))
     (width, height), offsets = s.width_height, sample_offsets(samples, seed)
     texels = np.asarray(texels, dtype=np.int64)
+    if texels.ndim != 1 or (len(texels) and not 0 <= texels.min() <= texels.max() < width * height):
+        raise ParameterError("texels", f"expected (t,) flat indices of the {width} x {height} image")
     step = max(1, chunk_samples // samples)
 
     def chunk(start: int) -> tuple[np.ndarray, np.ndarray]:

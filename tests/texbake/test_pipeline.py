@@ -275,3 +275,5 @@ def test_texel_means_are_a_point_sampled_bakes_texels(meshes):
     assert np.abs(means[covered] - baked.images["albedo"].reshape(-1, 3)[texels][covered]).max() < 1e-6
     other, _ = texel_means(mesh, settings, texels, 16, seed=6)  # other jitter: other values
     assert np.abs(other[covered] - means[covered]).max() > 1e-3
+    with pytest.raises(ParameterError, match="texels"):
+        texel_means(mesh, settings, np.array([64 * 64]), 16)
