@@ -94,7 +94,7 @@ def main() -> None:
                 rows.append((
                     f"{where}, reference ({ref['samples']} point samples a texel, two halves{drawn})",
                     f"its own error RMSE {ref['own_rmse']:.2e} (half its halves' difference), taken out of each row's "
-                    f"RMSE: {ref['own_rmse'] / max(r['1 filtered'].rmse, 1e-300):.2f}x 1 filtered's",
+                    f"RMSE: {ref['own_rmse'] / r['1 filtered'].rmse if r['1 filtered'].rmse > 0 else float('inf'):.2f}x 1 filtered's",
                     "aim: under each row's RMSE (a row under it is marked unresolved)",
                 ))
                 for name, x in r.items():

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <vector>
 
 #include "arrays.hpp"
 
@@ -90,29 +91,42 @@ void interpolate(In<int64_t, nb::ndim<1>> face, In<double, shape<-1, 3>> bary, I
 
 inline double norm3(const double* v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
 
-// out (m,): whether either of face f's two steps differs from the same step of a face across one
-// of its UV edges (across (m, 3), -1: none) by more than kink of its longer step (creases.py)
+// out (m,): whether either of face f's two steps differs from the same step of a face that shares
+// one of its UV corners (one beside it in its chart, across an edge or a corner) by more than kink
+// of its longer step (creases.py). Corners, not only edges: a texel on a corner spans the faces
+// of its fan, and where their UV scales differ the centre face's footprint misreads the others
 void face_bends(In<double, shape<-1, 3>> vertices, Faces faces, In<double, shape<-1, 2>> uv, Faces uv_faces,
-                In<int64_t, shape<-1, 3>> across, double width, double height, double kink, Out<bool, nb::ndim<1>> out) {
+                double width, double height, double kink, Out<bool, nb::ndim<1>> out) {
   const int64_t m = faces.shape(0), nv = vertices.shape(0), nt = uv.shape(0);
-  if (int64_t(uv_faces.shape(0)) != m || int64_t(across.shape(0)) != m || int64_t(out.shape(0)) != m)
-    throw std::invalid_argument("face_bends: uv_faces, across, out of m rows");
+  if (int64_t(uv_faces.shape(0)) != m || int64_t(out.shape(0)) != m)
+    throw std::invalid_argument("face_bends: uv_faces, out of m rows");
   for (int64_t i = 0; i < 3 * m; ++i)
-    if (faces.data()[i] < 0 || faces.data()[i] >= nv || uv_faces.data()[i] < 0 || uv_faces.data()[i] >= nt ||
-        across.data()[i] >= m)
+    if (faces.data()[i] < 0 || faces.data()[i] >= nv || uv_faces.data()[i] < 0 || uv_faces.data()[i] >= nt)
       throw std::invalid_argument("face_bends: a face's index outside its table");
   const double *p = vertices.data(), *t = uv.data();
+  const int64_t* corner = uv_faces.data();
+  // each UV vertex's faces (a counting sort of the corners)
+  std::vector<int64_t> start(size_t(nt) + 1, 0), fan(size_t(3 * m));
+  for (int64_t i = 0; i < 3 * m; ++i) ++start[size_t(corner[i]) + 1];
+  for (int64_t v = 0; v < nt; ++v) start[size_t(v) + 1] += start[size_t(v)];
+  std::vector<int64_t> next(start.begin(), start.end() - 1);
+  for (int64_t i = 0; i < 3 * m; ++i) fan[size_t(next[size_t(corner[i])]++)] = i / 3;
+  std::vector<double> steps(size_t(6 * m));
+  for (int64_t f = 0; f < m; ++f) face_steps(p, faces.data(), t, corner, f, width, height, steps.data() + 6 * f);
   for (int64_t f = 0; f < m; ++f) {
-    double own[6], other[6], d[6];
-    face_steps(p, faces.data(), t, uv_faces.data(), f, width, height, own);
+    const double* own = steps.data() + 6 * f;
     const double scale = std::max(norm3(own), norm3(own + 3));
     bool bends = false;
     for (int c = 0; c < 3 && !bends; ++c) {
-      const int64_t o = across.data()[3 * f + c];
-      if (o < 0) continue;
-      face_steps(p, faces.data(), t, uv_faces.data(), o, width, height, other);
-      for (int k = 0; k < 6; ++k) d[k] = other[k] - own[k];
-      bends = std::max(norm3(d), norm3(d + 3)) > kink * scale;
+      const int64_t v = corner[3 * f + c];
+      for (int64_t j = start[size_t(v)]; j < start[size_t(v) + 1] && !bends; ++j) {
+        const int64_t o = fan[size_t(j)];
+        if (o == f) continue;
+        const double* other = steps.data() + 6 * o;
+        double d[6];
+        for (int k = 0; k < 6; ++k) d[k] = other[k] - own[k];
+        bends = std::max(norm3(d), norm3(d + 3)) > kink * scale;
+      }
     }
     out.data()[f] = bends;
   }
@@ -121,10 +135,10 @@ void face_bends(In<double, shape<-1, 3>> vertices, Faces faces, In<double, shape
 }  // namespace
 
 void bind_surface(nb::module_& m) {
-  m.def("face_bends", &face_bends, nb::arg("vertices"), nb::arg("faces"), nb::arg("uv"), nb::arg("uv_faces"), nb::arg("across"),
+  m.def("face_bends", &face_bends, nb::arg("vertices"), nb::arg("faces"), nb::arg("uv"), nb::arg("uv_faces"),
         nb::arg("width"), nb::arg("height"), nb::arg("kink"), nb::arg("out").noconvert(), Release(),
-        "out (m,) := whether each face's steps one texel right and down differ from a UV neighbour's (across) by more "
-        "than kink of their own (the two lengths summed).");
+        "out (m,) := whether either of each face's steps one texel right and down differs from that of a face sharing "
+        "a UV corner by more than kink of its longer step.");
   m.def("interpolate", &interpolate, nb::arg("face"), nb::arg("bary"), nb::arg("vertices"), nb::arg("faces"), nb::arg("uv"),
         nb::arg("uv_faces"), nb::arg("width"), nb::arg("height"), nb::arg("max_footprint"), nb::arg("normal_table"),
         nb::arg("normal_faces"), nb::arg("points").noconvert(), nb::arg("dpdx").noconvert(), nb::arg("dpdy").noconvert(),

@@ -106,13 +106,13 @@ class Sampler:
         self._lock = threading.Lock()  # the tile threads ask for bends together
 
     def bends(self, kink: float) -> np.ndarray:
-        """``(m,)`` bool: the faces whose steps on the surface differ from a UV neighbour's by
-        more than ``kink`` of their own (``SurfaceMap.bends``: where the surface bends, or
-        its UVs change scale, across an edge). Made once a ``kink``."""
+        """``(m,)`` bool: the faces whose steps on the surface differ from those of a face
+        sharing a UV corner by more than ``kink`` (``SurfaceMap.bends``: where the surface
+        bends, or its UVs change scale). Made once a ``kink``."""
         with self._lock:
             found = self._bends.get(kink)
             if found is None:
-                found = self._bends[kink] = self.surface.bends(self.lookup.across, kink)
+                found = self._bends[kink] = self.surface.bends(kink)
             return found
 
     def candidates(self, tile: Tile) -> np.ndarray:

@@ -101,15 +101,15 @@ class SurfaceMap:
         self._frame = None if frame is None else (np.ascontiguousarray(frame[0], dtype=np.float64),
                                                   np.ascontiguousarray(frame[1], dtype=np.float64))
 
-    def bends(self, across: np.ndarray, kink: float) -> np.ndarray:
+    def bends(self, kink: float) -> np.ndarray:
         """``(m,)`` bool: the faces whose steps on the surface one texel right and one down
-        (their samples' ``dpdx``, ``dpdy``, unclipped) differ from those of a face across a
-        UV edge (``across`` ``(m, 3)``, -1: none), either step by more than ``kink`` of the
-        longer of their own: where the surface bends, or its UVs change scale. Compiled
-        (``native/surface.cpp`` ``face_bends``): no per-face arrays."""
+        (their samples' ``dpdx``, ``dpdy``, unclipped) differ from those of a face sharing a
+        UV corner (in their chart: across an edge or a corner), either step by more than
+        ``kink`` of the longer of their own: where the surface bends, or its UVs change
+        scale. Compiled (``native/surface.cpp`` ``face_bends``): no per-face arrays."""
         out = np.empty(len(self._faces), dtype=bool)
-        _native.face_bends(self._vertices, self._faces, self._uv, self._uv_faces, np.ascontiguousarray(across, dtype=np.int64),
-                           float(self._width), float(self._height), float(kink), out)
+        _native.face_bends(self._vertices, self._faces, self._uv, self._uv_faces, float(self._width), float(self._height),
+                           float(kink), out)
         return out
 
     def samples(self, face: np.ndarray, bary: np.ndarray, footprints: bool = True) -> SurfaceSamples:

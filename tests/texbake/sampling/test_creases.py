@@ -42,9 +42,9 @@ def _strip(fold_degrees: float) -> Sampler:
 
 
 def test_faces_that_bend_are_those_whose_steps_differ_from_a_neighbours():
-    # folded by 90 degrees: the two faces on the fold bend, the other two (their neighbours in
-    # their own squares' planes) do not; a flat strip's none
-    assert _strip(90).bends(0.2).tolist() == [True, False, False, True]
+    # folded by 90 degrees: every face touches the fold (the two on it across an edge, the
+    # other two at a corner) and bends; a flat strip's none
+    assert _strip(90).bends(0.2).tolist() == [True, True, True, True]
     assert not _strip(0).bends(0.2).any()
 
 
@@ -53,7 +53,7 @@ def test_a_bend_that_turns_one_step_counts_in_full():
     # not at all: 15 degrees (a torus of 24 sections' crease) changes it by 0.26 > KINK, 10
     # degrees by 0.17. Measured against the two steps' lengths summed, 15 degrees read 0.13
     # and was filtered whole (the torus' wood 2.1x the error, bench_error 512²)
-    assert _strip(15).bends(creases.KINK).tolist() == [True, False, False, True]
+    assert _strip(15).bends(creases.KINK).all()
     assert not _strip(10).bends(creases.KINK).any()
 
 
@@ -77,3 +77,17 @@ def test_a_flat_mesh_has_no_parts():
     plane.visual = trimesh.visual.TextureVisuals(uv=plane.vertices[:, :2] + 0.5)
     result = bake_mesh(plane, "checker", size=64, samples=1, margin=0)
     assert result.coverage.sum() > 0.9 * 64 * 64 and result.report["rays"]["crease_parts"] == 0
+
+
+def test_faces_that_share_only_a_corner_are_compared_too():
+    # two triangles of one chart that meet at a UV corner (no edge), the second's surface
+    # three times as large as its UVs: a texel on that corner spans both, so both bend
+    # (compared across edges only, neither had a neighbour); at one scale neither does
+    def pair(stretch: float) -> Sampler:
+        uv = np.array([[0, 0], [0.5, 0], [0, 0.5], [1, 0], [0.5, 0.5]], float)
+        v = np.column_stack([uv, np.zeros(5)])
+        v[3:] = v[1] + stretch * (v[3:] - v[1])
+        faces = np.array([[0, 1, 2], [1, 3, 4]])
+        return Sampler(v, faces, uv, faces, 16, 16)
+    assert pair(3.0).bends(creases.KINK).tolist() == [True, True]
+    assert not pair(1.0).bends(creases.KINK).any()
