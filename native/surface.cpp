@@ -2,10 +2,12 @@
 // samples, one pass over them, read from the mesh, its atlas and its normals. One tile a call: the tile threads give the parallelism.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 #include <vector>
 
 #include "arrays.hpp"
+#include "parallel.hpp"
 
 namespace texbake {
 namespace {
@@ -105,31 +107,37 @@ void face_bends(In<double, shape<-1, 3>> vertices, Faces faces, In<double, shape
       throw std::invalid_argument("face_bends: a face's index outside its table");
   const double *p = vertices.data(), *t = uv.data();
   const int64_t* corner = uv_faces.data();
-  // each UV vertex's faces (a counting sort of the corners)
-  std::vector<int64_t> start(size_t(nt) + 1, 0), fan(size_t(3 * m));
+  if (m > INT32_MAX) throw std::invalid_argument("face_bends: more than 2^31 faces");
+  // each UV vertex's faces, a counting sort of the corners (int32, 12 bytes a face; the steps are
+  // made again where they are compared, not held: that would be 48 bytes a face more)
+  std::vector<int64_t> start(size_t(nt) + 1, 0);
+  std::vector<int32_t> fan(size_t(3 * m));
   for (int64_t i = 0; i < 3 * m; ++i) ++start[size_t(corner[i]) + 1];
   for (int64_t v = 0; v < nt; ++v) start[size_t(v) + 1] += start[size_t(v)];
-  std::vector<int64_t> next(start.begin(), start.end() - 1);
-  for (int64_t i = 0; i < 3 * m; ++i) fan[size_t(next[size_t(corner[i])]++)] = i / 3;
-  std::vector<double> steps(size_t(6 * m));
-  for (int64_t f = 0; f < m; ++f) face_steps(p, faces.data(), t, corner, f, width, height, steps.data() + 6 * f);
-  for (int64_t f = 0; f < m; ++f) {
-    const double* own = steps.data() + 6 * f;
-    const double scale = std::max(norm3(own), norm3(own + 3));
-    bool bends = false;
-    for (int c = 0; c < 3 && !bends; ++c) {
-      const int64_t v = corner[3 * f + c];
-      for (int64_t j = start[size_t(v)]; j < start[size_t(v) + 1] && !bends; ++j) {
-        const int64_t o = fan[size_t(j)];
-        if (o == f) continue;
-        const double* other = steps.data() + 6 * o;
-        double d[6];
-        for (int k = 0; k < 6; ++k) d[k] = other[k] - own[k];
-        bends = std::max(norm3(d), norm3(d + 3)) > kink * scale;
-      }
-    }
-    out.data()[f] = bends;
+  {
+    std::vector<int64_t> next(start.begin(), start.end() - 1);
+    for (int64_t i = 0; i < 3 * m; ++i) fan[size_t(next[size_t(corner[i])]++)] = int32_t(i / 3);
   }
+  // both cores: the tile threads wait for this (Sampler.bends, once a bake)
+  parallel_for(m, [&](std::ptrdiff_t f0, std::ptrdiff_t f1) {
+    for (int64_t f = f0; f < f1; ++f) {
+      double own[6], other[6], d[6];
+      face_steps(p, faces.data(), t, corner, f, width, height, own);
+      const double scale = std::max(norm3(own), norm3(own + 3));
+      bool bends = false;
+      for (int c = 0; c < 3 && !bends; ++c) {
+        const int64_t v = corner[3 * f + c];
+        for (int64_t j = start[size_t(v)]; j < start[size_t(v) + 1] && !bends; ++j) {
+          const int64_t o = fan[size_t(j)];
+          if (o == f) continue;
+          face_steps(p, faces.data(), t, corner, o, width, height, other);
+          for (int k = 0; k < 6; ++k) d[k] = other[k] - own[k];
+          bends = std::max(norm3(d), norm3(d + 3)) > kink * scale;
+        }
+      }
+      out.data()[f] = bends;
+    }
+  });
 }
 
 }  // namespace
