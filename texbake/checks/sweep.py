@@ -201,7 +201,8 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
     The second value maps each size to ``{"samples", "own_rmse", "seconds", "texels"}``:
     ``samples`` the reference's a texel (its two halves'), ``own_rmse`` its own error (see
     the module), ``texels`` how many texels every setting of that size is scored on
-    (covered by the reference and by every setting's bake).
+    (covered by the reference and by every setting's bake), and with ``reference_texels``
+    ``drawn``: how many of them the reference was made on.
     """
     if not isinstance(repeats, int) or not 1 <= repeats <= 100:
         raise ParameterError("repeats", f"expected a whole number from 1 to 100, got {repeats!r}")
@@ -242,7 +243,6 @@ def run_sweep(mesh, spec, *, size: int = 512, settings: list[Setting] | None = N
             rmse, max_abs = compare(image, coverage, *references[setting.size], scored[setting.size])
             results[setting] = (rmse, max_abs, est, spent)
     else:
-        info = {}
         for sz in sizes:
             ours = [s for s in settings if s.size == sz]
             info[sz], errors = _texel_reference(base, spec, sz, [baked[s][:2] for s in ours], reference_texels, reference_samples,

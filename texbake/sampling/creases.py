@@ -37,9 +37,9 @@ At either 0.2, over the bench's 13 meshes and 4 textures, every RMSE is within 1
 sum's or lower but fandisk's checker (1.03x); the torus' wood estimate went from 0.33 to
 0.85 of its RMSE (its error was on the ~300 crease texels a 4096-texel draw mostly missed).
 The cost is the parts: 0 -> 34k on the torus, 2.6k -> 13k on suzanne_blender_uv.obj (20k
-with the corners), 34k -> 57k on the bunny (63k). Before, with the sum: at 0.2 against no parts, suzanne.ply's wood
-0.40x, checker 0.55x, featuretype's checker 0.51x, gear_cad's 0.75x; the tile loop of
-suzanne.ply's wood at 512² 0.056 -> 0.090 s (most of its faces bend).
+with the corners), 34k -> 57k on the bunny (63k). Before, with the sum: at 0.2 against no
+parts, suzanne.ply's wood 0.40x, checker 0.55x, featuretype's checker 0.51x, gear_cad's
+0.75x; the tile loop of suzanne.ply's wood at 512² 0.056 -> 0.090 s (most of its faces bend).
 """
 
 from __future__ import annotations
