@@ -18,6 +18,8 @@ writer's after them, whichever is more):
   (``PER_SAMPLE_OTHER``); a material's: beside one colour map's temporaries,
   ``PER_SAMPLE_MAP`` a map (the node kernel works a block of points at a time) and
   ``PER_SAMPLE_LEAF`` a texture (four a warp: its moved points and footprints), and its tables (``MATERIAL_BASE``);
+  one filtered sample a texel, besides: the footprints' cut at chart edges and the crease
+  parts (``PER_SAMPLE_FILTERED``);
 - after them, the margin's and the writer's bands and buffers (``AFTER_TILES``: both work
   a band at a time).
 
@@ -39,6 +41,12 @@ PER_SAMPLE_COLOUR = 150
 PER_SAMPLE_OTHER = 60
 PER_SAMPLE_MAP = 20  # a material's, beside one colour map's: its node kernel works a block at a time
 PER_SAMPLE_LEAF = 40  # and each of its textures' values (a warp's moved points too)
+# One filtered sample a texel: the cut and the crease parts (texbake.sampling.creases). Measured
+# (suzanne_blender_uv.obj, checker, bake + save): the crease parts alone add 50-120 MB to a
+# 4096² bake's peak (737-790 MB without, 841-856 with, 98k parts). With this term the estimate
+# is 0.83-0.84x the peak at 4096² (0.73-0.74x without; tests/texbake/test_memory.py allows 0.7)
+# and 0.95x at 8192² (0.85-0.87x); at 2048² the tiles stay under AFTER_TILES (0.84-0.89x)
+PER_SAMPLE_FILTERED = 40
 MATERIAL_BASE = 40 * 2**20  # a material's tables (its curves smoothed over spreads) and buffers
 AFTER_TILES = 100 * 2**20
 HALF_TEXELS = 8192 * 8192  # as texbake.maps.accumulate: larger 8-bit images are held as float16
@@ -83,6 +91,8 @@ def _image_bytes(settings, workers: int, tile_samples: int) -> tuple[int, int]:
         channels, maps = _material_maps(settings)
         leaves = sum({"texture": 1, "warp": 4}.get(node.op, 0) for node in settings.material.graph.nodes.values())  # a warp's moved points
         per_sample, fixed = PER_SAMPLE_COLOUR + PER_SAMPLE_MAP * maps + PER_SAMPLE_LEAF * leaves, MATERIAL_BASE
+    if settings.filtering and samples == 1:
+        per_sample += PER_SAMPLE_FILTERED
     masks = 2 * texels  # the coverage and margin masks (the sample counts before them take no more)
     tile = _tile_samples(width, height, samples, tile_samples)
     in_flight = min(max(1, workers), -(-texels * samples // tile)) * tile
