@@ -129,7 +129,12 @@ void face_bends(In<double, shape<-1, 3>> vertices, Faces faces, In<double, shape
         const int64_t v = corner[3 * f + c];
         for (int64_t j = start[size_t(v)]; j < start[size_t(v) + 1] && !bends; ++j) {
           const int64_t o = fan[size_t(j)];
-          if (o == f) continue;
+          // itself, or a face across an edge already seen at an earlier corner of the edge
+          if (o == f || (c > 0 && (corner[3 * o] == corner[3 * f] || corner[3 * o + 1] == corner[3 * f] ||
+                                   corner[3 * o + 2] == corner[3 * f] ||
+                                   (c > 1 && (corner[3 * o] == corner[3 * f + 1] || corner[3 * o + 1] == corner[3 * f + 1] ||
+                                              corner[3 * o + 2] == corner[3 * f + 1])))))
+            continue;
           face_steps(p, faces.data(), t, corner, o, width, height, other);
           for (int k = 0; k < 6; ++k) d[k] = other[k] - own[k];
           bends = std::max(norm3(d), norm3(d + 3)) > kink * scale;

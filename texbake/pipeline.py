@@ -351,9 +351,8 @@ def texel_means(mesh_or_path, settings: BakeSettings | dict | str | None, texels
         ours = texels[start:start + step]
         at = sampler.at(sample_uv(Rows(0, height), ours, width, height, offsets))
         values = maps.reference(at)[name]
-        which = at.index // samples
-        sums = np.stack([np.bincount(which, values[:, c], len(ours)) for c in range(values.shape[1])], axis=1)
-        return sums, np.bincount(which, minlength=len(ours))
+        hits, sums = estimate_stage.texel_sums(at.index // samples, values, len(ours))
+        return sums, hits
 
     with ThreadPoolExecutor(max(1, workers)) as pool:
         parts = list(pool.map(chunk, range(0, len(texels), step)))

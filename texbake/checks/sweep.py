@@ -37,7 +37,7 @@ made on about that many of the scored texels only (``pipeline.texel_means``: the
 own reference, point samples in float64, every octave), up to 16384 samples each. The
 texels are drawn with chances in proportion to how much the settings' bakes disagree
 there, plus their mean (so that every texel has a chance, and half of them go evenly:
-``maps.estimate._chances``), and each counts 1 / its chance in the RMSE (Horvitz-Thompson,
+``maps.estimate.chances``), and each counts 1 / its chance in the RMSE (Horvitz-Thompson,
 as a ratio: the weighted mean square over the weights' sum), so the figure is the whole
 image's without favouring the texels it looked at. Its own error is taken out as above.
 
@@ -304,7 +304,7 @@ def _texel_reference(mesh: LoadedMesh, spec, size: int, images: list[Baked], cou
     """``(info, [(rmse, max_abs) of each of images])``: the settings' bakes of one size
     scored against a reference on about ``count`` of the texels they all cover (the
     module's note), ``samples`` a texel in two halves."""
-    from ..maps.estimate import _chances
+    from ..maps.estimate import chances
     from ..pipeline import texel_means
 
     covered = np.logical_and.reduce([c for _, c in images])
@@ -314,7 +314,7 @@ def _texel_reference(mesh: LoadedMesh, spec, size: int, images: list[Baked], cou
     # where the settings disagree, their errors are: drawn in proportion to that, and half
     # evenly (chances floored at the mean's), so that no texel's chance is 0
     spread = sum(((f[where] - mean) ** 2).mean(axis=1) for f in flat)
-    chance = _chances(spread + max(float(np.mean(spread)), 1e-30), count)
+    chance = chances(spread + max(float(np.mean(spread)), 1e-30), count)
     drawn = np.random.default_rng(REFERENCE_DRAW).random(len(where)) < chance
     texels, chance = where[drawn], chance[drawn]
     values = [f[texels].astype(np.float64) for f in flat]

@@ -350,7 +350,7 @@ def _fine_look(reference_at, image: np.ndarray, picks: list, found: list, sizes:
     side`` grid (two, :func:`_probe_twice`): each with a chance ``p`` in proportion to how
     much it weighs in the stratified MSE (``d2 + n2`` times its weight, its stratum's share
     of the covered texels over the texels probed in it; at most 1: the noisiest are all
-    looked at, :func:`_chances`), its values then ``coarse + (fine - coarse) / p``. Not
+    looked at, :func:`chances`), its values then ``coarse + (fine - coarse) / p``. Not
     ``n2`` alone: a texel whose halves happened to agree (``n2`` 0) would never be looked
     at, and its ``d2 - n2`` reads high. None is looked at when those looked at would hold
     less than ``FINE_SHARE`` of the summed score: where the noise is spread evenly, a look
@@ -379,12 +379,12 @@ def _fine_look(reference_at, image: np.ndarray, picks: list, found: list, sizes:
         merged.append((d2, n2))
         scores.append(np.where(np.isnan(d2), 0.0, weights[k] * (d2 + n2)))
     score = np.concatenate(scores)
-    chances = _chances(score, most)
-    if not float(chances @ score) >= FINE_SHARE * float(score.sum()):
+    chance = chances(score, most)
+    if not float(chance @ score) >= FINE_SHARE * float(score.sum()):
         return 0, found  # the noise is spread over the texels: a look at some of them would add noise, not take it away
     looked, at = 0, 0
     for k, m in enumerate(merged):
-        p = chances[at:at + len(scores[k])]
+        p = chance[at:at + len(scores[k])]
         at += len(scores[k])
         if m is None:
             continue
@@ -421,14 +421,14 @@ def _probe_twice(reference_at, image: np.ndarray, pick: np.ndarray, side: int, r
         offsets = (cells[None] + rng.random((len(pick), samples, 2))) / side
         uv = np.stack([(col[:, None] + offsets[..., 0]) / width, 1.0 - (row[:, None] + offsets[..., 1]) / height], axis=2)
         hit, values = reference_at(uv.reshape(-1, 2))
-        count, sums = _texel_sums(np.flatnonzero(hit) // samples, values, len(pick))
+        count, sums = texel_sums(np.flatnonzero(hit) // samples, values, len(pick))
         means.append(np.where(count[:, None] > 0, sums / np.maximum(count, 1)[:, None], np.nan))
     a, b = means
     baked = image.reshape(-1, image.shape[-1])[pick].astype(np.float64)
     return np.mean((baked - 0.5 * (a + b)) ** 2, axis=1), np.mean((a - b) ** 2, axis=1) / 4.0
 
 
-def _chances(scores: np.ndarray, most: float) -> np.ndarray:
+def chances(scores: np.ndarray, most: float) -> np.ndarray:
     """``(n,)`` chances ``min(1, c * scores)``, ``c`` such that they add up to ``most`` (all 1
     where there are no more texels of a score above 0 than that)."""
     out = np.zeros(len(scores))
@@ -523,7 +523,7 @@ def _shares(share: float, counts: list[int]) -> list[int]:
     return [min(int(o), c) for o, c in zip(out, counts, strict=True)]
 
 
-def _texel_sums(texel: np.ndarray, values: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
+def texel_sums(texel: np.ndarray, values: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
     """``(samples (count,), sums (count, c))``: how many of the ``(n, c)`` ``values`` fall in
     each of ``count`` texels (``texel`` ``(n,)``) and their sums."""
     n = np.bincount(texel, minlength=count)
@@ -539,7 +539,7 @@ def _probe_texels(reference_at, image: np.ndarray, pick: np.ndarray, side: int, 
     hit, values = reference_at(sample_uv(Tile(0, height), pick, width, height, sample_offsets(samples, seed)))
     index = np.flatnonzero(hit)
     texel, sample = index // samples, index % samples
-    count, sums = _texel_sums(texel, values, len(pick))
+    count, sums = texel_sums(texel, values, len(pick))
     probe = sums / np.maximum(count, 1)[:, None]
     baked = image.reshape(-1, image.shape[-1])[pick].astype(np.float64)
     d2 = np.where(count > 0, np.mean((baked - probe) ** 2, axis=1), np.nan)

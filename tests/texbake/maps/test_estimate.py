@@ -228,11 +228,11 @@ def test_an_error_under_the_probes_noise_is_read_by_a_second_look():
 
 
 def test_chances_add_up_to_the_budget_the_largest_certain():
-    chances = estimate._chances(np.array([8.0, 0.0, 1.0, 2.0, 1.0, 100.0]), 3)
+    chances = estimate.chances(np.array([8.0, 0.0, 1.0, 2.0, 1.0, 100.0]), 3)
     assert chances.sum() == pytest.approx(3) and chances[5] == 1.0 and chances[1] == 0.0
     # 100 certain, then 8 too (2 / 12 of it would be over 1), the rest in proportion: 1 / 4 a unit of score
     assert chances[0] == 1.0 and chances[[2, 3, 4]] == pytest.approx([0.25, 0.5, 0.25])
-    assert estimate._chances(np.array([0.5, 0.0, 2.0]), 5).tolist() == [1.0, 0.0, 1.0]
+    assert estimate.chances(np.array([0.5, 0.0, 2.0]), 5).tolist() == [1.0, 0.0, 1.0]
 
 
 def test_zero_only_when_there_is_no_error():
