@@ -91,3 +91,41 @@ def test_faces_that_share_only_a_corner_are_compared_too():
         return Sampler(v, faces, uv, faces, 16, 16)
     assert pair(3.0).bends(creases.KINK).tolist() == [True, True]
     assert not pair(1.0).bends(creases.KINK).any()
+
+
+def _bends_by_pairs(v: np.ndarray, faces: np.ndarray, uv: np.ndarray, width: int, height: int, kink: float) -> np.ndarray:
+    # the rule itself, every pair of faces sharing a UV corner compared (no fans' boxes)
+    d1, d2 = uv[faces[:, 1]] - uv[faces[:, 0]], uv[faces[:, 2]] - uv[faces[:, 0]]
+    e1, e2 = v[faces[:, 1]] - v[faces[:, 0]], v[faces[:, 2]] - v[faces[:, 0]]
+    det = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
+    dpdu = (e1 * d2[:, 1:] - e2 * d1[:, 1:]) / det[:, None]
+    dpdv = (e2 * d1[:, :1] - e1 * d2[:, :1]) / det[:, None]
+    dx, dy = dpdu / width, -dpdv / height
+    scale = np.maximum(np.linalg.norm(dx, axis=1), np.linalg.norm(dy, axis=1))
+    out = np.zeros(len(faces), dtype=bool)
+    for f in range(len(faces)):
+        others = np.flatnonzero(np.isin(faces, faces[f]).any(axis=1))
+        off = np.maximum(np.linalg.norm(dx[others] - dx[f], axis=1), np.linalg.norm(dy[others] - dy[f], axis=1))
+        out[f] = (off > kink * scale[f]).any()
+    return out
+
+
+@pytest.mark.parametrize("apex", [0.0, 0.02, 0.3])
+@pytest.mark.parametrize("stretched", [False, True])
+def test_a_large_fan_bends_as_its_faces_compared_pair_by_pair(apex, stretched):
+    # a disc of 60 slivers around one UV vertex (a fan past the size at which face_bends
+    # bounds it by its box of steps), its centre raised by apex (a flat disc, a cone that
+    # bends by about 2 degrees between neighbours and one that bends more), one ring vertex
+    # pulled out on the surface, not in UV: each face's answer is the pairwise rule's
+    k = 60
+    a = np.linspace(0, 2 * np.pi, k, endpoint=False)
+    uv = np.vstack([[0.5, 0.5], np.column_stack([0.5 + 0.4 * np.cos(a), 0.5 + 0.4 * np.sin(a)])])
+    v = np.column_stack([uv * 2.0, np.zeros(k + 1)])
+    v[0, 2] = apex
+    if stretched:
+        v[17, :2] = 1.0 + 3.0 * (v[17, :2] - 1.0)
+    faces = np.column_stack([np.zeros(k, dtype=np.int64), 1 + np.arange(k), 1 + (np.arange(k) + 1) % k])
+    got = Sampler(v, faces, uv, faces, 64, 64).bends(creases.KINK)
+    want = _bends_by_pairs(v, faces, uv, 64, 64, creases.KINK)
+    assert got.tolist() == want.tolist()
+    assert want.any() == (apex == 0.3 or stretched)  # the case is the one meant: some faces bend, or none
