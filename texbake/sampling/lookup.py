@@ -268,13 +268,16 @@ class UVLookup:
         return bary
 
 
+GRID_ENTRIES, GRID_ENTRIES_FREE = 64, 1 << 20  # entries a face (and in all) past which UVGrid's cells are made larger
+
+
 class UVGrid:
     """A uniform grid over UV triangles for point location, built in time linear in the faces.
 
     ``uv``: ``(k, 2)`` float64; ``faces``: ``(m, 3)`` int64 into it; ``usable``: ``(m,)``
     bool, the faces that may hold a point (not UV-degenerate). About one cell a face, over
     the UVs' bounding box, in its aspect ratio; each usable face is listed in the cells its
-    UV box overlaps (``native/lookup.cpp``: ``grid_count``, ``grid_fill``). A point is in
+    UV triangle touches (not its box's: a fan of slivers would list each in half its disc) (``native/lookup.cpp``: ``grid_count``, ``grid_fill``). A point is in
     the first listed face of its cell whose triangle holds it (on an edge: either face),
     -1 where none does (outside every triangle, or outside the box).
     """
@@ -287,10 +290,16 @@ class UVGrid:
         extent = np.maximum((finite.max(axis=0) if len(finite) else np.ones(2)) - lo, 1e-300)
         nx = int(np.clip(np.ceil(np.sqrt(m * extent[0] / extent[1])), 1, m))
         ny = int(np.clip(np.ceil(m / nx), 1, m))
-        self._box = (float(lo[0]), float(lo[1]), nx / float(extent[0]), ny / float(extent[1]), nx, ny)
         usable = np.ascontiguousarray(usable, dtype=bool)
-        self._start = np.empty(nx * ny + 1, dtype=np.int64)
-        _native.grid_count(uv, faces, usable, *self._box, self._start)
+        while True:
+            self._box = (float(lo[0]), float(lo[1]), nx / float(extent[0]), ny / float(extent[1]), nx, ny)
+            self._start = np.empty(nx * ny + 1, dtype=np.int64)
+            _native.grid_count(uv, faces, usable, *self._box, self._start)
+            # A mesh lists 2-5 entries a face; long slivers list one a cell along them (a
+            # cylinder cap of 200k segments: 186M, 0.7 GB): cells twice as wide halve that
+            if self._start[-1] <= GRID_ENTRIES * m + GRID_ENTRIES_FREE or nx * ny == 1:
+                break
+            nx, ny = max(1, nx // 2), max(1, ny // 2)
         self._listed = np.empty(int(self._start[-1]), dtype=np.int32)
         _native.grid_fill(uv, faces, usable, *self._box, self._start, self._listed)
 

@@ -156,6 +156,67 @@ def test_candidates_are_the_texels_a_triangle_touches():
     assert len(huge.candidates(Tile(0, height), width, height)) == width * height
 
 
+
+def _sliver_fan(k: int) -> tuple[np.ndarray, np.ndarray]:
+    # a disc of k slivers around one UV vertex (a cylinder's cap): each sliver's box spans
+    # up to half the disc, its triangle a line of cells or texels from the centre out
+    a = np.linspace(0, 2 * np.pi, k, endpoint=False)
+    uv = np.vstack([[0.5, 0.5], np.column_stack([0.5 + 0.45 * np.cos(a), 0.5 + 0.45 * np.sin(a)])])
+    return uv, np.column_stack([np.zeros(k, dtype=np.int64), 1 + np.arange(k), 1 + (np.arange(k) + 1) % k])
+
+
+@pytest.mark.parametrize("entries", [None, 8])
+def test_a_fan_of_slivers_is_listed_along_them_and_found_exactly(entries, monkeypatch):
+    # 4000 slivers: listed by their boxes' cells the grid held 1.45M entries (a 200k-sliver
+    # cap: 8.8e9, 32 GiB); by the cells each triangle touches, 169k, 42 a face. Every
+    # point's face is still the first one (by index) holding it, as a search of all faces finds
+    # (entries 8: past that many a face the grid's cells are made larger, coarser, until under)
+    uv, faces = _sliver_fan(4000)
+    if entries is not None:
+        monkeypatch.setattr(texbake.sampling.lookup, "GRID_ENTRIES", entries)
+        monkeypatch.setattr(texbake.sampling.lookup, "GRID_ENTRIES_FREE", 0)
+    look = UVLookup(uv, faces)
+    _chart, _box, nx, ny, _start, listed = look._cells()
+    assert len(listed) < (64 if entries is None else entries) * len(faces)
+    assert (nx * ny > len(faces) / 2) == (entries is None)  # one cell a face, or coarser
+    rng = np.random.default_rng(2)
+    points = 0.5 + (rng.random((3000, 2)) - 0.5) * 0.95
+    t = uv[faces]
+    side = lambda a, b: (b[:, None, 0] - a[:, None, 0]) * (points[None, :, 1] - a[:, None, 1]) - (
+        b[:, None, 1] - a[:, None, 1]) * (points[None, :, 0] - a[:, None, 0])
+    s0, s1, s2 = side(t[:, 0], t[:, 1]), side(t[:, 1], t[:, 2]), side(t[:, 2], t[:, 0])
+    holds = ((s0 >= 0) & (s1 >= 0) & (s2 >= 0)) | ((s0 <= 0) & (s1 <= 0) & (s2 <= 0))  # (faces, points)
+    want = np.where(holds.any(axis=0), holds.argmax(axis=0), -1)
+    assert (want >= 0).sum() > 1800  # most points lie on the disc (0.70 of the square)
+    assert look.faces_at(points).tolist() == want.tolist()
+
+
+def test_a_fan_of_slivers_touches_the_texels_its_triangles_do():
+    # the candidates of a sliver fan, row by row along each sliver, against every texel's
+    # square tested against every triangle (separating axes, the same margin)
+    uv, faces = _sliver_fan(300)
+    width = height = 48
+    look = UVLookup(uv, faces)
+    got = np.sort(look.candidates(Tile(0, height), width, height))
+    t = uv[faces] * [width, height]
+    t[:, :, 1] = height - t[:, :, 1]  # texel rows down
+    r, c = np.divmod(np.arange(width * height), width)
+    x, y = c + 0.5, r + 0.5
+    touched = np.zeros(width * height, dtype=bool)
+    margin = texbake.sampling.lookup.TOUCH_MARGIN
+    for tri in t:
+        box = (x + 0.5 + margin >= tri[:, 0].min()) & (x - 0.5 - margin <= tri[:, 0].max())
+        box &= (y + 0.5 + margin >= tri[:, 1].min()) & (y - 0.5 - margin <= tri[:, 1].max())
+        orient = np.sign((tri[1, 0] - tri[0, 0]) * (tri[2, 1] - tri[0, 1]) - (tri[1, 1] - tri[0, 1]) * (tri[2, 0] - tri[0, 0]))
+        for e in range(3):
+            (ax, ay), (bx, by) = tri[e], tri[(e + 1) % 3]
+            ex, ey = bx - ax, by - ay
+            reach = 0.5 * (abs(ex) + abs(ey))
+            box &= ~(orient * (ex * (y - ay) - ey * (x - ax)) + reach < -margin * 2.0 * reach)
+        touched |= box
+    assert got.tolist() == np.flatnonzero(touched).tolist()
+
+
 # -- no speckles: every texel of a checker bake holds the value of a face under its centre --
 
 def texels_under_faces(uv, faces, width, height, tolerance=1e-6):
