@@ -580,6 +580,26 @@ def _() -> Figure:
                   passed=bad == 0 and r.report["atlas"]["method"] != "fallback-grid")
 
 
+@case("sliver-fan", "a cylinder of 100k segments (caps of 100k slivers round one vertex) bakes whole; its UV grid lists at most 64 entries a face")
+def _() -> Figure:
+    import trimesh  # pip install trimesh
+
+    from ..sampling import UVLookup
+
+    # A cap's slivers span half its disc's box each: listed by their boxes the UV grid held
+    # 8.8e9 entries at 200k segments (a MemoryError), and the outline's walk took minutes
+    c = trimesh.creation.cylinder(radius=1.0, height=0.5, sections=100_000)
+    r = _bake(_loaded(c.vertices, c.faces), texture="checker", size=256, workers=2)
+    uv = np.asarray(r.mesh.uv, np.float64)
+    _chart, _box, _nx, _ny, _start, listed = UVLookup(uv, np.asarray(r.mesh.faces, np.int64))._cells()
+    per_face = len(listed) / len(r.mesh.faces)
+    bad = int((~np.isfinite(r.images["albedo"])).any(axis=2).sum())
+    covered = r.report["texels"]["covered"]
+    detail = f"atlas {r.report['atlas']['method']} in {r.report['atlas']['seconds']:.1f} s, {covered} texels covered, {bad} not finite"
+    return Figure(per_face, 64.0, detail,
+                  passed=per_face <= 64 and bad == 0 and covered > 0.3 * 256 * 256 and r.report["atlas"]["method"] == "planar")
+
+
 @case("degenerate-faces", "a mesh with coincident, collinear and repeated-index faces bakes without NaN")
 def _() -> Figure:
     import trimesh
