@@ -433,6 +433,10 @@ inline void add_clipped(const double* tri, Moments& sum, std::vector<double>* co
 }
 
 constexpr int CLIP_FACES = 256;  // faces of one chart a texel's cut takes at most
+// faces a texel's parts (texel_parts) take at most: past them its faces are slivers of a fine
+// mesh (a cone's apex fan of 100k faces: every sliver's texel spans ~100 of them, and looking
+// for them cost 17.7 s at 1024², to find no part that bends), and the texel is filtered whole
+constexpr int PARTS_FACES = 32;
 
 // The texel under a sample (face f at barycentrics b), and any face in its texel-local
 // coordinates (the call: the face's corners into tri, 6 values)
@@ -486,9 +490,9 @@ inline bool square_beyond(const double* tri) {
 // (a folded face lies on another: not counted twice), once, as visit(g, tri) with tri its
 // corners in texel-local coordinates (local(g, tri)), also those not reached from f across
 // UV edges (a crack in a scan, where a chart's two sides meet in one texel); false (and
-// visits stop) past CLIP_FACES faces
+// visits stop) past most (at most CLIP_FACES) faces
 template <typename Local, typename Visit>
-bool chart_faces(const Atlas& atlas, const Cells& cells, int64_t f, const Local& local, Visit&& visit) {
+bool chart_faces(const Atlas& atlas, const Cells& cells, int64_t f, const Local& local, Visit&& visit, int most = CLIP_FACES) {
   int64_t taken[CLIP_FACES];
   int count = 0;
   const int64_t chart = cells.chart[f];
@@ -516,7 +520,7 @@ bool chart_faces(const Atlas& atlas, const Cells& cells, int64_t f, const Local&
         // (a fan of 200k slivers: 121 faces on a texel, 293 boxes on it)
         if (square_beyond(tri)) continue;
         if (std::find(taken, taken + count, g) != taken + count) continue;  // listed in another cell too
-        if (count == CLIP_FACES) return false;
+        if (count == most) return false;
         taken[count++] = g;
         visit(g, tri);
       }
@@ -678,7 +682,7 @@ nb::tuple texel_parts(In<int32_t, nb::ndim<1>> face, In<double, shape<-1, 3>> ba
         Moments m;
         add_clipped(t, m);
         if (m.a > 0) parts.emplace_back(g, m);
-      });
+      }, PARTS_FACES);
       double total = 0.0, kept = 0.0;
       for (const auto& [g, m] : parts) total += m.a;
       if (!all || !(total >= 1.0 - 1e-9) || total > 1.0 + 1e-9) continue;
