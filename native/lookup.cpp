@@ -495,6 +495,7 @@ template <typename Local, typename Visit>
 bool chart_faces(const Atlas& atlas, const Cells& cells, int64_t f, const Local& local, Visit&& visit, int most = CLIP_FACES) {
   int64_t taken[CLIP_FACES];
   int count = 0;
+  most = std::min(most, CLIP_FACES);
   const int64_t chart = cells.chart[f];
   const bool positive = winding(atlas, f) > 0;
   const double u0 = local.col / local.w, u1 = (local.col + 1.0) / local.w;
