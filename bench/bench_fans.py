@@ -16,15 +16,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import statistics
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 from _rows import emit
+from bench_blender import timed
 
 # stop 44's figures (62d41b5, same command, 1024²): a MemoryError is a failed bake
 BEFORE = {
@@ -45,17 +43,12 @@ def write_shape(name: str, path: Path) -> int:
     return len(mesh.faces)
 
 
-def bake(path: Path, out: Path, size: int) -> tuple[float, int, dict]:
-    """``(wall seconds, peak RSS bytes, report)`` of one ``texbake bake`` process."""
+def bake(path: Path, out: Path, size: int) -> tuple[float, float, dict]:
+    """``(wall seconds, peak RSS in MB, report)`` of one ``texbake bake`` process."""
     cmd = [str(Path(sys.executable).with_name("texbake")), "bake", str(path), "--out", str(out), "--texture", "checker",
            "--size", str(size), "--no-cache"]
-    start = time.perf_counter()
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    _, status, usage = os.wait4(proc.pid, 0)
-    wall = time.perf_counter() - start
-    if os.waitstatus_to_exitcode(status) != 0:
-        raise SystemExit(f"bench_fans: {path.name} failed: {proc.stderr.read().decode()[-2000:] if proc.stderr else ''}")
-    return wall, usage.ru_maxrss * 1024, json.loads((out / "report.json").read_text())
+    wall, peak = timed(cmd)
+    return wall, peak, json.loads((out / "report.json").read_text())
 
 
 def main() -> None:
@@ -75,7 +68,7 @@ def main() -> None:
             peak = max(r[1] for r in runs)
             seconds = runs[0][2]["seconds"]
             figure = f"`texbake bake` {name} ({faces} faces), checker {args.size}², no cache"
-            ours = (f"{wall:.1f} s, {peak / 1e6:.0f} MB (atlas {seconds['atlas']:.1f} s, "
+            ours = (f"{wall:.1f} s, {peak:.0f} MB (atlas {seconds['atlas']:.1f} s, "
                     f"tiles {seconds['tiles (wall)']:.1f} s)")
             before = BEFORE.get(name, "not measured") if args.size == 1024 else "not measured at this size"
             rows.append((figure, ours, f"stop 44 (62d41b5): {before}; target: linear in the faces"))

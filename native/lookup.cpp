@@ -34,6 +34,14 @@ inline void band_range(const double* xs, const double* ys, double lo, double hi,
   }
 }
 
+// whether the texel square of centre (px, py) (side 1, grown by slack of its half-extent along
+// the edge's normal) lies wholly beyond the edge a -> a + (ex, ey) of a triangle that winds as
+// sign says: one separating axis of a square and a triangle
+inline bool beyond_edge(double sign, double ax, double ay, double ex, double ey, double px, double py, double slack) {
+  const double reach = 0.5 * (std::abs(ex) + std::abs(ey));  // the square's half-extent along the edge's normal
+  return sign * (ex * (py - ay) - ey * (px - ax)) + reach < -slack * reach;
+}
+
 struct Bary {
   double b0, b1, b2;
   bool inside() const { return b0 >= 0.0 && b1 >= 0.0 && b2 >= 0.0; }
@@ -139,11 +147,8 @@ void touched(In<double, shape<-1, 2>> uv, In<int64_t, shape<-1, 3>> faces, In<in
       for (int64_t c = from; c <= to; ++c) {
         const double x = c + 0.5, y = r + 0.5;
         bool inside = true;
-        for (int e = 0; e < 3; ++e) {  // separating axes: the square wholly beyond an edge
-          const double ax = xs[e], ay = ys[e];
-          const double ex = xs[(e + 1) % 3] - ax, ey = ys[(e + 1) % 3] - ay;
-          const double reach = 0.5 * (std::abs(ex) + std::abs(ey));  // the square's half-extent along the edge's normal
-          if (sign * (ex * (y - ay) - ey * (x - ax)) + reach < -margin * 2.0 * reach) {
+        for (int e = 0; e < 3; ++e) {  // separating axes: the square (grown by the margin) wholly beyond an edge
+          if (beyond_edge(sign, xs[e], ys[e], xs[(e + 1) % 3] - xs[e], ys[(e + 1) % 3] - ys[e], x, y, margin * 2.0)) {
             inside = false;
             break;
           }
@@ -478,10 +483,7 @@ inline bool square_beyond(const double* tri) {
   const double sign = orient > 0 ? 1.0 : -1.0;
   for (int e = 0; e < 3; ++e) {
     const double ax = tri[2 * e], ay = tri[2 * e + 1];
-    const double ex = tri[2 * ((e + 1) % 3)] - ax, ey = tri[2 * ((e + 1) % 3) + 1] - ay;
-    // the square's centre's side of the edge, and the square's half-extent along its normal
-    const double side = sign * (ex * (0.0 - ay) - ey * (0.0 - ax)), reach = 0.5 * (std::fabs(ex) + std::fabs(ey));
-    if (side < -reach * (1.0 + 1e-9)) return true;
+    if (beyond_edge(sign, ax, ay, tri[2 * ((e + 1) % 3)] - ax, tri[2 * ((e + 1) % 3) + 1] - ay, 0.0, 0.0, 1e-9)) return true;
   }
   return false;
 }
