@@ -654,15 +654,29 @@ int64_t footprint_clip(In<int32_t, nb::ndim<1>> face, In<double, shape<-1, 3>> b
 // share (k,), uv (k, 2) the part's centre, edges (k, 4) its box's edges as columns, texel
 // units, row-major), the parts of a sample together; no parts for a sample whose face does not
 // bend (bends (m,): false), a texel inside its face, partly covered (the cut's: footprint_clip),
-// or covered more than once (overlapping UVs).
+// or covered more than once (overlapping UVs), nor, given steps (m, 6), one none of whose parts
+// bends from its own face by kink (most texels of a bending face: bunny.ply at 512², 63k parts
+// of 172k; made and dropped in Python before, they were half the crease stage's time).
 nb::tuple texel_parts(In<int32_t, nb::ndim<1>> face, In<double, shape<-1, 3>> bary, In<double, shape<-1, 2>> uv,
                       In<int64_t, shape<-1, 3>> faces, In<int64_t, nb::ndim<1>> chart, In<double, shape<4>> box, int64_t nx,
                       int64_t ny, In<int64_t, nb::ndim<1>> start, In<int32_t, nb::ndim<1>> listed, In<bool, nb::ndim<1>> bends,
-                      int64_t width, int64_t height, double least) {
+                      int64_t width, int64_t height, double least, In<double, shape<-1, 6>> steps, double kink) {
   const int64_t n = face.shape(0);
   const Atlas atlas(uv, faces);
-  if (int64_t(bary.shape(0)) != n || int64_t(bends.shape(0)) != atlas.m)
-    throw std::invalid_argument("texel_parts: face, bary of n rows, bends of m");
+  if (int64_t(bary.shape(0)) != n || int64_t(bends.shape(0)) != atlas.m ||
+      (steps.shape(0) != 0 && int64_t(steps.shape(0)) != atlas.m))
+    throw std::invalid_argument("texel_parts: face, bary of n rows, bends of m, steps of m rows or none");
+  // whether a part in face g bends from the sample's face f: either step differs by more than
+  // kink of f's longer step (creases.py's test, its arithmetic); without steps, every part does
+  auto norm3 = [](const double* v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); };
+  auto bent = [&](int64_t f, int64_t g) {
+    if (steps.shape(0) == 0) return true;
+    const double *own = steps.data() + 6 * f, *other = steps.data() + 6 * g;
+    const double scale = std::max(norm3(own), norm3(own + 3));
+    double d[6];
+    for (int k = 0; k < 6; ++k) d[k] = other[k] - own[k];
+    return std::max(norm3(d), norm3(d + 3)) / std::max(scale, 1e-300) > kink;
+  };
   const Cells cells = cells_of(atlas, chart, box, nx, ny, start, listed);
   std::vector<int64_t> sample;
   std::vector<int32_t> part_face;
@@ -690,9 +704,10 @@ nb::tuple texel_parts(In<int32_t, nb::ndim<1>> face, In<double, shape<-1, 3>> ba
       for (const auto& [g, m] : parts) total += m.a;
       if (!all || !(total >= 1.0 - 1e-9) || total > 1.0 + 1e-9) continue;
       int count = 0;
+      bool bends_here = false;
       for (const auto& [g, m] : parts)
-        if (m.a >= least) kept += m.a, ++count;
-      if (count < 2) continue;
+        if (m.a >= least) kept += m.a, ++count, bends_here = bends_here || bent(f, g);
+      if (count < 2 || !bends_here) continue;
       for (const auto& [g, m] : parts) {
         if (m.a < least) continue;
         double centre[2], e[4];
@@ -793,9 +808,10 @@ void bind_lookup(nb::module_& m) {
         "(n, 4: columns its edges, texel units), area (n,); returns the number of partly covered samples.");
   m.def("texel_parts", &texel_parts, nb::arg("face"), nb::arg("bary"), nb::arg("uv"), nb::arg("faces"), nb::arg("chart"),
         nb::arg("box"), nb::arg("nx"), nb::arg("ny"), nb::arg("start"), nb::arg("listed"), nb::arg("bends"), nb::arg("width"),
-        nb::arg("height"), nb::arg("least"),
+        nb::arg("height"), nb::arg("least"), nb::arg("steps"), nb::arg("kink"),
         "(sample, face, share, uv, edges): the part of each sample's texel in each face of its chart, where the chart covers "
-        "the texel whole over two faces or more, as boxes of their mean and covariance (parts under least left out).");
+        "the texel whole over two faces or more, as boxes of their mean and covariance (parts under least left out); with "
+        "steps (m, 6: each face's dpdx, dpdy), only texels with a part whose steps differ from its sample's by more than kink.");
   m.def("footprint_hull", &footprint_hull, nb::arg("face"), nb::arg("bary"), nb::arg("uv"), nb::arg("faces"), nb::arg("chart"),
         nb::arg("box"), nb::arg("nx"), nb::arg("ny"), nb::arg("start"), nb::arg("listed"), nb::arg("width"), nb::arg("height"),
         nb::arg("shift"), nb::arg("edges"), nb::arg("hull").noconvert(), Release(),

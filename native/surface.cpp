@@ -194,6 +194,25 @@ void face_bends(In<double, shape<-1, 3>> vertices, Faces faces, In<double, shape
   });
 }
 
+// out (m, 6): each face's clipped steps one texel right and one down, as interpolate gives its
+// samples' dpdx, dpdy (the same bits): texel_parts compares a texel's parts with its sample's by them
+void step_table(In<double, shape<-1, 3>> vertices, Faces faces, In<double, shape<-1, 2>> uv, Faces uv_faces, double width,
+                double height, double max_footprint, Out<double, shape<-1, 6>> out) {
+  const int64_t m = faces.shape(0), nv = vertices.shape(0), nt = uv.shape(0);
+  if (int64_t(uv_faces.shape(0)) != m || int64_t(out.shape(0)) != m) throw std::invalid_argument("step_table: uv_faces, out of m rows");
+  for (int64_t i = 0; i < 3 * m; ++i)
+    if (faces.data()[i] < 0 || faces.data()[i] >= nv || uv_faces.data()[i] < 0 || uv_faces.data()[i] >= nt)
+      throw std::invalid_argument("step_table: a face's index outside its table");
+  const double *p = vertices.data(), *t = uv.data();
+  parallel_for(m, [&](std::ptrdiff_t f0, std::ptrdiff_t f1) {
+    for (int64_t f = f0; f < f1; ++f) {
+      double* o = out.data() + 6 * f;
+      face_steps(p, faces.data(), t, uv_faces.data(), f, width, height, o);
+      for (int k = 0; k < 6; ++k) o[k] = clip(o[k], max_footprint);
+    }
+  });
+}
+
 }  // namespace
 
 void bind_surface(nb::module_& m) {
@@ -201,6 +220,9 @@ void bind_surface(nb::module_& m) {
         nb::arg("width"), nb::arg("height"), nb::arg("kink"), nb::arg("out").noconvert(), Release(),
         "out (m,) := whether either of each face's steps one texel right and down differs from that of a face sharing "
         "a UV corner by more than kink of its longer step.");
+  m.def("step_table", &step_table, nb::arg("vertices"), nb::arg("faces"), nb::arg("uv"), nb::arg("uv_faces"),
+        nb::arg("width"), nb::arg("height"), nb::arg("max_footprint"), nb::arg("out").noconvert(), Release(),
+        "out (m, 6) := each face's steps one texel right and one down (its samples' dpdx, dpdy), clipped to max_footprint.");
   m.def("interpolate", &interpolate, nb::arg("face"), nb::arg("bary"), nb::arg("vertices"), nb::arg("faces"), nb::arg("uv"),
         nb::arg("uv_faces"), nb::arg("width"), nb::arg("height"), nb::arg("max_footprint"), nb::arg("normal_table"),
         nb::arg("normal_faces"), nb::arg("points").noconvert(), nb::arg("dpdx").noconvert(), nb::arg("dpdy").noconvert(),

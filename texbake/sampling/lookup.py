@@ -28,6 +28,7 @@ from ..errors import ParameterError
 from ..mesh import uv_dets
 
 HULL = 8  # corners of a cut texel's hull at most (native/lookup.cpp)
+_NO_STEPS = np.zeros((0, 6))  # texel_parts without a face's steps: every part of a texel that bends is kept
 
 
 def sample_offsets(samples: int, seed: int = 0) -> np.ndarray:
@@ -224,18 +225,22 @@ class UVLookup:
                                          shift, edges, area)
         return shift, edges.reshape(n, 2, 2), area, int(partial)
 
-    def texel_parts(self, face: np.ndarray, bary: np.ndarray, width: int, height: int, least: float, bends: np.ndarray):
+    def texel_parts(self, face: np.ndarray, bary: np.ndarray, width: int, height: int, least: float, bends: np.ndarray,
+                    steps: np.ndarray | None = None, kink: float = 0.0):
         """The part of each sample's texel in each face of its chart, for samples one a texel
         on a face that ``bends`` (``(m,)`` bool) whose texel the chart covers whole over two
         faces or more (``native/lookup.cpp``
         ``texel_parts``; parts under ``least`` of the texel left out, the others' shares
-        renormalised). Returns ``(sample (k,) int64, face (k,) int32, share (k,), uv (k, 2),
+        renormalised); given ``steps`` (``(m, 6)``, each face's ``dpdx``, ``dpdy``:
+        ``SurfaceMap.steps``), only for texels with a part whose face's steps differ from the
+        sample's face's, either of them, by more than ``kink`` of its longer one. Returns ``(sample (k,) int64, face (k,) int32, share (k,), uv (k, 2),
         edges (k, 2, 2))``: each part's sample (a row of ``face``), face, share of the
         texel, centre, and its box's edges as columns, in texel units (as
         :meth:`footprint_clip`'s); a sample's parts together."""
         sample, part_face, share, uv, edges = _native.texel_parts(
             np.ascontiguousarray(face, dtype=np.int32), np.ascontiguousarray(bary, dtype=np.float64), self._uv, self._faces,
-            *self._cells(), np.ascontiguousarray(bends, dtype=bool), width, height, float(least))
+            *self._cells(), np.ascontiguousarray(bends, dtype=bool), width, height, float(least),
+            _NO_STEPS if steps is None else np.ascontiguousarray(steps, dtype=np.float64), float(kink))
         return sample, part_face, share, uv, edges.reshape(-1, 2, 2)
 
     def footprint_hull(self, face: np.ndarray, bary: np.ndarray, width: int, height: int, shift: np.ndarray,

@@ -19,6 +19,8 @@ import numpy as np
 from .lookup import Tile, UVLookup, hits
 from .surface import SurfaceMap
 
+STEP_FACES = 1 << 20  # faces whose steps the sampler holds for the crease parts' test (48 MB at most); past them it is made in numpy
+
 
 @dataclass
 class Samples:
@@ -103,7 +105,9 @@ class Sampler:
             self.caster = SourceMesh(*source)
         self.reach = reach
         self._bends: dict[float, np.ndarray] = {}
-        self._lock = threading.Lock()  # the tile threads ask for bends together
+        self._steps: np.ndarray | None = None
+        self._faces = len(faces)
+        self._lock = threading.Lock()  # the tile threads ask for bends and steps together
 
     def bends(self, kink: float) -> np.ndarray:
         """``(m,)`` bool: the faces whose steps on the surface differ from those of a face
@@ -114,6 +118,16 @@ class Sampler:
             if found is None:
                 found = self._bends[kink] = self.surface.bends(kink)
             return found
+
+    def steps(self) -> np.ndarray | None:
+        """``(m, 6)`` each face's ``dpdx``, ``dpdy`` (``SurfaceMap.steps``), made once; None
+        past ``STEP_FACES`` faces (48 bytes a face)."""
+        if self._faces > STEP_FACES:
+            return None
+        with self._lock:
+            if self._steps is None:
+                self._steps = self.surface.steps()
+            return self._steps
 
     def candidates(self, tile: Tile) -> np.ndarray:
         """``(t,)`` indices of the texels of ``tile`` that some face can cover."""

@@ -36,6 +36,13 @@ class SurfaceSamples:
     dpdy: np.ndarray | None  # (n, 3) float64, one texel down
     frame: np.ndarray | None = None  # (n, 3, 3) float64 rows T, B, N of the output mesh's tangent frame
 
+    def take(self, rows: np.ndarray) -> SurfaceSamples:
+        """The samples at ``rows`` (an index or a mask)."""
+        def of(a: np.ndarray | None) -> np.ndarray | None:
+            return None if a is None else a[rows]
+
+        return SurfaceSamples(self.points[rows], of(self.normals), of(self.dpdx), of(self.dpdy), of(self.frame))
+
 
 def vertex_normals(vertices: np.ndarray, faces: np.ndarray, *, weights: str = "area") -> np.ndarray:
     """``(n, 3)`` unit vertex normals, shared by coincident vertices: the sum of the faces'
@@ -110,6 +117,14 @@ class SurfaceMap:
         out = np.empty(len(self._faces), dtype=bool)
         _native.face_bends(self._vertices, self._faces, self._uv, self._uv_faces, float(self._width), float(self._height),
                            float(kink), out)
+        return out
+
+    def steps(self) -> np.ndarray:
+        """``(m, 6)`` float64: each face's steps one texel right and one down, its samples'
+        ``dpdx`` then ``dpdy`` (the same bits as :meth:`samples` gives them; compiled,
+        ``native/surface.cpp`` ``step_table``)."""
+        out = np.empty((len(self._faces), 6))
+        _native.step_table(self._vertices, self._faces, self._uv, self._uv_faces, self._width, self._height, _MAX_FOOTPRINT, out)
         return out
 
     def samples(self, face: np.ndarray, bary: np.ndarray, footprints: bool = True) -> SurfaceSamples:
