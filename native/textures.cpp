@@ -581,6 +581,29 @@ void checker_parity(const Points& t, const Points& ex, const Points& ey, const P
   parallel_for(n, [&](ptrdiff_t a, ptrdiff_t b) { range(c, dst, a, b); });
 }
 
+// The point-sampled checker (basic.checker_parity without a footprint), one pass: t = p / box,
+// nudged off a cell plane (towards centre where it is finite: inward, the side inside the
+// clip box; else up) by nudge * max(1, |t|), then (-1)^(floor t summed) as the product of the
+// axes' square waves (the same sign; numpy's summed floors lose the parity past 2^53)
+void checker_points(const Points& points, const In<double, nb::shape<3>>& box, const In<double, nb::shape<3>>& centre, double nudge,
+                    OutValues out) {
+  same_rows(points.shape(0), out.shape(0), "out");
+  const double *p = points.data(), *b = box.data(), *c = centre.data();
+  double* dst = out.data();
+  parallel_for(points.shape(0), [&](ptrdiff_t lo, ptrdiff_t hi) {
+    for (ptrdiff_t i = lo; i < hi; ++i) {
+      double sign = 1.0;
+      for (int k = 0; k < 3; ++k) {
+        double t = p[3 * i + k] / b[k];
+        const double inward = std::isnan(c[k]) ? 1.0 : (t > c[k] ? -1.0 : 1.0);
+        t += inward * nudge * std::max(1.0, std::fabs(t));
+        sign *= square_wave(std::floor(t));
+      }
+      dst[i] = sign;
+    }
+  });
+}
+
 void affine(const Points& points, const In<double, nb::shape<3>>& origin, double scale, OutColours out) {
   same_rows(points.shape(0), out.shape(0), "out");
   const double *p = points.data(), *o = origin.data();
@@ -656,6 +679,8 @@ void bind_textures(nb::module_& m) {
         release, "out (n, 3): the wave table (spreads, phases, 3) at each phase and spread, bilinear.");
   m.def("checker_parity", &t::checker_parity, arg("t"), arg("ex"), arg("ey"), arg("lo"), arg("hi"), arg("split"),
         arg("out").noconvert(), release, "out (n,): the signed checker's mean (unit cells) over each point's footprint.");
+  m.def("checker_points", &t::checker_points, arg("points"), arg("box"), arg("centre"), arg("nudge"), arg("out").noconvert(), release,
+        "out (n,): the signed checker (cells box) at each point, nudged off a cell plane towards centre (NaN: up).");
   m.def("affine", &t::affine, arg("points"), arg("origin"), arg("scale"), arg("out").noconvert(), release,
         "out (n, 3) = (points - origin) * scale.");
 }

@@ -21,7 +21,7 @@ import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -405,7 +405,7 @@ def _bake_tile(tile: Tile, whole: tuple[LoadedMesh, Scenes], mapping: TextureMap
                                                    lambda done: say(0.3 + 0.6 * done), lookups)
         covered, hits = _coverage(maps)
         with timer.stage("estimate"):
-            error_estimate = _estimate(sampler, maps, covered, settings)
+            error_estimate = _estimate(sampler, maps, covered, settings, workers)
     else:  # texture none: the mesh maps' texel centres are the bake's samples, and nothing is estimated
         covered, hits = mesh_covered, int(mesh_covered.sum())
         cast, rays, missed, parts, reused, error_estimate = hits, hits, 0, 0, False, None
@@ -582,28 +582,42 @@ def _bake_tiles(sampler: Sampler, maps: Maps, settings: BakeSettings, timer: Tim
     return counts, known is not None
 
 
-def _estimate(sampler: Sampler, maps: Maps, covered: np.ndarray, settings: BakeSettings) -> dict:
+PROBE_SPLIT = 1 << 14  # probe points from which the estimate's reference is evaluated in parts, one a thread
+
+
+def _estimate(sampler: Sampler, maps: Maps, covered: np.ndarray, settings: BakeSettings, workers: int = 1) -> dict:
     """The error estimate of the colour map (``texbake.maps.estimate``): a probe that sends UV
     points through the same chain, point-sampled in float64; for a material, of each of its
-    maps too (``channels``), from one probe (the same texels and points for each map)."""
+    maps too (``channels``), from one probe (the same texels and points for each map). The
+    probe's points are evaluated in ``workers`` threads, in parts (each point's value is its
+    own, so the same values): the tiles are done, and the cores free."""
     probed: dict[bytes, tuple] = {}  # the probe's UV points (a stratum's) -> every map's values there, from one evaluation
+
+    def evaluate(uvs: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        s = sampler.at(uvs)
+        hit = np.zeros(len(uvs), dtype=bool)
+        hit[s.index] = True
+        return hit, maps.reference(s)
 
     def reference_at(name: str):
         def at(uvs: np.ndarray):
             key = hashlib.blake2b(np.ascontiguousarray(uvs).tobytes(), digest_size=16).digest()
             if key not in probed:
-                s = sampler.at(uvs)
-                hit = np.zeros(len(uvs), dtype=bool)
-                hit[s.index] = True
-                probed[key] = hit, maps.reference(s)
+                if pool is None or len(uvs) < 2 * PROBE_SPLIT:
+                    probed[key] = evaluate(uvs)
+                else:
+                    parts = list(pool.map(evaluate, np.array_split(uvs, workers)))
+                    probed[key] = (np.concatenate([hit for hit, _ in parts]),
+                                   {k: np.concatenate([values[k] for _, values in parts]) for k in parts[0][1]})
             hit, values = probed[key]
             return hit, values[name]
         return at
 
     grid = estimate_stage.probe_grid(settings.samples)
     edge_grid = grid if settings.samples == 1 else min(16, 2 * grid)
-    estimates = {name: estimate_stage.probe_estimate(reference_at(name), maps.images[name], covered, seed=settings.seed, grid=grid,
-                                                     edge_grid=edge_grid) for name in maps.estimated}
+    with ThreadPoolExecutor(workers) if workers > 1 else nullcontext() as pool:
+        estimates = {name: estimate_stage.probe_estimate(reference_at(name), maps.images[name], covered, seed=settings.seed,
+                                                         grid=grid, edge_grid=edge_grid) for name in maps.estimated}
     assert maps.colour_name is not None  # the tiles run for a texture's or a material's maps only
     estimate = estimates[maps.colour_name]
     estimate["map"] = maps.colour_name

@@ -227,6 +227,17 @@ def test_report_carries_an_error_estimate(meshes):
     assert 0 < low <= filtered["rmse"] <= high, filtered
 
 
+def test_the_estimate_in_threads_is_the_estimate_in_one(meshes, monkeypatch):
+    # the probe's points evaluated in parts, one a thread, give the values one call gives:
+    # the same report. PROBE_SPLIT lowered so every probe here is split
+    import texbake.pipeline as pipeline
+
+    monkeypatch.setattr(pipeline, "PROBE_SPLIT", 64)
+    one = texbake.bake_mesh(meshes / "suzanne.ply", "checker", size=96, workers=1).report["error_estimate"]
+    two = texbake.bake_mesh(meshes / "suzanne.ply", "checker", size=96, workers=2).report["error_estimate"]
+    assert one == two and one["rmse"] > 0 and one["fine_texels"] > 0
+
+
 def test_progress_is_reported_from_start_to_end(meshes):
     seen = []
     texbake.bake_mesh(meshes / "suzanne.ply", "marble", size=256, tile_samples=4096, progress=seen.append)

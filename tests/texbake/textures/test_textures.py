@@ -67,6 +67,25 @@ def test_checker_uses_floor_not_truncation():
     assert checker_parity(p, np.ones(3)).tolist() == [-1.0, 1.0, 1.0]
 
 
+def test_point_checker_is_the_parity_of_the_summed_floors():
+    # the compiled point checker against its formula in numpy: points nudged off a cell plane
+    # towards the clip box's centre (without one: up), (-1) ** (floor t summed); points on cell
+    # planes, far out and NaN included
+    rng = np.random.default_rng(3)
+    box = np.array([0.25, 0.3, 0.125])
+    p = np.concatenate([rng.normal(size=(3000, 3)), rng.normal(size=(1000, 3)) * 1e9,
+                        np.round(rng.normal(size=(1000, 3)) * 8) * box, np.full((2, 3), np.nan)])
+    for clip in (None, np.array([[-1.0, -2.0, -0.5], [1.5, 2.0, 3.0]])):
+        t = p / box
+        inward = 1.0 if clip is None else np.where(t > 0.5 * (clip[0] + clip[1]) / box, -1.0, 1.0)
+        t = t + inward * 1e-10 * np.maximum(1.0, np.abs(t))
+        cells = np.floor(t).sum(axis=1)
+        want = 1.0 - 2.0 * (cells - 2.0 * np.floor(0.5 * cells))
+        got = checker_parity(p, box, clip=clip)
+        assert np.array_equal(got, want, equal_nan=True) and np.isnan(got[-2:]).all()
+        assert 0.3 < np.mean(got[:3000] > 0) < 0.7  # both signs
+
+
 def test_wide_footprint_averages_to_grey():
     p = np.array([[0.3, 0.2, 0.1]])
     d = np.array([[40.0, 0, 0]]), np.array([[0, 40.0, 0]])
