@@ -615,6 +615,7 @@ def _estimate(sampler: Sampler, maps: Maps, covered: np.ndarray, settings: BakeS
 
     grid = estimate_stage.probe_grid(settings.samples)
     edge_grid = grid if settings.samples == 1 else min(16, 2 * grid)
+    # reference_at's calls read pool: made here, before the first of them
     with ThreadPoolExecutor(workers) if workers > 1 else nullcontext() as pool:
         estimates = {name: estimate_stage.probe_estimate(reference_at(name), maps.images[name], covered, seed=settings.seed,
                                                          grid=grid, edge_grid=edge_grid) for name in maps.estimated}

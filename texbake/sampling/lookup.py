@@ -233,10 +233,11 @@ class UVLookup:
         ``texel_parts``; parts under ``least`` of the texel left out, the others' shares
         renormalised); given ``steps`` (``(m, 6)``, each face's ``dpdx``, ``dpdy``:
         ``SurfaceMap.steps``), only for texels with a part whose face's steps differ from the
-        sample's face's, either of them, by more than ``kink`` of its longer one. Returns ``(sample (k,) int64, face (k,) int32, share (k,), uv (k, 2),
-        edges (k, 2, 2))``: each part's sample (a row of ``face``), face, share of the
-        texel, centre, and its box's edges as columns, in texel units (as
-        :meth:`footprint_clip`'s); a sample's parts together."""
+        sample's face's, either of them, by more than ``kink`` of its longer one. Returns
+        ``(sample (k,) int64, face (k,) int32, share (k,), uv (k, 2), edges (k, 2, 2))``:
+        each part's sample (a row of ``face``), face, share of the texel, centre, and its
+        box's edges as columns, in texel units (as :meth:`footprint_clip`'s); a sample's
+        parts together."""
         sample, part_face, share, uv, edges = _native.texel_parts(
             np.ascontiguousarray(face, dtype=np.int32), np.ascontiguousarray(bary, dtype=np.float64), self._uv, self._faces,
             *self._cells(), np.ascontiguousarray(bends, dtype=bool), width, height, float(least),

@@ -106,7 +106,7 @@ class Sampler:
         self.reach = reach
         self._bends: dict[float, np.ndarray] = {}
         self._steps: np.ndarray | None = None
-        self._faces = len(faces)
+        self._face_count = len(faces)
         self._lock = threading.Lock()  # the tile threads ask for bends and steps together
 
     def bends(self, kink: float) -> np.ndarray:
@@ -122,7 +122,7 @@ class Sampler:
     def steps(self) -> np.ndarray | None:
         """``(m, 6)`` each face's ``dpdx``, ``dpdy`` (``SurfaceMap.steps``), made once; None
         past ``STEP_FACES`` faces (48 bytes a face)."""
-        if self._faces > STEP_FACES:
+        if self._face_count > STEP_FACES:
             return None
         with self._lock:
             if self._steps is None:

@@ -77,7 +77,8 @@ def test_point_checker_is_the_parity_of_the_summed_floors():
                         np.round(rng.normal(size=(1000, 3)) * 8) * box, np.full((2, 3), np.nan)])
     for clip in (None, np.array([[-1.0, -2.0, -0.5], [1.5, 2.0, 3.0]])):
         t = p / box
-        inward = 1.0 if clip is None else np.where(t > 0.5 * (clip[0] + clip[1]) / box, -1.0, 1.0)
+        c = None if clip is None else clip / box
+        inward = 1.0 if c is None else np.where(t > 0.5 * (c[0] + c[1]), -1.0, 1.0)
         t = t + inward * 1e-10 * np.maximum(1.0, np.abs(t))
         cells = np.floor(t).sum(axis=1)
         want = 1.0 - 2.0 * (cells - 2.0 * np.floor(0.5 * cells))
