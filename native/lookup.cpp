@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "arrays.hpp"
+#include "steps.hpp"
 
 namespace texbake {
 namespace {
@@ -668,14 +669,10 @@ nb::tuple texel_parts(In<int32_t, nb::ndim<1>> face, In<double, shape<-1, 3>> ba
     throw std::invalid_argument("texel_parts: face, bary of n rows, bends of m, steps of m rows or none");
   // whether a part in face g bends from the sample's face f: either step differs by more than
   // kink of f's longer step (creases.py's test, its arithmetic); without steps, every part does
-  auto norm3 = [](const double* v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); };
   auto bent = [&](int64_t f, int64_t g) {
     if (steps.shape(0) == 0) return true;
     const double *own = steps.data() + 6 * f, *other = steps.data() + 6 * g;
-    const double scale = std::max(norm3(own), norm3(own + 3));
-    double d[6];
-    for (int k = 0; k < 6; ++k) d[k] = other[k] - own[k];
-    return std::max(norm3(d), norm3(d + 3)) / std::max(scale, 1e-300) > kink;
+    return step_change(own, other) / std::max(longer_step(own), 1e-300) > kink;
   };
   const Cells cells = cells_of(atlas, chart, box, nx, ny, start, listed);
   std::vector<int64_t> sample;

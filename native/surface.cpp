@@ -8,6 +8,7 @@
 
 #include "arrays.hpp"
 #include "parallel.hpp"
+#include "steps.hpp"
 
 namespace texbake {
 namespace {
@@ -91,8 +92,6 @@ void interpolate(In<int64_t, nb::ndim<1>> face, In<double, shape<-1, 3>> bary, I
   }
 }
 
-inline double norm3(const double* v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
-
 // out (m,): whether either of face f's two steps differs from the same step of a face that shares
 // one of its UV corners (one beside it in its chart, across an edge or a corner) by more than kink
 // of its longer step (creases.py). Corners, not only edges: a texel on a corner spans the faces
@@ -159,9 +158,9 @@ void face_bends(In<double, shape<-1, 3>> vertices, Faces faces, In<double, shape
   // both cores: the tile threads wait for this (Sampler.bends, once a bake)
   parallel_for(m, [&](std::ptrdiff_t f0, std::ptrdiff_t f1) {
     for (int64_t f = f0; f < f1; ++f) {
-      double own[6], other[6], d[6];
+      double own[6], other[6];
       steps_of(f, own);
-      const double scale = std::max(norm3(own), norm3(own + 3));
+      const double scale = longer_step(own);
       bool bends = false;
       for (int c = 0; c < 3 && !bends; ++c) {
         const int64_t v = corner[3 * f + c];
@@ -185,8 +184,7 @@ void face_bends(In<double, shape<-1, 3>> vertices, Faces faces, In<double, shape
                                               corner[3 * o + 2] == corner[3 * f + 1])))))
             continue;
           steps_of(o, other);
-          for (int k = 0; k < 6; ++k) d[k] = other[k] - own[k];
-          bends = std::max(norm3(d), norm3(d + 3)) > kink * scale;
+          bends = step_change(own, other) > kink * scale;
         }
       }
       out.data()[f] = bends;
