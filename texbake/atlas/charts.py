@@ -43,6 +43,20 @@ SLIT_TEXELS = 1.0
 # hundreds of crumbs for texels that no cut mends (counter.unitsmm.STL: 1613 charts became
 # 10,317, the utilisation 0.411 -> 0.186).
 SLIT_CHART = 16.0
+# A chart longer than LONG_SHARE of the tile's side (in mesh units at the density that
+# fills half the square: sqrt(2 x the surface's area); 0.85 of it is the side at 0.7
+# filled) and LONG_ASPECT times as long as it is wide holds the packing's density down on
+# its own: a strip longer than the tile is across leaves the rest of it empty (a flat
+# 1000 x 176 outline, common-3d-test-models' alligator.obj: utilisation 0.086). It is cut
+# across its length into pieces of at most PIECE_SHARE of that side, along its faces' edges
+# (each face to the piece of its lowest corner along the length, so a strip of quads is cut
+# straight between two rows), where its faces are at most FACE_SHARE of a piece long (the
+# two triangles across a CAD part's long face, or a capsule's side, cannot be cut so: the
+# pieces would be combs). A solid texture has no seam to hide: a cut costs padding.
+LONG_SHARE = 0.85
+LONG_ASPECT = 2.0
+PIECE_SHARE = 0.5
+FACE_SHARE = 0.25
 
 
 @dataclass
@@ -227,7 +241,8 @@ def planar_charts(vertices: np.ndarray, faces: np.ndarray, angle_limit: float = 
     chart of their own (the layers of a fold, unconnected, come apart), then, if it still
     overlaps, is cut in two across its longest extent, up to ``SPLITS`` rounds in all; a
     chart with a slit (:func:`_slits`) loses the faces on the slit's sides, in any round.
-    Then the pieces that need not be apart are joined again (:func:`_merge_cuts`). Faces
+    Then the pieces that need not be apart are joined again (:func:`_merge_cuts`), and a
+    chart too long for the tile is cut across its length (:func:`_cut_long`). Faces
     of zero area have no normal and keep a UV area of zero: the caller gives them charts
     of their own.
     """
@@ -293,6 +308,10 @@ def planar_charts(vertices: np.ndarray, faces: np.ndarray, angle_limit: float = 
             merged = np.unique(np.where(apart, island, merged + int(island.max()) + 1), return_inverse=True)[1].reshape(-1)
             joined = _project(vertices, faces, merged, group, bases)
         island, (vmapping, chart_faces, uv) = merged, joined
+    long_cut = _cut_long(pairs, island, uv, chart_faces, weights)
+    if long_cut is not None:
+        island = long_cut
+        vmapping, chart_faces, uv = _project(vertices, faces, island, group, bases)
     best = np.einsum("ij,ij->i", normals, dirs[group])
     flat = float(weights[best > FLAT_COS].sum() / total) if total > 0 else 0.0
     return Charts(vmapping, chart_faces, uv, island, dirs, flat)
@@ -373,6 +392,61 @@ def _merge_cuts(vertices, faces, pairs, island, group, planes, scale, grid, slit
                                     np.ascontiguousarray(bases, dtype=np.float64), np.ascontiguousarray(order, dtype=np.int64),
                                     float(grid / scale), int(MERGE_WORK * len(faces)), float(slit_r), SLIT_CHART)
     return labels[island]
+
+
+def _cut_long(pairs, island: np.ndarray, uv: np.ndarray, chart_faces: np.ndarray, weights: np.ndarray) -> np.ndarray | None:
+    """``island`` with each long chart (``LONG_SHARE``, ``LONG_ASPECT``) cut across its
+    length into pieces of at most ``PIECE_SHARE`` of the tile's side, each piece's
+    connected parts a chart of their own; None where no chart is cut.
+
+    ``uv``, ``chart_faces``: the charts projected (:func:`_project`); ``weights``: the
+    faces' areas. A chart's length is along its principal axis in its plane (of its faces'
+    centroids, weighted by area); a chart with a face longer than ``FACE_SHARE`` of a piece
+    stays whole.
+    """
+    k = int(island.max()) + 1 if len(island) else 0
+    total = float(weights.sum())
+    if k == 0 or not total > 0:
+        return None
+    side = float(np.sqrt(2.0 * total))  # mesh units across the tile at half the square filled
+    lo = np.full((k, 2), np.inf)
+    hi = np.full((k, 2), -np.inf)
+    _native.label_boxes(uv, chart_faces, island, lo, hi)
+    if not (np.hypot(*(hi - lo).T) > LONG_SHARE * side).any():  # no chart's box is so long even across
+        return None
+    tri = uv[chart_faces]  # (m, 3, 2)
+    c = tri.mean(axis=1)
+    mass = np.bincount(island, weights, k)
+    safe = np.where(mass > 0, mass, 1.0)
+    mean = np.column_stack([np.bincount(island, weights * c[:, i], k) / safe for i in (0, 1)])
+    d = c - mean[island]
+    sxx, sxy, syy = (np.bincount(island, weights * a * b, k) for a, b in ((d[:, 0], d[:, 0]), (d[:, 0], d[:, 1]), (d[:, 1], d[:, 1])))
+    angle = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)  # the principal axis of each chart
+    axis = np.column_stack([np.cos(angle), np.sin(angle)])[island]  # (m, 2) per face
+    along = np.einsum("mcj,mj->mc", tri, axis)  # (m, 3) corners along the axis
+    across = np.einsum("mcj,mj->mc", tri, axis[:, ::-1] * [-1.0, 1.0])
+    corners = np.stack([along, across], axis=2).reshape(-1, 2)  # each face's own corners, for one pass of boxes
+    lo.fill(np.inf)
+    hi.fill(-np.inf)
+    _native.label_boxes(corners, np.arange(len(corners), dtype=np.int64).reshape(-1, 3), island, lo, hi)
+    length, width = (hi - lo).T
+    pieces = np.where(length > LONG_SHARE * side, np.ceil(length / (PIECE_SHARE * side)), 1.0).astype(np.int64)
+    pieces[length < LONG_ASPECT * width] = 1
+    if (pieces == 1).all():
+        return None
+    longest_face = np.zeros(k)
+    some = pieces[island] > 1  # the faces of the charts still to cut (few)
+    np.maximum.at(longest_face, island[some], np.ptp(along[some], axis=1))
+    long = (pieces > 1) & (longest_face <= FACE_SHARE * length / pieces)
+    if not long.any():
+        return None
+    pieces = np.where(long, pieces, 1)
+    at = along.min(axis=1) - lo[island, 0]
+    # a thousandth of a piece of slack: a corner on a cut is past it, though the chart's axis
+    # leans off its rows of vertices (a strip of quads' centroids lean 2e-5 radians on
+    # their diagonals), so a strip of quads is cut between two rows
+    part = np.clip((at / np.where(long, length, 1.0)[island] * pieces[island] + 1e-3).astype(np.int64), 0, pieces[island] - 1)
+    return _islands(pairs, island * int(pieces.max()) + part)
 
 
 def _project(vertices, faces, island, group, bases):

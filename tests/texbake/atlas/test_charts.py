@@ -7,7 +7,7 @@ import pytest
 import trimesh
 from conftest import MESHES
 
-from texbake.atlas import atlas_stats, make_atlas, overlap
+from texbake.atlas import atlas_stats, charts, make_atlas, overlap
 from texbake.atlas.charts import ANGLE_LIMIT, Sides, density_spread, directions, planar_charts, prefer_planar
 from texbake.checks.cad import fan_cylinder, holed_plate
 from texbake.mesh.load import load_mesh
@@ -43,6 +43,39 @@ def test_a_flat_region_is_one_chart_without_stretch_however_it_is_cut():
     s = atlas_stats(v, f[top], c.faces[top], c.uv)
     assert s["charts"] == 1 and abs(s["stretch"] - 1) < 1e-12
     assert abs(uv_areas(c.uv, c.faces[top]).sum() - trimesh.Trimesh(v, f[top], process=False).area) < 1e-9
+
+
+def strip(length: float, width: float, nx: int, ny: int) -> tuple[np.ndarray, np.ndarray]:
+    """A flat ``length`` x ``width`` rectangle at z = 0 of ``nx`` x ``ny`` quads, two triangles each."""
+    x, y = np.meshgrid(np.linspace(0, length, nx + 1), np.linspace(0, width, ny + 1), indexing="ij")
+    v = np.stack([x, y, np.zeros_like(x)], axis=-1).reshape(-1, 3)
+    idx = np.arange(len(v)).reshape(x.shape)
+    a, b, c, d = idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]
+    return v, np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)])
+
+
+def test_a_long_strip_is_cut_straight_across_its_length_into_pieces_that_fill_the_tile(monkeypatch):
+    # 30 x 4 in quads of a quarter: the tile is sqrt(2 x 120) = 15.5 across at half filled, the
+    # strip twice that: cut into pieces of at most 7.75, four of 7.5, between two rows of quads
+    v, f = strip(30.0, 4.0, 120, 16)
+    c = planar_charts(v, f)
+    assert np.array_equal(c.vmapping[c.faces], f)
+    assert c.labels.max() + 1 == 4
+    spans = sorted((float(x.min()), float(x.max())) for x in (v[f[c.labels == k]][:, :, 0] for k in range(4)))
+    assert spans == [(0.0, 7.5), (7.5, 15.0), (15.0, 22.5), (22.5, 30.0)]
+    cut = make_atlas(v, f, mode="unwrap", size=256, charting="planar").stats["utilisation"]
+    monkeypatch.setattr(charts, "LONG_SHARE", np.inf)
+    assert planar_charts(v, f).labels.max() + 1 == 1
+    whole = make_atlas(v, f, mode="unwrap", size=256, charting="planar").stats["utilisation"]
+    assert whole < 0.2 and cut > 0.6  # a 7.5:1 strip alone in a square tile, and the four pieces stacked
+
+
+@pytest.mark.parametrize("quads, why", [((1, 1), "two triangles across the whole strip"),
+                                        ((8, 1), "faces half a piece long: the pieces would be combs"),
+                                        ((32, 32), "as wide as long: not a strip")])
+def test_a_chart_that_cannot_be_cut_cleanly_or_need_not_be_stays_whole(quads, why):
+    v, f = strip(30.0, 4.0, *quads) if quads != (32, 32) else strip(8.0, 8.0, *quads)
+    assert planar_charts(v, f).labels.max() + 1 == 1, why
 
 
 def test_a_ramp_that_winds_over_itself_is_cut_until_it_does_not_overlap():
