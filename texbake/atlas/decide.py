@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import _native
 from ..errors import AtlasError, ParameterError
 from ..mesh import areas, uv_areas
 from ..workers import Pool
@@ -36,6 +37,7 @@ from .repack import repack, repack_problem
 from .uvcheck import (
     OVERLAP_GRID,
     bare_warning,
+    chart_labels,
     coverage,
     coverage_counts,
     measure,
@@ -53,6 +55,10 @@ CHARTINGS = ("auto", "xatlas", "planar")
 OVERLAP_LIMIT = 0.01  # a mesh's UVs under which more of the covered texels overlap are not kept
 SPARSE_SHARE = 0.5  # a warning when kept UVs use less than this share of the tile an unwrap would use
 PROMISE_SHARE = 0.4  # a warning when an unwrap's utilisation is under this share of what its charts promise
+# ... which names a chart this much of the tile's side long, at least STRIP_ASPECT times as long
+# as it is wide, as the cause: a strip the packing must lay across the tile
+ACROSS_SHARE = 0.9
+STRIP_ASPECT = 4.0
 
 
 @dataclass
@@ -211,13 +217,29 @@ def _retry_warning(charting: str, charted: str, failures: list[str]) -> list[str
 
 def _promise_warning(request: UnwrapRequest, atlas: Unwrapped, stats: dict) -> list[str]:
     """A warning when the packing left far more of the tile empty than its charts need
-    (:func:`texbake.atlas.uvcheck.packing_estimate` with the padding)."""
+    (:func:`texbake.atlas.uvcheck.packing_estimate` with the padding), naming a planar
+    chart laid across the whole tile as a strip (``ACROSS_SHARE``, ``STRIP_ASPECT``) as
+    the cause, and what would let it be cut."""
     promised = packing_estimate(request.vertices, request.faces, atlas.faces, atlas.uv, request.padding / request.size)
     used = stats["utilisation"]
     if used >= PROMISE_SHARE * promised:
         return []
+    why = "the packing left most of the tile empty"
+    chart = chart_labels(atlas.faces, len(atlas.uv))
+    lo = np.full((int(chart.max()) + 1, 2), np.inf)
+    hi = np.full_like(lo, -np.inf)
+    _native.label_boxes(np.ascontiguousarray(atlas.uv, dtype=np.float64), np.ascontiguousarray(atlas.faces, dtype=np.int64),
+                        chart, lo, hi)
+    extent = hi - lo
+    longest = int(np.argmax(extent.max(axis=1)))
+    span, width = float(extent[longest].max()), float(extent[longest].min())
+    if atlas.method == "planar" and span >= ACROSS_SHARE and span >= STRIP_ASPECT * width:
+        # planar charts cut a chart this long between its faces (texbake.atlas.charts._cut_long): these are too long
+        why = (f"its longest chart runs across the tile at {span / max(width, 1e-12):.0f}:1, and its faces run along "
+               "it too far to cut it between them: more edges across it (an edge loop every so often) would let the "
+               "unwrap cut it into pieces that fill the tile")
     return [f"utilisation {used:.3f} is far below the {promised:.2f} its {stats['charts']} charts promise (their area "
-            "over their padded bounding boxes): the packing left most of the tile empty"]
+            f"over their padded bounding boxes): {why}"]
 
 
 def _both_sides(sides: Sides, atlas: Atlas) -> Atlas:

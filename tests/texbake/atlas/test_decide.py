@@ -452,6 +452,21 @@ def test_utilisation_far_below_the_charts_promise_is_warned_of():
     shrunk = Unwrapped(a.vmapping, a.faces, a.uv * 0.4, a.method, {})  # a packer that left most of the tile empty
     (warning,) = _promise_warning(request, shrunk, {**a.stats, "utilisation": a.stats["utilisation"] * 0.16})
     assert warning.startswith(f"utilisation {a.stats['utilisation'] * 0.16:.3f} is far below the ")
+    assert warning.endswith("the packing left most of the tile empty")
+
+
+def test_a_chart_laid_across_the_tile_as_a_strip_is_named_as_the_cause():
+    # a CAD beam, two triangles a side: planar charts cannot cut its 100:1 sides between faces
+    b = trimesh.creation.box(extents=(1000.0, 10.0, 10.0))
+    a = make_atlas(b.vertices, b.faces, mode="unwrap", size=512)
+    (warning,) = a.warnings
+    assert a.method == "planar" and a.stats["utilisation"] < 0.1
+    assert re.search(r": its longest chart runs across the tile at \d+:1, and its faces run along it too far to cut it "
+                     r"between them: more edges across it", warning), warning
+    # with edges across it every unit the sides are cut into pieces that fill the tile: no warning
+    v, f = trimesh.remesh.subdivide_to_size(b.vertices, b.faces, 5.0)
+    cut = make_atlas(v, f, mode="unwrap", size=512)
+    assert cut.warnings == [] and cut.stats["utilisation"] > 0.5
 
 
 def test_an_explicit_charting_is_honoured_or_the_atlas_fails(failing_worker):
