@@ -411,7 +411,8 @@ def _cut_long(pairs, island: np.ndarray, uv: np.ndarray, chart_faces: np.ndarray
     side = float(np.sqrt(2.0 * total))  # mesh units across the tile at half the square filled
     lo = np.full((k, 2), np.inf)
     hi = np.full((k, 2), -np.inf)
-    _native.label_boxes(uv, chart_faces, island, lo, hi)
+    island = np.ascontiguousarray(island, dtype=np.int64)
+    _native.label_boxes(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(chart_faces, dtype=np.int64), island, lo, hi)
     if not (np.hypot(*(hi - lo).T) > LONG_SHARE * side).any():  # no chart's box is so long even across
         return None
     tri = uv[chart_faces]  # (m, 3, 2)
