@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import _native
-from ..mesh import areas, connected_components, group_rows, unique_inverse
+from ..mesh import areas, connected_components, group_rows, label_boxes, unique_inverse
 
 ANGLE_LIMIT = 66.0  # degrees between a face's normal and its chart's direction, at most (Blender's default)
 FLAT_COS = np.cos(np.radians(2.0))  # a face this close to its chart's direction counts as flat
@@ -297,17 +297,7 @@ def planar_charts(vertices: np.ndarray, faces: np.ndarray, angle_limit: float = 
         dirs = np.concatenate([dirs, dirs[copied]])
         bases = np.concatenate([bases, bases[copied]])
     if attempt:  # something was cut: join the pieces that need not be apart
-        lo, hi = uv.min(axis=0), uv.max(axis=0)
-        merged = _merge_cuts(vertices, faces, pairs, island, group, (dirs, bases), float((hi - lo).max()), grid,
-                             _slit_width(uv, chart_faces, grid))
-        joined = _project(vertices, faces, merged, group, bases)
-        pieces = np.unique(np.column_stack([merged, island]), axis=0)[:, 0]  # (merged, piece) pairs: joined ones repeat
-        slit = _slits(vertices, joined[0], joined[1], joined[2], merged, grid, np.isin(merged, pieces[1:][pieces[1:] == pieces[:-1]]))
-        if slit.any():  # a join that made a slit the joins' own look missed (its budget): those pieces stay apart
-            apart = np.isin(merged, merged[slit])
-            merged = np.unique(np.where(apart, island, merged + int(island.max()) + 1), return_inverse=True)[1].reshape(-1)
-            joined = _project(vertices, faces, merged, group, bases)
-        island, (vmapping, chart_faces, uv) = merged, joined
+        island, (vmapping, chart_faces, uv) = _rejoined(vertices, faces, pairs, island, group, (dirs, bases), uv, chart_faces, grid)
     long_cut = _cut_long(pairs, island, uv, chart_faces, weights)
     if long_cut is not None:
         island = long_cut
@@ -315,6 +305,25 @@ def planar_charts(vertices: np.ndarray, faces: np.ndarray, angle_limit: float = 
     best = np.einsum("ij,ij->i", normals, dirs[group])
     flat = float(weights[best > FLAT_COS].sum() / total) if total > 0 else 0.0
     return Charts(vmapping, chart_faces, uv, island, dirs, flat)
+
+
+def _rejoined(vertices, faces, pairs, island, group, planes, uv, chart_faces, grid):
+    """``(island, (vmapping, chart faces, uv))`` of the cut pieces (``island``, projected as
+    ``uv``, ``chart_faces``) joined again where they need not be apart (:func:`_merge_cuts`),
+    except the joins that make a slit the joins' own look missed (its budget): those pieces
+    stay apart. ``planes``: ``(dirs, bases)``."""
+    bases = planes[1]
+    lo, hi = uv.min(axis=0), uv.max(axis=0)
+    merged = _merge_cuts(vertices, faces, pairs, island, group, planes, float((hi - lo).max()), grid,
+                         _slit_width(uv, chart_faces, grid))
+    joined = _project(vertices, faces, merged, group, bases)
+    pieces = np.unique(np.column_stack([merged, island]), axis=0)[:, 0]  # (merged, piece) pairs: joined ones repeat
+    slit = _slits(vertices, joined[0], joined[1], joined[2], merged, grid, np.isin(merged, pieces[1:][pieces[1:] == pieces[:-1]]))
+    if slit.any():
+        apart = np.isin(merged, merged[slit])
+        merged = np.unique(np.where(apart, island, merged + int(island.max()) + 1), return_inverse=True)[1].reshape(-1)
+        joined = _project(vertices, faces, merged, group, bases)
+    return merged, joined
 
 
 def _slits(vertices, vmapping, chart_faces, uv, island, grid, look=None) -> np.ndarray:
@@ -347,10 +356,7 @@ def _slits(vertices, vmapping, chart_faces, uv, island, grid, look=None) -> np.n
     spread = np.bincount(chart, off**2, minlength=k)
     tilted = np.bincount(chart, np.einsum("ij,ij->i", normals, mean[chart]) < COPLANAR_COS, minlength=k)
     flat = (tilted == 0) & (spread <= (0.25 * r) ** 2)
-    lo = np.full((k, 2), np.inf)
-    hi = np.full((k, 2), -np.inf)
-    _native.label_boxes(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(tri, dtype=np.int64),
-                        np.ascontiguousarray(chart, dtype=np.int64), lo, hi)
+    lo, hi = label_boxes(uv, tri, chart, k)
     small = (hi - lo).max(axis=1) < SLIT_CHART * r
     found = np.zeros(len(sel), dtype=bool)
     _native.slit_faces(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(points, dtype=np.float64),
@@ -409,10 +415,7 @@ def _cut_long(pairs, island: np.ndarray, uv: np.ndarray, chart_faces: np.ndarray
     if k == 0 or not total > 0:
         return None
     side = float(np.sqrt(2.0 * total))  # mesh units across the tile at half the square filled
-    lo = np.full((k, 2), np.inf)
-    hi = np.full((k, 2), -np.inf)
-    island = np.ascontiguousarray(island, dtype=np.int64)
-    _native.label_boxes(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(chart_faces, dtype=np.int64), island, lo, hi)
+    lo, hi = label_boxes(uv, chart_faces, island, k)
     if not (np.hypot(*(hi - lo).T) > LONG_SHARE * side).any():  # no chart's box is so long even across
         return None
     tri = uv[chart_faces]  # (m, 3, 2)
@@ -427,9 +430,7 @@ def _cut_long(pairs, island: np.ndarray, uv: np.ndarray, chart_faces: np.ndarray
     along = np.einsum("mcj,mj->mc", tri, axis)  # (m, 3) corners along the axis
     across = np.einsum("mcj,mj->mc", tri, axis[:, ::-1] * [-1.0, 1.0])
     corners = np.stack([along, across], axis=2).reshape(-1, 2)  # each face's own corners, for one pass of boxes
-    lo.fill(np.inf)
-    hi.fill(-np.inf)
-    _native.label_boxes(corners, np.arange(len(corners), dtype=np.int64).reshape(-1, 3), island, lo, hi)
+    lo, hi = label_boxes(corners, np.arange(len(corners)).reshape(-1, 3), island, k)
     length, width = (hi - lo).T
     pieces = np.where(length > LONG_SHARE * side, np.ceil(length / (PIECE_SHARE * side)), 1.0).astype(np.int64)
     pieces[length < LONG_ASPECT * width] = 1

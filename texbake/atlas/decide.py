@@ -25,9 +25,8 @@ from typing import Any
 
 import numpy as np
 
-from .. import _native
 from ..errors import AtlasError, ParameterError
-from ..mesh import areas, uv_areas
+from ..mesh import areas, label_boxes, uv_areas
 from ..workers import Pool
 from .charts import Sides, prefer_planar
 from .fallback import grid_atlas
@@ -225,11 +224,7 @@ def _promise_warning(request: UnwrapRequest, atlas: Unwrapped, stats: dict) -> l
     if used >= PROMISE_SHARE * promised:
         return []
     why = "the packing left most of the tile empty"
-    chart = chart_labels(atlas.faces, len(atlas.uv))
-    lo = np.full((int(chart.max()) + 1, 2), np.inf)
-    hi = np.full_like(lo, -np.inf)
-    _native.label_boxes(np.ascontiguousarray(atlas.uv, dtype=np.float64), np.ascontiguousarray(atlas.faces, dtype=np.int64),
-                        chart, lo, hi)
+    lo, hi = label_boxes(atlas.uv, atlas.faces, chart_labels(atlas.faces, len(atlas.uv)))
     extent = hi - lo
     longest = int(np.argmax(extent.max(axis=1)))
     span, width = float(extent[longest].max()), float(extent[longest].min())

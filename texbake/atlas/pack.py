@@ -38,8 +38,7 @@ from typing import NamedTuple, cast
 
 import numpy as np
 
-from .. import _native
-from ..mesh import areas, unique_inverse, uv_areas
+from ..mesh import areas, label_boxes, unique_inverse, uv_areas
 from ..workers import Pool
 from .charts import outlines_triangles, planar_charts
 from .fallback import flat_triangles, normalised
@@ -345,10 +344,7 @@ def _pack(pos, faces, meshes, size, padding, pool, deadline, steps: list[str], b
 def _tiny(uv: np.ndarray, idx: np.ndarray, texel: float) -> np.ndarray:
     """``(f,)`` bool: the faces of charts under ``MIN_EXTENT`` texels (of ``texel`` UV units) across."""
     chart = chart_labels(idx, len(uv))
-    k = int(chart.max()) + 1 if len(chart) else 0
-    lo = np.full((k, 2), np.inf)
-    hi = np.full((k, 2), -np.inf)
-    _native.label_boxes(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(idx, dtype=np.int64), chart, lo, hi)
+    lo, hi = label_boxes(uv, idx, chart)
     return ((hi - lo).max(axis=1) < MIN_EXTENT * texel)[chart]
 
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import _native
-from ..mesh import areas, uv_areas, uv_jacobian
+from ..mesh import areas, label_boxes, uv_areas, uv_jacobian
 
 UV_EPS = 1e-6  # tolerance of the unit-square test of UVs
 OVERLAP_GRID = 2048  # overlap is measured on the bake's texel grid, at most this fine
@@ -292,8 +292,7 @@ def packing_estimate(vertices: np.ndarray, faces: np.ndarray, uv_faces: np.ndarr
     k = int(label.max()) + 1
     a3 = np.bincount(label, areas(vertices, faces), minlength=k)
     auv = np.bincount(label, uv_areas(uv, uv_faces), minlength=k)
-    lo, hi = np.full((k, 2), np.inf), np.full((k, 2), -np.inf)
-    _native.label_boxes(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(uv_faces, dtype=np.int64), label, lo, hi)
+    lo, hi = label_boxes(uv, uv_faces, label, k)
     ok = (auv > 0) & (a3 > 0)
     if not ok.any():
         return 0.0

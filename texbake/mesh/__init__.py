@@ -9,7 +9,7 @@ What the rest of texbake uses is named here; the modules are this folder's own:
   hash table;
 - ``normals``: the output mesh's shading normals, split at hard edges;
 - ``tangents``: tangent frames (the glTF attribute, the normal map's frame);
-- ``uvgeometry``: triangle areas and edges, the UV Jacobian (numpy only: the unwrap's
+- ``uvgeometry``: triangle areas and edges, the UV Jacobian, charts' boxes (numpy only: the unwrap's
   worker process imports it).
 """
 
@@ -26,7 +26,7 @@ if TYPE_CHECKING:
     from .normals import split_normals
     from .objfile import read_obj
     from .tangents import sample_frames, vertex_tangents
-    from .uvgeometry import areas, edges, inverse_det, uv_areas, uv_dets, uv_edges, uv_inverse, uv_jacobian
+    from .uvgeometry import areas, edges, inverse_det, label_boxes, uv_areas, uv_dets, uv_edges, uv_inverse, uv_jacobian
 
 _HOMES = {name: module for module, names in {
     "load": ["LoadedMesh", "load_mesh", "mesh_from_trimesh", "check_file", "FORMATS"],
@@ -35,8 +35,8 @@ _HOMES = {name: module for module, names in {
     "grouping": ["group_rows", "groups", "stable_order", "unique_inverse"],
     "normals": ["split_normals"],
     "tangents": ["vertex_tangents", "sample_frames"],
-    "uvgeometry": ["areas", "uv_areas", "uv_dets", "edges", "uv_edges", "uv_inverse", "uv_jacobian", "inverse_det"],
+    "uvgeometry": ["areas", "label_boxes", "uv_areas", "uv_dets", "edges", "uv_edges", "uv_inverse", "uv_jacobian", "inverse_det"],
 }.items() for name in names}
 
-__all__ = ["LoadedMesh", "load_mesh", "mesh_from_trimesh", "check_file", "FORMATS", "read_obj", "connected_components", "DisjointSets", "group_rows", "groups", "stable_order", "unique_inverse", "split_normals", "vertex_tangents", "sample_frames", "areas", "uv_areas", "uv_dets", "edges", "uv_edges", "uv_inverse", "uv_jacobian", "inverse_det"]
+__all__ = ["LoadedMesh", "load_mesh", "mesh_from_trimesh", "check_file", "FORMATS", "read_obj", "connected_components", "DisjointSets", "group_rows", "groups", "stable_order", "unique_inverse", "split_normals", "vertex_tangents", "sample_frames", "areas", "label_boxes", "uv_areas", "uv_dets", "edges", "uv_edges", "uv_inverse", "uv_jacobian", "inverse_det"]
 __getattr__ = lazy_names(__name__, _HOMES)

@@ -72,6 +72,17 @@ def uv_areas(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return 0.5 * np.abs(uv_dets(uv, faces))
 
 
+def label_boxes(uv: np.ndarray, faces: np.ndarray, label: np.ndarray, count: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``(lo, hi)`` ``(count, 2)``: the bounding box of each label's faces' corners in ``uv``
+    (``label`` ``(m,)`` int, one a face; ``count`` labels, by default ``label.max() + 1``;
+    a label without faces gets ``inf`` and ``-inf``)."""
+    label = np.ascontiguousarray(label, dtype=np.int64)
+    k = (int(label.max()) + 1 if len(label) else 0) if count is None else count
+    lo, hi = np.full((k, 2), np.inf), np.full((k, 2), -np.inf)
+    _native.label_boxes(np.ascontiguousarray(uv, dtype=np.float64), _faces(faces), label, lo, hi)
+    return lo, hi
+
+
 def areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """``(m,)`` float64 area of each triangle of ``(n, 3)`` vertices (``|e1 x e2| / 2``:
     ``0.5 * np.linalg.norm(np.cross(e1, e2), axis=1)``)."""
